@@ -1,0 +1,5 @@
+import sys
+
+from flexmbd.cli import main
+
+sys.exit(main())

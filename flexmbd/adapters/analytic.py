@@ -1,0 +1,161 @@
+"""`analytic`: Euler–Bernoulli closed forms for a beam clamped at its root.
+
+The continuous cantilever's modes (1 + cos(bL) cosh(bL) = 0) are summed for the undamped (or
+modally damped) response to loads switched on at t0 and then held:
+    w(x, t) = sum_n psi_n(x) eta_n(t),   eta_n'' + 2 zeta w_n eta_n' + w_n^2 eta_n = psi_n(a) P H(t - t0)
+with psi_n mass-normalised (int rho A psi_n^2 dx = 1). Bending in the two planes is superposed;
+stress at the fibre (y, z) is sigma = -E (y w_y'' + z w_z''), von Mises |sigma| (no torsion or
+axial force under transverse loads through the axis). Also: frequencies of clamped-free and
+pinned-pinned beams, and the static tip deflection.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.optimize import brentq
+
+from flexmbd import flexbody
+from flexmbd.adapters import common
+
+SETTINGS = {"modes": ("int+", 200)}     # continuous modes summed per bending plane
+
+
+def version() -> str:
+    return "1"
+
+
+def applies(case) -> str:
+    name, why = common.clamped_beam(case)
+    if why:
+        return why
+    body = case["bodies"][name]
+    if body["shear"]:
+        return "Euler–Bernoulli closed forms have no shear deformation"
+    for lname, ld in case["loads"].items():
+        if ld["profile"]["type"] not in ("constant", "step"):
+            return f"load {lname!r}: closed form only for constant and step loads"
+        if abs(common.body_force(case, ld)[0]) > 0:
+            return f"load {lname!r}: closed form only for transverse loads"
+    if abs(common.gravity_body(case)[0]) > 0:
+        return "closed form only for transverse gravity"
+    for cname, c in case["channels"].items():
+        if c["kind"] not in ("deflection", "stress_vm") or c.get("component") == "x":
+            return f"channel {cname!r} has no closed form here"
+    return ""
+
+
+# ---------------------------------------------------------------------------------------------
+# closed forms
+
+
+def clamped_free_roots(n: int) -> np.ndarray:
+    """First n roots b_n L of 1 + cos(z) cosh(z) = 0 (1.8751, 4.6941, 7.8548, ...)."""
+    f = lambda z: np.cos(z) + 1.0 / np.cosh(z)
+    mids = (np.arange(1, n + 1) - 0.5) * np.pi
+    return np.array([brentq(f, max(z - 0.6, 0.1), z + 0.6, xtol=1e-15) for z in mids])
+
+
+def clamped_free_frequencies(E, I, rho, A, L, n) -> np.ndarray:
+    """Natural frequencies (Hz) of a clamped-free Euler–Bernoulli beam."""
+    bL = clamped_free_roots(n)
+    return (bL / L) ** 2 * np.sqrt(E * I / (rho * A)) / (2.0 * np.pi)
+
+
+def pinned_pinned_frequencies(E, I, rho, A, L, n) -> np.ndarray:
+    """Natural frequencies (Hz) of a pinned-pinned Euler–Bernoulli beam."""
+    k = np.arange(1, n + 1) * np.pi / L
+    return k ** 2 * np.sqrt(E * I / (rho * A)) / (2.0 * np.pi)
+
+
+def static_tip_deflection(P, E, I, L) -> float:
+    """P L^3 / (3 E I)."""
+    return P * L ** 3 / (3.0 * E * I)
+
+
+def cantilever_shapes(bL: float, x: np.ndarray, L: float):
+    """phi(x) and phi''(x)/b^2 of a clamped-free mode, normalised to int_0^L phi^2 dx = L.
+
+    phi = cosh(bx) - cos(bx) - s (sinh(bx) - sin(bx)), rewritten with decaying exponentials so it
+    stays exact for high modes (cosh(bL) overflows the significant digits beyond ~12 modes).
+    """
+    a = bL * x / L
+    e = np.exp(-bL)
+    den = 1.0 - e * e + 2.0 * e * np.sin(bL)
+    s = (1.0 + e * e + 2.0 * e * np.cos(bL)) / den
+    c2 = (np.sin(bL) - np.cos(bL) - e) / den          # (1 - s) e^{bL} / 2
+    c1 = 0.5 * (1.0 + s)
+    grow = c2 * np.exp(a - bL)
+    decay = c1 * np.exp(-a)
+    phi = decay + grow - np.cos(a) + s * np.sin(a)
+    d2 = decay + grow + np.cos(a) - s * np.sin(a)
+    return phi, d2
+
+
+# ---------------------------------------------------------------------------------------------
+# the solver
+
+
+def modal_response(t, w, zeta, t0):
+    """Response eta(t) / (static value) of a mode to a unit step at t0: 1 - e^{-zw t}(cos + ...)."""
+    tau = np.clip(t - t0, 0.0, None)
+    wd = w * np.sqrt(1.0 - zeta ** 2)
+    h = 1.0 - np.exp(-zeta * w * tau) * (np.cos(wd * tau) + zeta * w / wd * np.sin(wd * tau))
+    return h * (t >= t0)
+
+
+def run(case, t_end, settings):
+    from flexmbd.results import Result
+    t_start = time.perf_counter()
+    name, _ = common.clamped_beam(case)
+    body = case["bodies"][name]
+    mat = case["materials"][body["material"]]
+    sec = flexbody.beam_section(body)
+    E, rho, A, L = mat["E"], mat["rho"], sec.A, body["length"]
+    zeta = body["damping_ratio"]
+    n = settings.get("modes", SETTINGS["modes"][1])
+    bL = clamped_free_roots(n)
+    t = common.sample_times(case, t_end)
+    setup_s = time.perf_counter() - t_start
+
+    t_solve = time.perf_counter()
+    # modal loads per plane (axis 1: y, bending about z with Iz; axis 2: z, about y with Iy)
+    xq = np.linspace(0.0, L, 4001)
+    g = common.gravity_body(case)
+    eta = {}
+    for axis, I in ((1, sec.Iz), (2, sec.Iy)):
+        w = (bL / L) ** 2 * np.sqrt(E * I / (rho * A))
+        norm = 1.0 / np.sqrt(rho * A * L)
+        resp = np.zeros((t.size, n))
+        for ld in case["loads"].values():
+            P = common.body_force(case, ld)[axis]
+            if P == 0.0:
+                continue
+            p = ld["profile"]
+            t0 = p["t0"] if p["type"] == "step" else 0.0
+            psi_a = np.array([cantilever_shapes(z, np.array([ld["at"]]), L)[0][0] for z in bL]) * norm
+            resp += modal_response(t[:, None], w, zeta, t0) * (psi_a * P / w ** 2)
+        if g[axis] != 0.0:
+            integral = np.array([np.trapezoid(cantilever_shapes(z, xq, L)[0], xq) for z in bL]) * norm
+            resp += modal_response(t[:, None], w, zeta, 0.0) * (rho * A * g[axis] * integral / w ** 2)
+        eta[axis] = (resp, norm)
+
+    channels = {}
+    for cname, c in case["channels"].items():
+        x = np.array([c["at"]])
+        shapes = [cantilever_shapes(z, x, L) for z in bL]
+        phi = np.array([s[0][0] for s in shapes])
+        d2 = np.array([s[1][0] for s in shapes]) * (bL / L) ** 2
+        if c["kind"] == "deflection":
+            resp, norm = eta[common.component_index(c["component"])]
+            channels[cname] = resp @ (phi * norm)
+        else:
+            y, z = c["fibre"] if c["fibre"] is not None else (sec.cy, 0.0)
+            curv_y = eta[1][0] @ (d2 * eta[1][1])
+            curv_z = eta[2][0] @ (d2 * eta[2][1])
+            channels[cname] = np.abs(-E * (y * curv_y + z * curv_z))
+    wall_s = time.perf_counter() - t_solve
+    return Result(solver="analytic", case=case.name, t=t, channels=channels, wall_s=wall_s,
+                  setup_s=setup_s, steps=int(t.size), rhs_evals=0,
+                  settings={"modes_per_plane": n, "theory": "Euler-Bernoulli, continuous"})

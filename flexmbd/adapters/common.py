@@ -1,0 +1,54 @@
+"""Facts about a case that several adapters need, computed one way."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def clamped_beam(case) -> tuple[str, str]:
+    """(beam name, '') when the case is one beam clamped to ground at its root, else ('', why)."""
+    bodies, joints = case["bodies"], case["joints"]
+    if len(bodies) != 1 or len(joints) != 1:
+        return "", "needs exactly one beam on one joint"
+    (name, body), (jname, joint) = next(iter(bodies.items())), next(iter(joints.items()))
+    if body["type"] != "beam" or body["rigid"]:
+        return "", f"body {name!r} is not a flexible beam"
+    if joint["type"] != "fixed" or joint["parent"] != "ground":
+        return "", f"joint {jname!r} is not a fixed joint to ground (fixed-base cases only)"
+    return name, ""
+
+
+def rotation_rpy(rpy) -> np.ndarray:
+    """Rotation matrix R = Rz(yaw) Ry(pitch) Rx(roll), (3, 3): maps triad axes to parent axes."""
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    Rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    Ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    Rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx
+
+
+def body_force(case, load: dict) -> np.ndarray:
+    """A load's force (3,) in the body frame of a beam clamped to ground (no motion of the frame)."""
+    f = np.asarray(load["force"], dtype=float)
+    if load["frame"] == "global":
+        joint = next(iter(case["joints"].values()))
+        f = rotation_rpy(joint["rpy"]).T @ f
+    return f
+
+
+def gravity_body(case) -> np.ndarray:
+    """Gravity (3,) in the body frame of a beam clamped to ground, m/s^2."""
+    joint = next(iter(case["joints"].values()))
+    return rotation_rpy(joint["rpy"]).T @ np.asarray(case["gravity"], dtype=float)
+
+
+def sample_times(case, t_end: float) -> np.ndarray:
+    """Output instants 0, dt, ..., t_end of the case's output_dt."""
+    dt = case["integrator"]["output_dt"]
+    n = int(round(t_end / dt))
+    return np.linspace(0.0, n * dt, n + 1)
+
+
+def component_index(c: str) -> int:
+    return "xyz".index(c)

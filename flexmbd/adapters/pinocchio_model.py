@@ -1,0 +1,95 @@
+"""A flexmbd rigid Model rebuilt as a Pinocchio model (programmatically, no URDF).
+
+Conventions converted here and nowhere else: Pinocchio's spatial vectors are [linear; angular],
+its quaternions [x, y, z, w] (flexmbd: [w, x, y, z]), its free-flyer configuration
+[position; quaternion] (flexmbd: [quaternion; position]) and velocity [v; w] (flexmbd: [w; v]).
+Fixed joints have no Pinocchio joint: the child's inertia is appended to the parent's joint with
+the composed placement, and the child's children hang from that joint with it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from flexmbd.model import FIXED, FREE, PRISMATIC, REVOLUTE, SPHERICAL, Model
+
+
+def se3(X) -> "pin.SE3":
+    """Pinocchio placement of frame B in A from the Plücker transform X_{B<-A} (6, 6)."""
+    E = X[:3, :3]
+    rx = -E.T @ X[3:, :3]
+    return pin.SE3(E.T.copy(), np.array([rx[2, 1], rx[0, 2], rx[1, 0]]))
+
+
+def inertia(I6) -> "pin.Inertia":
+    """Pinocchio inertia from a flexmbd spatial inertia (6, 6) at the body origin."""
+    m = I6[3, 3]
+    c = np.array([I6[2, 4], I6[0, 5], I6[1, 3]]) / m
+    C = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
+    I_c = I6[:3, :3] - m * C @ C.T
+    return pin.Inertia(m, c, I_c)
+
+
+def build(model: Model) -> tuple["pin.Model", list]:
+    """Pinocchio model of a rigid flexmbd Model; returns (pin model, pin joint id per body)."""
+    if model.body_nm.any():
+        raise ValueError("a Pinocchio model needs every body rigid")
+    pm = pin.Model()
+    pm.gravity.linear = np.asarray(model.gravity, dtype=float)
+    # where each flexmbd body lives in Pinocchio: (joint id, placement of the body frame in it)
+    frame = [(0, pin.SE3.Identity())] + [None] * model.nb
+    for i in range(1, model.nb + 1):
+        jid_parent, off = frame[model.parent[i]]
+        placement = off * se3(model.jnt_Xtriad[i])
+        t, a = model.jnt_type[i], model.jnt_axis[i]
+        name = f"{model.jnt_names[i]}_{i}"
+        if t == FIXED:
+            pm.appendBodyToJoint(jid_parent, inertia(model.body_inertia[i]), placement)
+            frame[i] = (jid_parent, placement)
+            continue
+        if t == REVOLUTE:
+            jm = pin.JointModelRevoluteUnaligned(a)
+        elif t == PRISMATIC:
+            jm = pin.JointModelPrismaticUnaligned(a)
+        elif t == SPHERICAL:
+            jm = pin.JointModelSpherical()
+        elif t == FREE:
+            jm = pin.JointModelFreeFlyer()
+        jid = pm.addJoint(jid_parent, jm, placement, name)
+        pm.appendBodyToJoint(jid, inertia(model.body_inertia[i]), pin.SE3.Identity())
+        frame[i] = (jid, pin.SE3.Identity())
+    return pm, [f[0] for f in frame]
+
+
+def to_pin_q(model: Model, q) -> np.ndarray:
+    """flexmbd q -> Pinocchio q (same joint order, quaternions and free-flyer reordered)."""
+    out = []
+    for i in range(1, model.nb + 1):
+        t, k = model.jnt_type[i], model.jnt_qadr[i]
+        if t in (REVOLUTE, PRISMATIC):
+            out.append(q[k:k + 1])
+        elif t == SPHERICAL:
+            out.append(np.r_[q[k + 1:k + 4], q[k]])
+        elif t == FREE:
+            out.append(np.r_[q[k + 4:k + 7], q[k + 1:k + 4], q[k]])
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def to_pin_v(model: Model, v) -> np.ndarray:
+    """flexmbd v (or a) -> Pinocchio v: free-flyer [w; v] becomes [v; w]."""
+    return _swap_free(model, v)
+
+
+def from_pin_v(model: Model, v) -> np.ndarray:
+    """Pinocchio v (or a) -> flexmbd v."""
+    return _swap_free(model, v)
+
+
+def _swap_free(model: Model, v) -> np.ndarray:
+    out = np.array(v, dtype=float)
+    for i in range(1, model.nb + 1):
+        if model.jnt_type[i] == FREE:
+            k = model.jnt_vadr[i]
+            out[k:k + 6] = np.r_[v[k + 3:k + 6], v[k:k + 3]]
+    return out

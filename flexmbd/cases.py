@@ -1,0 +1,547 @@
+"""Case files: TOML in, a validated plain-dict case out.
+
+Every key a case may hold is declared once, in the schema below (`cases/README.md` documents
+the same keys with units). Loading fills defaults, checks types, signs and ranges, resolves
+references between sections, and rejects unknown keys with a "did you mean" hint. Any failure
+raises `InputError` with one line: ``FILE: dotted.key: what was expected``.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import hashlib
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from flexmbd.errors import InputError
+
+CASES_DIR = Path(__file__).resolve().parent.parent / "cases"
+
+# ---------------------------------------------------------------------------------------------
+# schema: a field is (kind, default); REQUIRED marks a field without default.
+# kinds: "float+" (> 0), "float0+" (>= 0), "float", "int+", "int0+", "str", "bool", "vec3",
+# "vec", a tuple of allowed strings, or a nested dict schema.
+
+REQUIRED = object()
+
+MATERIAL = {
+    "E": ("float+", REQUIRED),
+    "nu": ("poisson", REQUIRED),
+    "rho": ("float+", REQUIRED),
+}
+
+SECTION = {
+    "shape": (("rectangle", "circle"), REQUIRED),
+    "b": ("float+", None),          # rectangle width, along the axis that is not h_axis
+    "h": ("float+", None),          # rectangle height, along h_axis
+    "d": ("float+", None),          # circle diameter
+    "h_axis": (("y", "z"), "y"),    # body axis along which h lies
+}
+
+MODES = {
+    "count": ("int0+", REQUIRED),
+    "boundary": (("clamped-free", "hinged-hinged", "free-free", "craig-bampton"), "clamped-free"),
+    "interfaces": ("vec", None),    # craig-bampton: interface positions along the beam, m
+}
+
+BEAM = {
+    "type": (("beam",), REQUIRED),
+    "material": ("str", REQUIRED),
+    "length": ("float+", REQUIRED),
+    "elements": ("int+", 100),
+    "section": (SECTION, REQUIRED),
+    "modes": (MODES, REQUIRED),
+    "damping_ratio": ("float0+", 0.0),
+    "mass": (("lumped", "consistent"), "lumped"),
+    "shear": ("bool", False),
+    "rigid": ("bool", False),
+}
+
+RIGID = {
+    "type": (("rigid",), REQUIRED),
+    "mass": ("float+", REQUIRED),
+    "com": ("vec3", [0.0, 0.0, 0.0]),
+    "inertia": ("inertia", REQUIRED),   # [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the com, kg m^2
+}
+
+PROFILE = {
+    "type": (("constant_rate", "harmonic", "spin_up", "table"), REQUIRED),
+    "rate": ("float", None),            # constant_rate: rad/s or m/s
+    "amplitude": ("float", None),       # harmonic
+    "frequency": ("float+", None),      # harmonic, Hz
+    "phase": ("float", 0.0),            # harmonic, rad
+    "offset": ("float", 0.0),           # harmonic
+    "W": ("float", None),               # spin_up: final rate
+    "T": ("float+", None),              # spin_up: spin-up time
+    "file": ("str", None),              # table: CSV with columns t, q (relative to the case file)
+}
+
+JOINT = {
+    "type": (("revolute", "prismatic", "fixed", "spherical", "free"), REQUIRED),
+    "parent": ("str", REQUIRED),
+    "child": ("str", REQUIRED),
+    "at": ("point", None),              # beam parent: position along it (m); else a point (vec3)
+    "axis": ("vec3", [0.0, 0.0, 1.0]),  # revolute / prismatic axis in the input triad
+    "rpy": ("vec3", [0.0, 0.0, 0.0]),   # input triad orientation in the parent frame, rad
+    "q0": ("floats", None),
+    "qd0": ("floats", None),
+    "motion": (PROFILE, None),          # prescribed motion (1-DOF joints)
+}
+
+LOAD_PROFILE = {
+    "type": (("constant", "step", "ramp", "harmonic"), "constant"),
+    "t0": ("float0+", 0.0),             # step / ramp start, s
+    "t1": ("float+", None),             # ramp end, s
+    "frequency": ("float+", None),      # harmonic, Hz
+    "phase": ("float", 0.0),            # harmonic, rad
+}
+
+LOAD = {
+    "type": (("point_force",), REQUIRED),
+    "body": ("str", REQUIRED),
+    "at": ("point", REQUIRED),
+    "force": ("vec3", REQUIRED),        # N
+    "frame": (("body", "global"), "body"),
+    "profile": (LOAD_PROFILE, {"type": "constant"}),
+}
+
+CHANNEL = {
+    "kind": (("deflection", "stress_vm", "joint_angle", "energy"), REQUIRED),
+    "body": ("str", None),
+    "joint": ("str", None),
+    "at": ("float0+", None),            # m along the beam
+    "component": (("x", "y", "z"), "y"),
+    "fibre": ("vec", None),             # stress point (y, z) in the section, m; default outer fibre
+}
+
+INTEGRATOR = {
+    "method": (("adams", "rk45", "dop853", "rk4"), "adams"),
+    "rtol": ("float+", 1e-8),
+    "atol": ("float+", 1e-10),
+    "max_step": ("float+", 1e-3),       # s
+    "dt": ("float+", 1e-4),             # s, fixed-step methods
+    "output_dt": ("float+", 1e-3),      # s, sampling of the result table
+}
+
+REPORT = {
+    "reference": ("solver", None),
+    "solvers": ("solvers", None),
+    "tolerances": ("tolerances", {}),
+}
+
+CASE = {
+    "title": ("str", REQUIRED),
+    "duration": ("float+", REQUIRED),
+    "gravity": ("vec3", [0.0, 0.0, 0.0]),
+    "materials": ({"*": MATERIAL}, REQUIRED),
+    "bodies": ({"*": "body"}, REQUIRED),
+    "joints": ({"*": JOINT}, REQUIRED),
+    "loads": ({"*": LOAD}, {}),
+    "channels": ({"*": CHANNEL}, REQUIRED),
+    "integrator": (INTEGRATOR, {}),
+    "solvers": ("solver_settings", {}),
+    "report": (REPORT, {}),
+}
+
+
+@dataclass(frozen=True)
+class Case:
+    """A validated case: `data` is the case as nested dicts with every default filled in."""
+
+    name: str
+    path: Path
+    data: dict
+    sha256: str = ""
+    overrides: tuple = field(default_factory=tuple)
+
+    def __getitem__(self, key):
+        return self.data[key]
+
+
+# ---------------------------------------------------------------------------------------------
+# loading
+
+
+def find(name_or_path: str) -> Path:
+    """A case name from `cases/` or a path to a TOML file."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.is_file():
+            raise InputError(f"{name_or_path}: no such case file")
+        return p
+    q = CASES_DIR / f"{name_or_path}.toml"
+    if not q.is_file():
+        names = available()
+        hint = _hint(name_or_path, names)
+        raise InputError(f"{name_or_path}: unknown case{hint} (known: {', '.join(names)})")
+    return q
+
+
+def available() -> list[str]:
+    """Names of the cases shipped in `cases/`."""
+    return sorted(p.stem for p in CASES_DIR.glob("*.toml"))
+
+
+def load(name_or_path: str, overrides: list[str] | tuple = ()) -> Case:
+    """Read, override (`KEY=VALUE` strings) and validate a case."""
+    path = find(name_or_path)
+    text = path.read_text()
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise InputError(f"{path}: not valid TOML: {e}") from None
+    for item in overrides:
+        apply_override(raw, item, path)
+    data = validate(raw, str(path))
+    digest = hashlib.sha256((text + "\n".join(overrides)).encode()).hexdigest()[:16]
+    return Case(name=path.stem, path=path, data=data, sha256=digest, overrides=tuple(overrides))
+
+
+def apply_override(raw: dict, item: str, path) -> None:
+    """Set a dotted key from a `KEY=VALUE` string; VALUE is read as a TOML value, else a string."""
+    key, sep, value = item.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise InputError(f"{path}: --set {item!r}: expected KEY=VALUE")
+    try:
+        parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        parsed = value.strip()
+    parts = key.split(".")
+    node = raw
+    for i, part in enumerate(parts[:-1]):
+        nxt = node.setdefault(part, {})
+        if not isinstance(nxt, dict):
+            where = ".".join(parts[: i + 1])
+            raise InputError(f"{path}: --set {key}: {where} is a value, not a table")
+        node = nxt
+    node[parts[-1]] = parsed
+
+
+# ---------------------------------------------------------------------------------------------
+# validation
+
+
+def validate(raw: dict, where: str) -> dict:
+    """Check a raw case dict against the schema and the cross-references; return a filled copy."""
+    data = _check_table(copy.deepcopy(raw), CASE, where, "")
+    _check_references(data, where)
+    return data
+
+
+def _hint(word: str, choices) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def _fail(where: str, key: str, msg: str):
+    raise InputError(f"{where}: {key}: {msg}")
+
+
+def _check_table(raw, schema: dict, where: str, prefix: str) -> dict:
+    if not isinstance(raw, dict):
+        _fail(where, prefix.rstrip(".") or "(top level)", "expected a table")
+    if "*" in schema:                                   # a table of named items
+        return {name: _check_value(val, schema["*"], where, f"{prefix}{name}")
+                for name, val in raw.items()}
+    for key in raw:
+        if key not in schema:
+            _fail(where, prefix + key, f"unknown key{_hint(key, schema)}")
+    out = {}
+    for key, (kind, default) in schema.items():
+        if key in raw:
+            out[key] = _check_value(raw[key], kind, where, prefix + key)
+        elif default is REQUIRED:
+            _fail(where, prefix + key, "missing (required)")
+        elif isinstance(kind, dict) and isinstance(default, dict):
+            out[key] = _check_table(default, kind, where, prefix + key + ".")
+        else:
+            out[key] = copy.deepcopy(default)
+    return out
+
+
+def _number(v, where, key):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        _fail(where, key, f"expected a number, got {v!r}")
+    if not math.isfinite(v):
+        _fail(where, key, f"expected a finite number, got {v!r}")
+    return float(v)
+
+
+def _check_value(v, kind, where: str, key: str):
+    if isinstance(kind, dict):
+        return _check_table(v, kind, where, key + ".")
+    if isinstance(kind, tuple):
+        if v not in kind:
+            hint = _hint(str(v), kind)
+            _fail(where, key, f"expected one of {', '.join(kind)}, got {v!r}{hint}")
+        return v
+    if kind == "body":
+        return _check_body(v, where, key)
+    if kind in ("float", "float+", "float0+"):
+        x = _number(v, where, key)
+        if kind == "float+" and x <= 0:
+            _fail(where, key, f"must be positive, got {v!r}")
+        if kind == "float0+" and x < 0:
+            _fail(where, key, f"must not be negative, got {v!r}")
+        return x
+    if kind == "poisson":
+        x = _number(v, where, key)
+        if not -1.0 < x < 0.5:
+            _fail(where, key, f"Poisson's ratio must lie in (-1, 0.5), got {v!r}")
+        return x
+    if kind in ("int+", "int0+"):
+        if isinstance(v, bool) or not isinstance(v, int):
+            _fail(where, key, f"expected a whole number, got {v!r}")
+        if v < (1 if kind == "int+" else 0):
+            _fail(where, key, f"must be {'positive' if kind == 'int+' else 'non-negative'}, got {v}")
+        return v
+    if kind == "str":
+        if not isinstance(v, str):
+            _fail(where, key, f"expected a string, got {v!r}")
+        return v
+    if kind == "bool":
+        if not isinstance(v, bool):
+            _fail(where, key, f"expected true or false, got {v!r}")
+        return v
+    if kind in ("vec3", "vec", "floats", "inertia"):
+        items = [v] if kind == "floats" and not isinstance(v, list) else v
+        if not isinstance(items, list):
+            _fail(where, key, f"expected a list of numbers, got {v!r}")
+        xs = [_number(x, where, key) for x in items]
+        want = {"vec3": 3, "inertia": 6}.get(kind)
+        if want and len(xs) != want:
+            _fail(where, key, f"expected {want} numbers, got {len(xs)}")
+        if kind == "inertia" and min(xs[:3]) <= 0:
+            _fail(where, key, "principal moments Ixx, Iyy, Izz must be positive")
+        return xs
+    if kind == "point":
+        if isinstance(v, list):
+            return _check_value(v, "vec3", where, key)
+        return _check_value(v, "float0+", where, key)
+    if kind == "solver":
+        return _check_solver(v, where, key)
+    if kind == "solvers":
+        if not isinstance(v, list):
+            _fail(where, key, f"expected a list of solver names, got {v!r}")
+        return [_check_solver(s, where, key) for s in v]
+    if kind == "tolerances":
+        if not isinstance(v, dict):
+            _fail(where, key, "expected a table channel = relative tolerance")
+        return {ch: _check_value(t, "float+", where, f"{key}.{ch}") for ch, t in v.items()}
+    if kind == "solver_settings":
+        return _check_solver_settings(v, where, key)
+    raise AssertionError(f"schema kind {kind!r}")
+
+
+def _check_body(v, where, key):
+    if not isinstance(v, dict):
+        _fail(where, key, "expected a table")
+    kind = v.get("type")
+    schema = {"beam": BEAM, "rigid": RIGID}.get(kind)
+    if schema is None:
+        _fail(where, key + ".type", f"expected beam or rigid, got {kind!r}{_hint(str(kind), ['beam', 'rigid'])}")
+    return _check_table(v, schema, where, key + ".")
+
+
+def _check_solver(name, where, key):
+    from flexmbd.solvers import NAMES
+    if name not in NAMES:
+        _fail(where, key, f"unknown solver {name!r}{_hint(str(name), NAMES)} (known: {', '.join(NAMES)})")
+    return name
+
+
+def _check_solver_settings(v, where, key):
+    from flexmbd.solvers import settings_schema
+    if not isinstance(v, dict):
+        _fail(where, key, "expected a table of solver names")
+    out = {}
+    for name, settings in v.items():
+        _check_solver(name, where, f"{key}.{name}")
+        out[name] = _check_table(settings, settings_schema(name), where, f"{key}.{name}.")
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# cross-references
+
+
+def _check_references(d: dict, where: str) -> None:
+    bodies, joints = d["bodies"], d["joints"]
+    for name, b in bodies.items():
+        k = f"bodies.{name}"
+        if name == "ground":
+            _fail(where, k, "'ground' is reserved for the inertial frame")
+        if b["type"] == "beam":
+            _check_beam(b, d, where, k)
+
+    # every body has exactly one joint to its parent, and the joints form a tree rooted at ground
+    children = {}
+    for name, j in joints.items():
+        k = f"joints.{name}"
+        for side in ("parent", "child"):
+            ref = j[side]
+            if ref != "ground" and ref not in bodies:
+                _fail(where, f"{k}.{side}", f"no body {ref!r}{_hint(ref, list(bodies) + ['ground'])}")
+        if j["child"] == "ground":
+            _fail(where, f"{k}.child", "ground cannot be a child")
+        if j["child"] in children:
+            _fail(where, f"{k}.child", f"body {j['child']!r} already has joint {children[j['child']]!r}")
+        children[j["child"]] = name
+        _check_attachment(j, bodies, where, k)
+        _check_joint_values(j, where, k)
+    for name in bodies:
+        if name not in children:
+            _fail(where, f"bodies.{name}", "no joint connects this body (add a joint with child = it)")
+    _check_tree(joints, where)
+
+    for name, ld in d["loads"].items():
+        k = f"loads.{name}"
+        if ld["body"] not in bodies:
+            _fail(where, f"{k}.body", f"no body {ld['body']!r}{_hint(ld['body'], bodies)}")
+        _check_point(ld["at"], bodies[ld["body"]], where, f"{k}.at")
+        p = ld["profile"]
+        if p["type"] == "ramp" and (p["t1"] is None or p["t1"] <= p["t0"]):
+            _fail(where, f"{k}.profile.t1", "a ramp needs t1 > t0")
+        if p["type"] == "harmonic" and p["frequency"] is None:
+            _fail(where, f"{k}.profile.frequency", "a harmonic load needs a frequency (Hz)")
+
+    for name, c in d["channels"].items():
+        _check_channel(name, c, bodies, joints, where)
+    for ch in d["report"]["tolerances"]:
+        if ch not in d["channels"]:
+            _fail(where, f"report.tolerances.{ch}", f"no channel {ch!r}{_hint(ch, d['channels'])}")
+
+
+def _check_beam(b, d, where, k):
+    if b["material"] not in d["materials"]:
+        _fail(where, f"{k}.material", f"no material {b['material']!r}{_hint(b['material'], d['materials'])}")
+    s = b["section"]
+    need = ("b", "h") if s["shape"] == "rectangle" else ("d",)
+    for dim in need:
+        if s[dim] is None:
+            _fail(where, f"{k}.section.{dim}", f"a {s['shape']} section needs {dim} (m)")
+    for dim in ("b", "h", "d"):
+        if dim not in need and s[dim] is not None:
+            _fail(where, f"{k}.section.{dim}", f"not used by a {s['shape']} section")
+    m = b["modes"]
+    n_nodes = b["elements"] + 1
+    fixed = {"clamped-free": 6, "hinged-hinged": 6, "free-free": 0, "craig-bampton": 0}[m["boundary"]]
+    free = 6 * n_nodes - fixed - (6 if m["boundary"] == "free-free" else 0)
+    if m["count"] > free:
+        _fail(where, f"{k}.modes.count",
+              f"{m['count']} modes requested but the {b['elements']}-element mesh with "
+              f"{m['boundary']} boundaries has only {free} free DOFs")
+    if m["boundary"] == "craig-bampton":
+        if not m["interfaces"]:
+            _fail(where, f"{k}.modes.interfaces", "craig-bampton needs interface positions along the beam (m)")
+        for x in m["interfaces"]:
+            if not 0.0 <= x <= b["length"]:
+                _fail(where, f"{k}.modes.interfaces", f"position {x} m lies outside the beam [0, {b['length']}]")
+    elif m["interfaces"] is not None:
+        _fail(where, f"{k}.modes.interfaces", "only used with boundary = \"craig-bampton\"")
+
+
+def _check_point(at, body, where, key):
+    if body["type"] == "beam":
+        if isinstance(at, list):
+            _fail(where, key, "on a beam give a position along it in m, not a point")
+        if at > body["length"]:
+            _fail(where, key, f"position {at} m lies beyond the beam's length {body['length']} m")
+    elif not isinstance(at, list):
+        _fail(where, key, "on a rigid body give a point [x, y, z] in m in its frame")
+
+
+def _check_attachment(j, bodies, where, k):
+    parent = j["parent"]
+    if j["at"] is None:
+        j["at"] = 0.0 if parent != "ground" and bodies[parent]["type"] == "beam" else [0.0, 0.0, 0.0]
+    if parent == "ground":
+        if not isinstance(j["at"], list):
+            _fail(where, f"{k}.at", "on ground give a point [x, y, z] in m")
+    else:
+        _check_point(j["at"], bodies[parent], where, f"{k}.at")
+    if j["type"] in ("revolute", "prismatic") and math.hypot(*j["axis"]) < 1e-12:
+        _fail(where, f"{k}.axis", "the joint axis must not be zero")
+
+
+JOINT_DOFS = {"revolute": 1, "prismatic": 1, "fixed": 0, "spherical": 3, "free": 6}
+
+
+def _check_joint_values(j, where, k):
+    n = JOINT_DOFS[j["type"]]
+    for key in ("q0", "qd0"):
+        v = j[key]
+        if v is None:
+            j[key] = [0.0] * n
+        elif len(v) != n:
+            _fail(where, f"{k}.{key}", f"a {j['type']} joint takes {n} value(s), got {len(v)}")
+    m = j["motion"]
+    if m is None:
+        return
+    if n != 1:
+        _fail(where, f"{k}.motion", f"prescribed motion needs a 1-DOF joint, not {j['type']}")
+    need = {"constant_rate": ("rate",), "harmonic": ("amplitude", "frequency"),
+            "spin_up": ("W", "T"), "table": ("file",)}[m["type"]]
+    for key in need:
+        if m[key] is None:
+            _fail(where, f"{k}.motion.{key}", f"the {m['type']} profile needs {key}")
+    if m["type"] == "table":
+        f = Path(where).parent / m["file"]
+        if not f.is_file():
+            _fail(where, f"{k}.motion.file", f"no such file {str(f)!r}")
+        m["file"] = str(f)
+
+
+def _check_tree(joints, where):
+    parent_of = {j["child"]: j["parent"] for j in joints.values()}
+    for child in parent_of:
+        seen, b = set(), child
+        while b != "ground":
+            if b in seen:
+                _fail(where, "joints", f"the joints form a loop through body {b!r} (a tree is needed)")
+            seen.add(b)
+            b = parent_of[b]
+
+
+def _check_channel(name, c, bodies, joints, where):
+    k = f"channels.{name}"
+    if c["kind"] in ("deflection", "stress_vm"):
+        b = c["body"]
+        if b is None:
+            _fail(where, f"{k}.body", f"a {c['kind']} channel needs a body")
+        if b not in bodies:
+            _fail(where, f"{k}.body", f"no body {b!r}{_hint(b, bodies)}")
+        if bodies[b]["type"] != "beam":
+            _fail(where, f"{k}.body", f"{c['kind']} needs a beam, {b!r} is rigid")
+        if c["at"] is None:
+            _fail(where, f"{k}.at", "needs a position along the beam (m)")
+        if c["at"] > bodies[b]["length"]:
+            _fail(where, f"{k}.at", f"position {c['at']} m lies beyond the beam's length {bodies[b]['length']} m")
+        if c["fibre"] is not None and len(c["fibre"]) != 2:
+            _fail(where, f"{k}.fibre", "expected [y, z] in m")
+    if c["kind"] == "joint_angle":
+        j = c["joint"]
+        if j is None:
+            _fail(where, f"{k}.joint", "a joint_angle channel needs a joint")
+        if j not in joints:
+            _fail(where, f"{k}.joint", f"no joint {j!r}{_hint(j, joints)}")
+        if joints[j]["type"] != "revolute":
+            _fail(where, f"{k}.joint", f"joint_angle needs a revolute joint, {j!r} is {joints[j]['type']}")
+
+
+# ---------------------------------------------------------------------------------------------
+# derived facts used by several solvers
+
+
+def beams(case: Case) -> dict:
+    """The case's beam bodies, by name."""
+    return {n: b for n, b in case["bodies"].items() if b["type"] == "beam"}
+
+
+def is_fixed_base(case: Case) -> bool:
+    """True when every joint is fixed: the structure cannot move as a whole."""
+    return all(j["type"] == "fixed" for j in case["joints"].values())

@@ -1,0 +1,175 @@
+"""The `flexmbd` command (DESIGN.md §6). Bad input: one line on stderr, exit status 2."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from flexmbd import cases, solvers
+from flexmbd.errors import InputError
+
+
+def _load(args) -> cases.Case:
+    return cases.load(args.case, getattr(args, "set", None) or [])
+
+
+def _positive(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not x > 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {text}")
+    return x
+
+
+# ---------------------------------------------------------------------------------------------
+# commands
+
+
+def cmd_list(args) -> int:
+    rows = []
+    for name in cases.available():
+        c = cases.load(name)
+        rows.append({"case": name, "title": c["title"], "bodies": list(c["bodies"]),
+                     "solvers": {s: solvers.status_for(c, s) or "ok" for s in solvers.NAMES}})
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    for r in rows:
+        usable = [s for s, st in r["solvers"].items() if st == "ok"]
+        print(f"{r['case']:<18} {r['title']}")
+        print(f"{'':<18} bodies: {', '.join(r['bodies'])}; solvers: {', '.join(usable)}")
+    return 0
+
+
+def cmd_modes(args) -> int:
+    from flexmbd import flexbody
+    case = _load(args)
+    bodies = flexbody.for_case(case)
+    out = {"case": case.name, "bodies": {}}
+    for name, fb in bodies.items():
+        out["bodies"][name] = {
+            "boundary": fb.boundary, "nodes": fb.n_nodes,
+            "modes": [{"index": i + 1, "freq_hz": float(f), "label": str(lab)}
+                      for i, (f, lab) in enumerate(zip(fb.freq_hz, fb.labels))]}
+        if args.save:
+            path = Path(args.save) / f"{case.name}_{name}.npz"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            flexbody.save(fb, path)
+    if args.json:
+        print(json.dumps(out, indent=2))
+        return 0
+    for name, b in out["bodies"].items():
+        print(f"{case.name} / {name}: {b['boundary']}, {b['nodes']} nodes")
+        for m in b["modes"]:
+            print(f"  {m['index']:3d}  {m['freq_hz']:12.4f} Hz  {m['label']}")
+    return 0
+
+
+def cmd_run(args) -> int:
+    from flexmbd import results
+    case = _load(args)
+    if args.solver not in solvers.NAMES:
+        raise InputError(f"--solver: unknown solver {args.solver!r}{cases._hint(args.solver, solvers.NAMES)} "
+                         f"(known: {', '.join(solvers.NAMES)})")
+    why = solvers.status_for(case, args.solver)
+    if why:
+        raise InputError(f"{case.path}: solver {args.solver}: {why}")
+    r = solvers.run(case, args.solver, args.t_end)
+    csv, js = results.write(r, Path(args.out))
+    if args.json:
+        print(json.dumps(results.sidecar(r), indent=2))
+    else:
+        print(f"{case.name} / {r.solver}: {r.status}; {r.steps} steps, solve {r.wall_s:.3f} s, "
+              f"set-up {r.setup_s:.3f} s -> {js.parent}")
+    return 0 if r.ok else 1
+
+
+def cmd_report(args) -> int:
+    from flexmbd import results
+    from flexmbd.report import summary
+    out = Path(args.out)
+    names = args.cases.split(",") if args.cases else cases.available()
+    chosen = args.solvers.split(",") if args.solvers else list(solvers.NAMES)
+    for s in chosen:
+        if s not in solvers.NAMES:
+            raise InputError(f"--solvers: unknown solver {s!r}{cases._hint(s, solvers.NAMES)}")
+    loaded = [cases.load(n) for n in names]
+    jobs = [(c, s) for c in loaded for s in chosen]
+    t0 = time.perf_counter()
+    for k, (c, s) in enumerate(jobs, 1):
+        progress(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
+        r = solvers.run(c, s)
+        results.write(r, out / "results")
+    progress_done(len(jobs), time.perf_counter() - t0)
+    index = summary.write_index(out, [c.name for c in loaded], chosen)
+    print(f"report: {index}")
+    return 0
+
+
+def progress(k: int, n: int, label: str, elapsed: float) -> None:
+    """One-line progress on stderr (redrawn in place on a terminal)."""
+    bar = "#" * int(20 * (k - 1) / n)
+    end = "\r" if sys.stderr.isatty() else "\n"
+    sys.stderr.write(f"[{bar:<20}] {k}/{n} {label:<40} {elapsed:6.1f} s{end}")
+    sys.stderr.flush()
+
+
+def progress_done(n: int, elapsed: float) -> None:
+    sys.stderr.write(f"[{'#' * 20}] {n}/{n} done{'':<36} {elapsed:6.1f} s\n")
+
+
+# ---------------------------------------------------------------------------------------------
+# parser
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="flexmbd", description="Flexible multibody validation harness.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    s = sub.add_parser("list", help="the cases, with title, bodies and solvers")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=cmd_list)
+
+    s = sub.add_parser("modes", help="retained mode frequencies (Hz) and labels per flexible body")
+    s.add_argument("case")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE")
+    s.add_argument("--save", metavar="DIR", help="also write each reduced body as DIR/CASE_BODY.npz")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=cmd_modes)
+
+    s = sub.add_parser("run", help="one solver on one case")
+    s.add_argument("case")
+    s.add_argument("--solver", required=True)
+    s.add_argument("--out", default="results")
+    s.add_argument("--t-end", type=_positive, default=None)
+    s.add_argument("--set", action="append", metavar="KEY=VALUE")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=cmd_run)
+
+    s = sub.add_parser("report", help="every case on every available solver, and the report")
+    s.add_argument("--cases", default=None, help="comma-separated case names (default: all)")
+    s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
+    s.add_argument("--out", default="reports")
+    s.set_defaults(func=cmd_report)
+    return p
+
+
+def main(argv=None) -> int:
+    args = parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except InputError as e:
+        print(f"flexmbd: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("flexmbd: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,18 @@
+"""Finite-element pre-processor of a straight 3-D beam (SI units).
+
+The chain is a sequence of free functions on plain arrays::
+
+    sec = section.rectangle(b, h)                                     # Section
+    nodes, elements = assembly.beam_mesh(L, n_el)                     # (N, 3), (n_el, 2)
+    K, M = assembly.beam_matrices(nodes, elements, E, G, rho, sec)    # csr (6N, 6N)
+    fixed = modes.boundary_dofs("clamped-free", N)                    # int array
+    freq_hz, Phi = modes.normal_modes(K, M, fixed, n)                 # (n,), (6N, n)
+    c_sigma, c_tau = stress.stress_coefficients(nodes, elements, E, G, sec, x)
+
+DOF order: node ``p`` owns global DOFs ``6 p + k``, ``k = [ux, uy, uz, rx, ry, rz]``
+(translations in m, then rotations in rad); ``rz = +duy/dx`` and ``ry = -duz/dx``.
+"""
+
+from flexmbd.fe import assembly, element, modes, section, stress
+
+__all__ = ["assembly", "element", "modes", "section", "stress"]

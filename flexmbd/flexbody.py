@@ -1,0 +1,301 @@
+"""The reduced flexible body: the one object every solver reads.
+
+A beam of the case file goes through the FE pre-processor (`flexmbd.fe`) once; what the solvers
+need of it is kept here as plain arrays, in the body frame (beam along +x from the root node):
+
+    x0      (N, 3)        undeformed node positions u_p, m
+    m       (N,)          lumped translational node masses m_p, kg
+    J       (N, 3, 3)     lumped rotary inertias J_p at the nodes, kg m^2
+    Phi     (N, 6, nm)    mode block per node, rows [rot x,y,z; trans x,y,z] (spatial order)
+    freq_hz (nm,)         natural frequencies of the retained set, Hz
+    labels  (nm,)         'bending xy 1', 'torsion 1', ...
+    Km, Cm  (nm, nm)      modal stiffness Phi^T K Phi and modal damping 2 zeta omega (diagonal)
+    stress_x (ns,)        stress points along the beam, m
+    S_sigma, S_tau (ns, nm)  modal normal / torsional-shear stress coefficients, Pa per unit q
+
+Modes are computed with the mass matrix the case chooses (lumped by default, as in the paper);
+the node masses m_p, J_p are always the lumped ones, which is what the floating-frame invariants
+are summed from.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from flexmbd.fe import assembly, modes, section, stress
+
+
+@dataclass(frozen=True)
+class FlexBody:
+    name: str
+    length: float
+    x0: np.ndarray
+    m: np.ndarray
+    J: np.ndarray
+    Phi: np.ndarray
+    freq_hz: np.ndarray
+    labels: np.ndarray
+    Km: np.ndarray
+    Cm: np.ndarray
+    boundary: str
+    stress_x: np.ndarray
+    S_sigma: np.ndarray
+    S_tau: np.ndarray
+
+    @property
+    def n_nodes(self) -> int:
+        return self.x0.shape[0]
+
+    @property
+    def n_modes(self) -> int:
+        return self.Phi.shape[2]
+
+    def node_at(self, x: float) -> int:
+        """Index of the node nearest to position `x` along the beam (m)."""
+        return int(np.argmin(np.abs(self.x0[:, 0] - x)))
+
+
+def beam_section(body: dict) -> section.Section:
+    """The FE section of a case beam; FE convention: extent h along y, b along z."""
+    s = body["section"]
+    if s["shape"] == "circle":
+        return section.circle(s["d"])
+    if s["h_axis"] == "y":
+        return section.rectangle(b=s["b"], h=s["h"])
+    return section.rectangle(b=s["h"], h=s["b"])
+
+
+def shear_modulus(material: dict) -> float:
+    return material["E"] / (2.0 * (1.0 + material["nu"]))
+
+
+def fe_model(body: dict, material: dict):
+    """Mesh and assembled matrices of a case beam: (nodes, elements, sec, K, M, M_lumped)."""
+    sec = beam_section(body)
+    nodes, elements = assembly.beam_mesh(body["length"], body["elements"])
+    E, G, rho = material["E"], shear_modulus(material), material["rho"]
+    K, M = assembly.beam_matrices(nodes, elements, E, G, rho, sec, mass=body["mass"], shear=body["shear"])
+    if body["mass"] == "lumped":
+        M_lumped = M
+    else:
+        _, M_lumped = assembly.beam_matrices(nodes, elements, E, G, rho, sec, mass="lumped")
+    return nodes, elements, sec, K, M, M_lumped
+
+
+def mode_set(body: dict, K, M, n_nodes: int):
+    """The retained, mass-orthonormal mode set (6N, nm) and its frequencies (Hz)."""
+    m = body["modes"]
+    if m["boundary"] == "craig-bampton":
+        L, n_el = body["length"], body["elements"]
+        nodes = sorted({int(round(x / L * n_el)) for x in m["interfaces"]})
+        iface = np.array([6 * p + k for p in nodes for k in range(6)])
+        n_normal = max(m["count"] - iface.size, 0)
+        Phi = modes.craig_bampton(K, M, np.array([], dtype=int), iface, n_normal)
+        freq, Phi = modes.orthonormalize(K, M, Phi)
+        return freq[: m["count"]], Phi[:, : m["count"]]
+    fixed = modes.boundary_dofs(m["boundary"], n_nodes)
+    return modes.normal_modes(K, M, fixed, m["count"])
+
+
+def spatial_blocks(Phi_fe: np.ndarray) -> np.ndarray:
+    """FE mode matrix (6N, nm), node DOFs [u; theta] -> per-node spatial blocks (N, 6, nm), [theta; u]."""
+    n = Phi_fe.shape[0] // 6
+    B = Phi_fe.reshape(n, 6, -1)
+    return np.concatenate([B[:, 3:6], B[:, 0:3]], axis=1)
+
+
+def build(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
+    """Reduce a case beam to a FlexBody. `stress_points`: iterable of (x, fibre or None)."""
+    nodes, elements, sec, K, M, M_lumped = fe_model(body, material)
+    freq, Phi_fe = mode_set(body, K, M, nodes.shape[0])
+
+    # lumped node masses and rotary inertias, from the lumped diagonal
+    d = M_lumped.diagonal().reshape(-1, 6)
+    m = d[:, 0].copy()
+    J = np.zeros((nodes.shape[0], 3, 3))
+    J[:, [0, 1, 2], [0, 1, 2]] = d[:, 3:6]
+
+    # constant modal stiffness and damping
+    Km = Phi_fe.T @ (K @ Phi_fe)
+    Km = 0.5 * (Km + Km.T)
+    omega = 2.0 * np.pi * np.asarray(freq)
+    Cm = np.diag(2.0 * body["damping_ratio"] * omega)
+
+    # modal stress recovery
+    E, G = material["E"], shear_modulus(material)
+    xs, Ss, St = [], [], []
+    for x, fibre in stress_points:
+        cs, ct = stress.stress_coefficients(nodes, elements, E, G, sec, x, fibre=fibre, shear=body["shear"])
+        xs.append(x)
+        Ss.append(cs @ Phi_fe)
+        St.append(ct @ Phi_fe)
+    nm = Phi_fe.shape[1]
+    return FlexBody(
+        name=name, length=body["length"], x0=nodes, m=m, J=J, Phi=spatial_blocks(Phi_fe),
+        freq_hz=np.asarray(freq), labels=np.array(modes.mode_labels(Phi_fe) if nm else [], dtype=str), Km=Km, Cm=Cm,
+        boundary=body["modes"]["boundary"], stress_x=np.array(xs, dtype=float),
+        S_sigma=np.array(Ss).reshape(len(xs), nm), S_tau=np.array(St).reshape(len(xs), nm))
+
+
+def for_case(case) -> dict:
+    """Every flexible beam of a case, reduced, by body name (stress points from its channels)."""
+    out = {}
+    for name, body in case["bodies"].items():
+        if body["type"] != "beam" or body["rigid"]:
+            continue
+        pts = [(c["at"], c["fibre"]) for c in case["channels"].values()
+               if c["kind"] == "stress_vm" and c["body"] == name]
+        out[name] = build(name, body, case["materials"][body["material"]], pts)
+    return out
+
+
+def save(fb: FlexBody, path) -> None:
+    """Write the body to one .npz file."""
+    np.savez(path, **{f.name: np.asarray(getattr(fb, f.name)) for f in fields(fb)})
+
+
+def load(path) -> FlexBody:
+    """Read a body written by `save`."""
+    with np.load(path, allow_pickle=False) as z:
+        kw = {f.name: z[f.name] for f in fields(FlexBody)}
+    kw["name"], kw["boundary"] = str(kw["name"]), str(kw["boundary"])
+    kw["length"] = float(kw["length"])
+    return FlexBody(**kw)
+
+
+# ---------------------------------------------------------------------------------------------
+# inertia shape invariants (docs/formulation.md §3)
+#
+# Node p of the deformed body sits at r_p = x0_p + Phi_t,p eta (body frame); its kinetic energy
+# is 1/2 m_p |v + w x r_p + Phi_t,p eta_d|^2 + 1/2 (w + Phi_r,p eta_d)^T J_p (w + Phi_r,p eta_d).
+# The node sums of that expression are precomputed once; a~ is the skew matrix of a, and
+# Phi_k = Phi_t,p[:, k] the translation of node p in mode k.
+
+
+@dataclass(frozen=True)
+class Invariants:
+    I1: np.ndarray     # (3, 3)          sum J_p - m_p x0~ x0~: rotational inertia of the undeformed body
+    I2: np.ndarray     # (nm, 3, 3)      -sum m_p (x0~ Phi_k~ + Phi_k~ x0~): its first-order change per mode
+    I3: np.ndarray     # (nm, nm, 3, 3)  -sum m_p Phi_k~ Phi_l~: its second-order change
+    I4: np.ndarray     # (3,)            sum m_p x0_p: first moment of mass of the undeformed body
+    I5: np.ndarray     # (3, nm)         sum m_p Phi_t,p: change of the first moment per mode
+    I6: np.ndarray     # (3, nm)         sum m_p x0~ Phi_t,p: rotation-mode coupling, translational part
+    I7: np.ndarray     # (nm, 3, nm)     sum m_p Phi_k~ Phi_t,p: change of the coupling (column k is zero)
+    I8: float          #                 sum m_p: mass
+    I9: np.ndarray     # (nm, nm)        sum Phi_r^T J_p Phi_r + m_p Phi_t^T Phi_t: modal mass
+    I10: np.ndarray    # (3, nm)         sum J_p Phi_r,p: rotation-mode coupling, rotary part
+
+    @property
+    def nm(self) -> int:
+        return self.I9.shape[0]
+
+
+def invariants(fb: FlexBody) -> Invariants:
+    """The inertia shape invariants I1..I10 of a reduced body: node sums done once, here."""
+    m, x0, J = fb.m, fb.x0, fb.J
+    Pr, Pt = fb.Phi[:, :3, :], fb.Phi[:, 3:, :]                     # (N, 3, nm)
+    eye = np.eye(3)
+
+    # second moments of the node masses: x0 x0, x0 Phi_k, Phi_k Phi_l
+    Q0 = np.einsum("p,pa,pb->ab", m, x0, x0)
+    Q1 = np.einsum("p,pa,pbk->kab", m, x0, Pt)                      # (nm, 3, 3): sum m x0 Phi_k^T
+    Q2 = np.einsum("p,pak,pbl->klab", m, Pt, Pt)                    # (nm, nm, 3, 3): sum m Phi_k Phi_l^T
+
+    # a~ b~ = b a^T - (a . b) I turns the skew products into second moments
+    I1 = J.sum(axis=0) + np.trace(Q0) * eye - Q0
+    tr1 = np.trace(Q1, axis1=1, axis2=2)
+    I2 = 2.0 * tr1[:, None, None] * eye - Q1 - Q1.transpose(0, 2, 1)
+    tr2 = np.trace(Q2, axis1=2, axis2=3)
+    I3 = tr2[:, :, None, None] * eye - Q2.transpose(1, 0, 2, 3)
+
+    I4 = m @ x0
+    I5 = np.einsum("p,pak->ak", m, Pt)
+    I6 = np.einsum("p,pab,pbk->ak", m, _skew_rows(x0), Pt)
+    I7 = np.einsum("p,pkab,pbl->kal", m, _skew_rows(Pt.transpose(0, 2, 1)), Pt)
+    I9 = np.einsum("pak,pab,pbl->kl", Pr, J, Pr) + np.einsum("p,pak,pal->kl", m, Pt, Pt)
+    I10 = np.einsum("pab,pbk->ak", J, Pr)
+    return Invariants(I1=I1, I2=I2, I3=I3, I4=I4, I5=I5, I6=I6, I7=I7, I8=float(m.sum()),
+                      I9=0.5 * (I9 + I9.T), I10=I10)
+
+
+def _skew_rows(a: np.ndarray) -> np.ndarray:
+    """Skew matrices of the last axis: (..., 3) -> (..., 3, 3)."""
+    S = np.zeros(a.shape + (3,))
+    S[..., 0, 1], S[..., 0, 2] = -a[..., 2], a[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = a[..., 2], -a[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -a[..., 1], a[..., 0]
+    return S
+
+
+def rotational_inertia(inv: Invariants, eta) -> np.ndarray:
+    """I_O(eta) = I1 + sum_k eta_k I2_k + sum_kl eta_k eta_l I3_kl  (3, 3), about the body origin."""
+    return inv.I1 + np.einsum("k,kab->ab", eta, inv.I2) + np.einsum("k,l,klab->ab", eta, eta, inv.I3)
+
+
+def N1(inv: Invariants, eta) -> np.ndarray:
+    """N1(eta) = I6 + I10 + sum_k eta_k I7_k  (3, nm): the rotation-mode block of the mass matrix."""
+    return inv.I6 + inv.I10 + np.einsum("k,kal->al", eta, inv.I7)
+
+
+def N2(inv: Invariants, eta) -> np.ndarray:
+    """N2_k(eta) = dI_O/deta_k = I2_k + sum_l eta_l (I3_kl + I3_lk)  (nm, 3, 3)."""
+    return inv.I2 + np.einsum("l,klab->kab", eta, inv.I3) + np.einsum("l,lkab->kab", eta, inv.I3)
+
+
+def mass_matrix(inv: Invariants, eta) -> np.ndarray:
+    """M(eta) (6+nm, 6+nm) over [w; v; eta_d] in the body frame (v: velocity of the body origin).
+
+        M = [ I_O(eta)   c~        N1(eta) ]      c = I4 + I5 eta (first moment of mass)
+            [ c~^T       I8 1      I5      ]
+            [ N1^T       I5^T      I9      ]
+    """
+    nm = inv.nm
+    c = inv.I4 + inv.I5 @ eta
+    n1 = N1(inv, eta)
+    M = np.zeros((6 + nm, 6 + nm))
+    M[:3, :3] = rotational_inertia(inv, eta)
+    M[:3, 3:6] = _skew(c)
+    M[3:6, :3] = _skew(c).T
+    M[3:6, 3:6] = inv.I8 * np.eye(3)
+    M[:3, 6:], M[6:, :3] = n1, n1.T
+    M[3:6, 6:], M[6:, 3:6] = inv.I5, inv.I5.T
+    M[6:, 6:] = inv.I9
+    return M
+
+
+def mass_matrix_dot(inv: Invariants, eta, eta_d) -> np.ndarray:
+    """dM/dt (6+nm, 6+nm) = sum_k eta_d_k dM/deta_k: the blocks I_O', c~', N1' (I8, I5, I9 are constant)."""
+    nm = inv.nm
+    cd = inv.I5 @ eta_d
+    n1d = np.einsum("k,kal->al", eta_d, inv.I7)
+    Md = np.zeros((6 + nm, 6 + nm))
+    Md[:3, :3] = np.einsum("k,kab->ab", eta_d, N2(inv, eta))
+    Md[:3, 3:6] = _skew(cd)
+    Md[3:6, :3] = _skew(cd).T
+    Md[:3, 6:], Md[6:, :3] = n1d, n1d.T
+    return Md
+
+
+def quadratic_forces(inv: Invariants, eta, v, eta_d) -> np.ndarray:
+    """Centrifugal and Coriolis forces (6+nm,) of the free body, from Lagrange's equations.
+
+    Reference rows:  v x* (M_r. [v; eta_d]) + (dM_r./dt) [v; eta_d]      (momentum form)
+    Modal rows:      N1'^T w - dT/deta,  dT/deta_k = 1/2 w^T N2_k w + w . (I5_k x v) + w^T I7_k eta_d
+    """
+    w, u = v[:3], v[3:]
+    vv = np.concatenate([v, eta_d])
+    M = mass_matrix(inv, eta)
+    Md = mass_matrix_dot(inv, eta, eta_d)
+    mom = M[:6] @ vv
+    h_r = np.concatenate([np.cross(w, mom[:3]) + np.cross(u, mom[3:]), np.cross(w, mom[3:])])
+    h_r += Md[:6] @ vv
+    dT = (0.5 * np.einsum("a,kab,b->k", w, N2(inv, eta), w)
+          + np.cross(inv.I5.T, u) @ w
+          + np.einsum("a,kal,l->k", w, inv.I7, eta_d))
+    return np.concatenate([h_r, Md[6:, :3] @ w - dT])
+
+
+def _skew(a) -> np.ndarray:
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])

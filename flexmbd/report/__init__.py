@@ -1,0 +1,1 @@
+"""Report generation: a pure function of stored results (it never runs a solver)."""

@@ -1,0 +1,89 @@
+"""The solver registry and `run`: one solver on one case, timed, never crashing the caller.
+
+A solver is a module with
+    SETTINGS                 schema of its `[solvers.NAME]` table in a case file (see cases.py)
+    version() -> str
+    applies(case) -> str     '' when the solver can run the case, else why not
+    run(case, t_end, settings) -> Result    fills t, channels, steps, rhs_evals, wall_s, setup_s
+Solvers that are not part of this build are listed (so case files may name them) and reported
+as unavailable.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+import traceback
+
+from flexmbd.results import Result
+
+# registered name -> module (None: not part of this build)
+MODULES = {
+    "flexmbd": None,
+    "fe-linear": "flexmbd.adapters.fe_linear",
+    "analytic": "flexmbd.adapters.analytic",
+    "exudyn-ffrf": None,
+    "exudyn-beam": None,
+    "mujoco-rod": None,
+    "pinocchio": None,
+    "mujoco": None,
+}
+NAMES = tuple(MODULES)
+
+
+def module(name: str):
+    """The solver's module, or None when it is not available here."""
+    path = MODULES[name]
+    if path is None:
+        return None
+    try:
+        return importlib.import_module(path)
+    except ImportError:
+        return None
+
+
+def settings_schema(name: str) -> dict:
+    mod = module(name)
+    return getattr(mod, "SETTINGS", {}) if mod else {}
+
+
+def unavailable_reason(name: str) -> str:
+    """'' when the solver can be used on this machine, else why not."""
+    path = MODULES[name]
+    if path is None:
+        return "unavailable: not part of this version of flexmbd"
+    try:
+        importlib.import_module(path)
+    except ImportError as e:
+        return f"unavailable: {e}"
+    return ""
+
+
+def status_for(case, name: str) -> str:
+    """'' when `name` can run `case`, else 'unavailable: ...' or 'not applicable: ...'."""
+    why = unavailable_reason(name)
+    if why:
+        return why
+    why = module(name).applies(case)
+    return f"not applicable: {why}" if why else ""
+
+
+def run(case, name: str, t_end: float | None = None) -> Result:
+    """Run one solver on one case. Failures inside the solver become a `failed: ...` result."""
+    t_end = case["duration"] if t_end is None else t_end
+    why = status_for(case, name)
+    if why:
+        return Result(solver=name, case=case.name, status=why, case_sha256=case.sha256)
+    mod = module(name)
+    settings = case["solvers"].get(name, {})
+    start = time.perf_counter()
+    try:
+        r = mod.run(case, t_end, settings)
+    except Exception as e:                              # an external code's failure is a result
+        where = traceback.extract_tb(e.__traceback__)[-1]
+        r = Result(solver=name, case=case.name,
+                   status=f"failed: {type(e).__name__}: {e} ({where.name}, line {where.lineno})")
+        r.wall_s = time.perf_counter() - start
+    r.solver, r.case, r.case_sha256 = name, case.name, case.sha256
+    r.solver_version = r.solver_version or mod.version()
+    return r

@@ -1,0 +1,133 @@
+"""Case loading and validation: the shipped cases load; malformed ones fail with one clear line."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from flexmbd import cases
+from flexmbd.cli import main
+from flexmbd.errors import InputError
+
+PAPER = ["cantilever_step", "pendulum", "double_pendulum"]
+
+
+@pytest.mark.parametrize("name", PAPER)
+def test_paper_cases_load_with_paper_parameters(name):
+    c = cases.load(name)
+    assert c["duration"] == 2.0
+    for b in c["bodies"].values():
+        assert (b["length"], b["section"]["b"], b["section"]["h"]) == (1.5, 0.01, 0.015)
+        assert b["damping_ratio"] == 0.0
+        assert b["modes"]["count"] == 12
+    assert c["materials"]["steel"] == {"E": 2.06e11, "nu": 0.29, "rho": 7820.0}
+    assert c["gravity"] == ([0.0, 0.0, 0.0] if name == "cantilever_step" else [0.0, -9.81, 0.0])
+
+
+def test_paper_case_specifics():
+    c = cases.load("cantilever_step")
+    ld = c["loads"]["tip_force"]
+    assert ld["force"] == [0.0, -12.0, 0.0] and ld["at"] == 1.5 and ld["profile"]["t0"] == 0.0
+    d = cases.load("double_pendulum")
+    assert d["bodies"]["beam1"]["modes"]["boundary"] == "hinged-hinged"
+    assert d["bodies"]["beam2"]["modes"]["boundary"] == "clamped-free"
+    assert d["joints"]["pivot2"]["parent"] == "beam1" and d["joints"]["pivot2"]["at"] == 1.5
+
+
+def test_override_changes_value_and_hash():
+    a = cases.load("cantilever_step")
+    b = cases.load("cantilever_step", ["materials.steel.E=2.06e9"])
+    assert b["materials"]["steel"]["E"] == 2.06e9
+    assert a.sha256 != b.sha256
+
+
+def _write(tmp_path, text):
+    base = (cases.CASES_DIR / "cantilever_step.toml").read_text()
+    p = tmp_path / "bad.toml"
+    p.write_text(text(base))
+    return p
+
+
+# (edit of the cantilever file, dotted key expected in the message, words expected in it)
+MALFORMED = [
+    (lambda s: s.replace("length = 1.5", "length = -1.5"), "bodies.beam.length", "positive"),
+    (lambda s: s.replace("length = 1.5", "lenght = 1.5"), "bodies.beam.lenght", "did you mean 'length'"),
+    (lambda s: s.replace("length = 1.5", 'length = "long"'), "bodies.beam.length", "expected a number"),
+    (lambda s: s.replace("count = 12", "count = 1000"), "bodies.beam.modes.count", "free DOFs"),
+    (lambda s: s.replace('material = "steel"', 'material = "stell"'), "bodies.beam.material", "did you mean 'steel'"),
+    (lambda s: s.replace('child = "beam"', 'child = "bean"'), "joints.clamp.child", "no body 'bean'"),
+    (lambda s: s.replace('type = "fixed"', 'type = "hinge"'), "joints.clamp.type", "expected one of"),
+    (lambda s: s.replace('reference = "fe-linear"', 'reference = "fe-linaer"'), "report.reference", "did you mean 'fe-linear'"),
+    (lambda s: s.replace('kind = "stress_vm"', 'kind = "stress"'), "channels.stress_vm.kind", "expected one of"),
+    (lambda s: s.replace("nu = 0.29", "nu = 0.7"), "materials.steel.nu", "Poisson"),
+    (lambda s: s.replace("duration = 2.0", ""), "duration", "missing"),
+    (lambda s: s.replace("at = 1.5 ", "at = 2.5 "), "loads.tip_force.at", "beyond"),
+    (lambda s: s.replace("force = [0.0, -12.0, 0.0]", "force = [0.0, -12.0]"), "loads.tip_force.force", "3 numbers"),
+    (lambda s: s + "\n[solvers.analytic]\nmodez = 10\n", "solvers.analytic.modez", "did you mean 'modes'"),
+    (lambda s: s.replace("[bodies.beam]", "[bodies.beam"), "", "not valid TOML"),
+    (lambda s: s.replace("elements = 100", "elements = 0"), "bodies.beam.elements", "positive"),
+    (lambda s: s.replace("h = 0.015, ", ""), "bodies.beam.section.h", "needs h"),
+]
+
+
+@pytest.mark.parametrize("edit,key,words", MALFORMED)
+def test_malformed_case_is_one_line_exit_2_no_result(tmp_path, capsys, edit, key, words):
+    p = _write(tmp_path, edit)
+    out = tmp_path / "out"
+    code = main(["run", str(p), "--solver", "analytic", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1, err
+    assert str(p) in err and key in err and words in err, err
+    assert not out.exists()
+
+
+BAD_SETS = [
+    ("bodies.beam.length=-2", "bodies.beam.length", "positive"),
+    ("bodies.beam.modes.count=2.5", "bodies.beam.modes.count", "whole number"),
+    ("bodies.beam.colour=1", "bodies.beam.colour", "unknown key"),
+    ("materials.steel.E", "--set", "KEY=VALUE"),
+    ("duration.x=1", "duration", "not a table"),
+    ("integrator.method=euler", "integrator.method", "expected one of"),
+]
+
+
+@pytest.mark.parametrize("item,key,words", BAD_SETS)
+def test_bad_set_is_one_line_exit_2(tmp_path, capsys, item, key, words):
+    out = tmp_path / "out"
+    code = main(["run", "cantilever_step", "--solver", "analytic", "--set", item, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert key in err and words in err, err
+    assert not out.exists()
+
+
+def test_unknown_case_and_solver(capsys, tmp_path):
+    assert main(["run", "cantilver_step", "--solver", "analytic", "--out", str(tmp_path)]) == 2
+    assert "did you mean 'cantilever_step'" in capsys.readouterr().err
+    assert main(["run", "cantilever_step", "--solver", "analytik", "--out", str(tmp_path)]) == 2
+    assert "did you mean 'analytic'" in capsys.readouterr().err
+    assert main(["run", "pendulum", "--solver", "analytic", "--out", str(tmp_path)]) == 2
+    assert "not applicable" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_tree_errors():
+    raw = cases.tomllib.loads((cases.CASES_DIR / "double_pendulum.toml").read_text())
+    raw["joints"]["pivot1"]["parent"] = "beam2"
+    with pytest.raises(InputError, match="loop"):
+        cases.validate(raw, "x.toml")
+    raw = cases.tomllib.loads((cases.CASES_DIR / "double_pendulum.toml").read_text())
+    del raw["joints"]["pivot2"]
+    with pytest.raises(InputError, match="bodies.beam2: no joint"):
+        cases.validate(raw, "x.toml")
+
+
+def test_no_traceback_from_the_console_script(tmp_path):
+    p = _write(tmp_path, lambda s: s.replace("length = 1.5", "length = -1.5"))
+    r = subprocess.run([sys.executable, "-m", "flexmbd", "run", str(p), "--solver", "fe-linear"],
+                       capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr and r.stderr.count("\n") == 1
+    assert not (tmp_path / "results").exists()

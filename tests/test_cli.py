@@ -1,0 +1,45 @@
+"""The command line: list, modes and the frequencies the acceptance criteria name."""
+
+import json
+
+import numpy as np
+import pytest
+
+from flexmbd.adapters import analytic
+from flexmbd.cli import main
+
+E, RHO, B, H, L = 2.06e11, 7820.0, 0.01, 0.015, 1.5
+
+
+def test_list_json(capsys):
+    assert main(["list", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    names = {r["case"] for r in rows}
+    assert {"cantilever_step", "pendulum", "double_pendulum"} <= names
+    cant = next(r for r in rows if r["case"] == "cantilever_step")
+    assert cant["solvers"]["analytic"] == "ok" and cant["solvers"]["fe-linear"] == "ok"
+
+
+def test_modes_cantilever_first_six_within_0p3_percent(capsys):
+    assert main(["modes", "cantilever_step", "--json"]) == 0
+    modes = json.loads(capsys.readouterr().out)["bodies"]["beam"]["modes"]
+    assert len(modes) == 12
+    f = np.array([m["freq_hz"] for m in modes[:6]])
+    ref = np.array([3.685, 5.527, 23.09, 34.64, 64.66, 96.99])
+    assert np.all(np.abs(f / ref - 1) < 0.003), f
+
+
+def test_modes_double_pendulum_hinged_hinged_in_plane(capsys):
+    assert main(["modes", "double_pendulum", "--json"]) == 0
+    modes = json.loads(capsys.readouterr().out)["bodies"]["beam1"]["modes"]
+    inplane = [m["freq_hz"] for m in modes if m["label"].startswith("bending xy")]
+    ref = analytic.pinned_pinned_frequencies(E, B * H ** 3 / 12, RHO, B * H, L, len(inplane))
+    assert len(inplane) >= 3
+    assert np.all(np.abs(np.array(inplane) / ref - 1) < 0.003), (inplane, ref)
+
+
+def test_modes_save_roundtrip(tmp_path, capsys):
+    from flexmbd import flexbody
+    assert main(["modes", "pendulum", "--save", str(tmp_path)]) == 0
+    fb = flexbody.load(tmp_path / "pendulum_beam.npz")
+    assert fb.n_modes == 12 and fb.n_nodes == 101 and fb.boundary == "clamped-free"

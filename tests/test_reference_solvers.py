@@ -1,0 +1,64 @@
+"""The two reference solvers on cantilever_step, against closed-form statics and each other."""
+
+import json
+
+import numpy as np
+import pytest
+
+from flexmbd import cases, results, solvers
+from flexmbd.adapters import analytic
+from flexmbd.cli import main
+
+STATIC_TIP = -12.0 * 1.5 ** 3 / (3 * 2.06e11 * 0.01 * 0.015 ** 3 / 12)     # -23.30 mm
+STATIC_STRESS = 12.0 * (1.5 - 0.03) * 0.0075 / (0.01 * 0.015 ** 3 / 12)   # 47.04 MPa
+
+
+@pytest.fixture(scope="module")
+def runs():
+    case = cases.load("cantilever_step")
+    return {s: solvers.run(case, s) for s in ("analytic", "fe-linear")}
+
+
+def test_static_reference_numbers():
+    assert STATIC_TIP == pytest.approx(-23.30e-3, rel=2e-4)
+    assert STATIC_STRESS == pytest.approx(47.0e6, rel=1e-3)
+
+
+@pytest.mark.parametrize("solver", ["analytic", "fe-linear"])
+def test_step_response_statistics(runs, solver):
+    r = runs[solver]
+    assert r.ok, r.status
+    tip, vm = r.channels["tip_deflection"], r.channels["stress_vm"]
+    assert tip.mean() == pytest.approx(STATIC_TIP, rel=0.01)
+    assert 1.9 <= tip.min() / STATIC_TIP <= 2.05
+    assert 1.00 <= vm.mean() / STATIC_STRESS <= 1.05
+    assert vm.min() >= 0.0
+
+
+def test_analytic_and_fe_linear_agree(runs):
+    a, f = runs["analytic"].channels["tip_deflection"], runs["fe-linear"].channels["tip_deflection"]
+    assert np.sqrt(np.mean((a - f) ** 2)) < 0.01 * np.abs(f).max()
+
+
+def test_analytic_closed_forms():
+    roots = analytic.clamped_free_roots(4)
+    assert roots == pytest.approx([1.8751040687, 4.6940911330, 7.8547574382, 10.9955407349], rel=1e-9)
+    # high modes stay exact: the shape keeps unit mean square and meets the boundary conditions
+    x = np.linspace(0, 1.5, 20001)
+    for z in analytic.clamped_free_roots(60)[[0, 29, 59]]:
+        phi, d2 = analytic.cantilever_shapes(z, x, 1.5)
+        assert np.trapezoid(phi ** 2, x) / 1.5 == pytest.approx(1.0, rel=1e-4)
+        assert abs(phi[0]) < 1e-12 and abs(d2[-1]) < 1e-9
+
+
+def test_run_writes_csv_and_sidecar(tmp_path, capsys):
+    assert main(["run", "cantilever_step", "--solver", "analytic", "--out", str(tmp_path), "--t-end", "0.1",
+                 "--json"]) == 0
+    meta = json.loads(capsys.readouterr().out)
+    assert meta["status"] == "ok" and meta["case"] == "cantilever_step" and meta["samples"] == 101
+    for key in ("solver_version", "case_sha256", "settings", "wall_s", "setup_s", "steps", "rhs_evals",
+                "python", "versions", "git_commit"):
+        assert key in meta
+    back = results.read(tmp_path, "cantilever_step", "analytic")
+    assert set(back.channels) == {"tip_deflection", "stress_vm"} and back.t[-1] == pytest.approx(0.1)
+    assert not [p for p in (tmp_path / "cantilever_step").iterdir() if p.name.startswith(".")]
