@@ -21,10 +21,13 @@ are summed from.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import NamedTuple
 
 import numpy as np
 
 from flexmbd.fe import assembly, modes, section, stress
+from flexmbd.jit import njit
+from flexmbd.spatial import cross_force, skew
 
 
 @dataclass(frozen=True)
@@ -139,16 +142,16 @@ def build(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
         S_sigma=np.array(Ss).reshape(len(xs), nm), S_tau=np.array(St).reshape(len(xs), nm))
 
 
+def stress_points(case, body: str) -> list:
+    """(x, fibre) of every stress_vm channel on a body, in channel order: row k of S_sigma, S_tau."""
+    return [(c["at"], c["fibre"]) for c in case["channels"].values()
+            if c["kind"] == "stress_vm" and c["body"] == body]
+
+
 def for_case(case) -> dict:
     """Every flexible beam of a case, reduced, by body name (stress points from its channels)."""
-    out = {}
-    for name, body in case["bodies"].items():
-        if body["type"] != "beam" or body["rigid"]:
-            continue
-        pts = [(c["at"], c["fibre"]) for c in case["channels"].values()
-               if c["kind"] == "stress_vm" and c["body"] == name]
-        out[name] = build(name, body, case["materials"][body["material"]], pts)
-    return out
+    return {name: build(name, body, case["materials"][body["material"]], stress_points(case, name))
+            for name, body in case["bodies"].items() if body["type"] == "beam" and not body["rigid"]}
 
 
 def save(fb: FlexBody, path) -> None:
@@ -174,26 +177,24 @@ def load(path) -> FlexBody:
 # Phi_k = Phi_t,p[:, k] the translation of node p in mode k.
 
 
-@dataclass(frozen=True)
-class Invariants:
-    I1: np.ndarray     # (3, 3)          sum J_p - m_p x0~ x0~: rotational inertia of the undeformed body
-    I2: np.ndarray     # (nm, 3, 3)      -sum m_p (x0~ Phi_k~ + Phi_k~ x0~): its first-order change per mode
-    I3: np.ndarray     # (nm, nm, 3, 3)  -sum m_p Phi_k~ Phi_l~: its second-order change
-    I4: np.ndarray     # (3,)            sum m_p x0_p: first moment of mass of the undeformed body
-    I5: np.ndarray     # (3, nm)         sum m_p Phi_t,p: change of the first moment per mode
-    I6: np.ndarray     # (3, nm)         sum m_p x0~ Phi_t,p: rotation-mode coupling, translational part
-    I7: np.ndarray     # (nm, 3, nm)     sum m_p Phi_k~ Phi_t,p: change of the coupling (column k is zero)
-    I8: float          #                 sum m_p: mass
-    I9: np.ndarray     # (nm, nm)        sum Phi_r^T J_p Phi_r + m_p Phi_t^T Phi_t: modal mass
-    I10: np.ndarray    # (3, nm)         sum J_p Phi_r,p: rotation-mode coupling, rotary part
+class Invariants(NamedTuple):
+    """Invariants of one or more bodies, stacked on a leading body axis b and zero-padded to the
+    largest mode count nm; in the formulas below the body index is dropped."""
 
-    @property
-    def nm(self) -> int:
-        return self.I9.shape[0]
+    I1: np.ndarray     # (nb, 3, 3)          sum J_p - m_p x0~ x0~: rotational inertia of the undeformed body
+    I2: np.ndarray     # (nb, nm, 3, 3)      -sum m_p (x0~ Phi_k~ + Phi_k~ x0~): its first-order change per mode
+    I3: np.ndarray     # (nb, nm, nm, 3, 3)  -sum m_p Phi_k~ Phi_l~: its second-order change
+    I4: np.ndarray     # (nb, 3)             sum m_p x0_p: first moment of mass of the undeformed body
+    I5: np.ndarray     # (nb, 3, nm)         sum m_p Phi_t,p: change of the first moment per mode
+    I6: np.ndarray     # (nb, 3, nm)         sum m_p x0~ Phi_t,p: rotation-mode coupling, translational part
+    I7: np.ndarray     # (nb, nm, 3, nm)     sum m_p Phi_k~ Phi_t,p: change of the coupling (column k is zero)
+    I8: np.ndarray     # (nb,)               sum m_p: mass
+    I9: np.ndarray     # (nb, nm, nm)        sum Phi_r^T J_p Phi_r + m_p Phi_t^T Phi_t: modal mass
+    I10: np.ndarray    # (nb, 3, nm)         sum J_p Phi_r,p: rotation-mode coupling, rotary part
 
 
 def invariants(fb: FlexBody) -> Invariants:
-    """The inertia shape invariants I1..I10 of a reduced body: node sums done once, here."""
+    """The inertia shape invariants I1..I10 of one reduced body (leading axis of size 1)."""
     m, x0, J = fb.m, fb.x0, fb.J
     Pr, Pt = fb.Phi[:, :3, :], fb.Phi[:, 3:, :]                     # (N, 3, nm)
     eye = np.eye(3)
@@ -216,8 +217,26 @@ def invariants(fb: FlexBody) -> Invariants:
     I7 = np.einsum("p,pkab,pbl->kal", m, _skew_rows(Pt.transpose(0, 2, 1)), Pt)
     I9 = np.einsum("pak,pab,pbl->kl", Pr, J, Pr) + np.einsum("p,pak,pal->kl", m, Pt, Pt)
     I10 = np.einsum("pab,pbk->ak", J, Pr)
-    return Invariants(I1=I1, I2=I2, I3=I3, I4=I4, I5=I5, I6=I6, I7=I7, I8=float(m.sum()),
-                      I9=0.5 * (I9 + I9.T), I10=I10)
+    one = lambda a: np.ascontiguousarray(a, dtype=float)[None]
+    return Invariants(I1=one(I1), I2=one(I2), I3=one(I3), I4=one(I4), I5=one(I5), I6=one(I6),
+                      I7=one(I7), I8=np.array([m.sum()]), I9=one(0.5 * (I9 + I9.T)), I10=one(I10))
+
+
+def stack(invs: list, nm: int) -> Invariants:
+    """Stack single-body invariants (None for a rigid body) into one, zero-padded to nm modes."""
+    out = []
+    for name, shape in zip(Invariants._fields, INV_SHAPES):
+        full = np.zeros((len(invs),) + tuple(nm if d == "m" else d for d in shape))
+        for b, inv in enumerate(invs):
+            if inv is not None:
+                x = getattr(inv, name)[0]
+                full[(b,) + tuple(slice(0, n) for n in np.shape(x))] = x
+        out.append(full)
+    return Invariants(*out)
+
+
+INV_SHAPES = [(3, 3), ("m", 3, 3), ("m", "m", 3, 3), (3,), (3, "m"), (3, "m"), ("m", 3, "m"), (),
+              ("m", "m"), (3, "m")]
 
 
 def _skew_rows(a: np.ndarray) -> np.ndarray:
@@ -229,73 +248,127 @@ def _skew_rows(a: np.ndarray) -> np.ndarray:
     return S
 
 
-def rotational_inertia(inv: Invariants, eta) -> np.ndarray:
+# ---------------------------------------------------------------------------------------------
+# the body-level terms, rebuilt from the invariants each evaluation (compiled; no node loops)
+
+
+@njit
+def rotational_inertia(inv, j, eta):
     """I_O(eta) = I1 + sum_k eta_k I2_k + sum_kl eta_k eta_l I3_kl  (3, 3), about the body origin."""
-    return inv.I1 + np.einsum("k,kab->ab", eta, inv.I2) + np.einsum("k,l,klab->ab", eta, eta, inv.I3)
+    nm = eta.size
+    IO = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            s = inv.I1[j, a, b]
+            for k in range(nm):
+                s += eta[k] * inv.I2[j, k, a, b]
+                for l in range(nm):
+                    s += eta[k] * eta[l] * inv.I3[j, k, l, a, b]
+            IO[a, b] = s
+    return IO
 
 
-def N1(inv: Invariants, eta) -> np.ndarray:
+@njit
+def N1(inv, j, eta):
     """N1(eta) = I6 + I10 + sum_k eta_k I7_k  (3, nm): the rotation-mode block of the mass matrix."""
-    return inv.I6 + inv.I10 + np.einsum("k,kal->al", eta, inv.I7)
+    nm = eta.size
+    n1 = np.empty((3, nm))
+    for a in range(3):
+        for l in range(nm):
+            s = inv.I6[j, a, l] + inv.I10[j, a, l]
+            for k in range(nm):
+                s += eta[k] * inv.I7[j, k, a, l]
+            n1[a, l] = s
+    return n1
 
 
-def N2(inv: Invariants, eta) -> np.ndarray:
+@njit
+def N2(inv, j, eta):
     """N2_k(eta) = dI_O/deta_k = I2_k + sum_l eta_l (I3_kl + I3_lk)  (nm, 3, 3)."""
-    return inv.I2 + np.einsum("l,klab->kab", eta, inv.I3) + np.einsum("l,lkab->kab", eta, inv.I3)
+    nm = eta.size
+    n2 = np.empty((nm, 3, 3))
+    for k in range(nm):
+        for a in range(3):
+            for b in range(3):
+                s = inv.I2[j, k, a, b]
+                for l in range(nm):
+                    s += eta[l] * (inv.I3[j, k, l, a, b] + inv.I3[j, l, k, a, b])
+                n2[k, a, b] = s
+    return n2
 
 
-def mass_matrix(inv: Invariants, eta) -> np.ndarray:
+@njit
+def mass_matrix(inv, j, eta):
     """M(eta) (6+nm, 6+nm) over [w; v; eta_d] in the body frame (v: velocity of the body origin).
 
         M = [ I_O(eta)   c~        N1(eta) ]      c = I4 + I5 eta (first moment of mass)
             [ c~^T       I8 1      I5      ]
             [ N1^T       I5^T      I9      ]
     """
-    nm = inv.nm
-    c = inv.I4 + inv.I5 @ eta
-    n1 = N1(inv, eta)
+    nm = eta.size
+    c = inv.I4[j].copy()
+    for k in range(nm):
+        c += eta[k] * inv.I5[j, :, k]
+    C = skew(c)
+    n1 = N1(inv, j, eta)
     M = np.zeros((6 + nm, 6 + nm))
-    M[:3, :3] = rotational_inertia(inv, eta)
-    M[:3, 3:6] = _skew(c)
-    M[3:6, :3] = _skew(c).T
-    M[3:6, 3:6] = inv.I8 * np.eye(3)
-    M[:3, 6:], M[6:, :3] = n1, n1.T
-    M[3:6, 6:], M[6:, 3:6] = inv.I5, inv.I5.T
-    M[6:, 6:] = inv.I9
+    M[:3, :3] = rotational_inertia(inv, j, eta)
+    M[:3, 3:6] = C
+    M[3:6, :3] = C.T
+    for a in range(3):
+        M[3 + a, 3 + a] = inv.I8[j]
+    M[:3, 6:] = n1
+    M[6:, :3] = n1.T
+    M[3:6, 6:] = inv.I5[j, :, :nm]
+    M[6:, 3:6] = inv.I5[j, :, :nm].T
+    M[6:, 6:] = inv.I9[j, :nm, :nm]
     return M
 
 
-def mass_matrix_dot(inv: Invariants, eta, eta_d) -> np.ndarray:
+@njit
+def mass_matrix_dot(inv, j, eta, eta_d):
     """dM/dt (6+nm, 6+nm) = sum_k eta_d_k dM/deta_k: the blocks I_O', c~', N1' (I8, I5, I9 are constant)."""
-    nm = inv.nm
-    cd = inv.I5 @ eta_d
-    n1d = np.einsum("k,kal->al", eta_d, inv.I7)
+    nm = eta.size
+    n2 = N2(inv, j, eta)
     Md = np.zeros((6 + nm, 6 + nm))
-    Md[:3, :3] = np.einsum("k,kab->ab", eta_d, N2(inv, eta))
-    Md[:3, 3:6] = _skew(cd)
-    Md[3:6, :3] = _skew(cd).T
-    Md[:3, 6:], Md[6:, :3] = n1d, n1d.T
+    cd = np.zeros(3)
+    for k in range(nm):
+        cd += eta_d[k] * inv.I5[j, :, k]
+        for a in range(3):
+            for b in range(3):
+                Md[a, b] += eta_d[k] * n2[k, a, b]
+            for l in range(nm):
+                Md[a, 6 + l] += eta_d[k] * inv.I7[j, k, a, l]
+    Cd = skew(cd)
+    Md[:3, 3:6] = Cd
+    Md[3:6, :3] = Cd.T
+    Md[6:, :3] = Md[:3, 6:].T
     return Md
 
 
-def quadratic_forces(inv: Invariants, eta, v, eta_d) -> np.ndarray:
+@njit
+def quadratic_forces(inv, j, eta, v, eta_d):
     """Centrifugal and Coriolis forces (6+nm,) of the free body, from Lagrange's equations.
 
     Reference rows:  v x* (M_r. [v; eta_d]) + (dM_r./dt) [v; eta_d]      (momentum form)
     Modal rows:      N1'^T w - dT/deta,  dT/deta_k = 1/2 w^T N2_k w + w . (I5_k x v) + w^T I7_k eta_d
     """
+    nm = eta.size
     w, u = v[:3], v[3:]
-    vv = np.concatenate([v, eta_d])
-    M = mass_matrix(inv, eta)
-    Md = mass_matrix_dot(inv, eta, eta_d)
-    mom = M[:6] @ vv
-    h_r = np.concatenate([np.cross(w, mom[:3]) + np.cross(u, mom[3:]), np.cross(w, mom[3:])])
-    h_r += Md[:6] @ vv
-    dT = (0.5 * np.einsum("a,kab,b->k", w, N2(inv, eta), w)
-          + np.cross(inv.I5.T, u) @ w
-          + np.einsum("a,kal,l->k", w, inv.I7, eta_d))
-    return np.concatenate([h_r, Md[6:, :3] @ w - dT])
-
-
-def _skew(a) -> np.ndarray:
-    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    vv = np.concatenate((v, eta_d))
+    M = mass_matrix(inv, j, eta)
+    Md = mass_matrix_dot(inv, j, eta, eta_d)
+    n2 = N2(inv, j, eta)
+    h = np.zeros(6 + nm)
+    h[:6] = cross_force(v, M[:6] @ vv) + Md[:6] @ vv
+    wxu = np.cross(w, u)
+    for k in range(nm):
+        dT = 0.0
+        for a in range(3):
+            dT -= inv.I5[j, a, k] * wxu[a]                 # w . (I5_k x u) = -I5_k . (w x u)
+            for b in range(3):
+                dT += 0.5 * w[a] * n2[k, a, b] * w[b]
+            for l in range(nm):
+                dT += w[a] * inv.I7[j, k, a, l] * eta_d[l]
+        h[6 + k] = Md[6 + k, :3] @ w - dT
+    return h

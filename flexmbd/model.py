@@ -3,21 +3,28 @@
 Bodies are numbered 1..nb with parent[i] < i; index 0 is ground. Body i and the joint to its
 parent share the number. Arrays are indexed by body number (row 0 unused unless stated).
 A flexible body is a body with extra (modal) coordinates: its modes sit in q and v right after
-its joint's coordinates, at `body_madr[i]`, `body_nm[i]` of them.
+its joint's coordinates, at `body_madr[i]`, `body_nm[i]` of them. Per-body modal arrays are
+zero-padded to nm = max(body_nm).
 
 Frames: every body-level quantity is in the body frame (the joint's output triad). The input
-triad of joint i sits on its parent: on a rigid parent (or ground) at a constant transform
+triad of joint i sits on its parent: on a rigid parent (or ground) at the constant transform
 `jnt_Xtriad[i]` from the parent frame; on a flexible parent at node `jnt_node[i]`, and then
-`jnt_Xtriad[i]` is the constant transform from the deformed node frame.
+`jnt_Xtriad[i]` is the constant transform from the deformed node frame, whose undeformed
+position is `jnt_x0[i]` and mode block `jnt_Phi[i]`.
+
+The arrays live in `Model.arrays` (a NamedTuple the compiled algorithms take); the Model shell
+adds what only Python needs (names, motion profiles, the reduced bodies for outputs).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from flexmbd import flexbody, spatial
+from flexmbd.adapters.common import rotation_rpy
 
 FIXED, REVOLUTE, PRISMATIC, SPHERICAL, FREE = range(5)
 JOINT_CODES = {"fixed": FIXED, "revolute": REVOLUTE, "prismatic": PRISMATIC,
@@ -26,93 +33,89 @@ NQ = {FIXED: 0, REVOLUTE: 1, PRISMATIC: 1, SPHERICAL: 4, FREE: 7}   # quaternion
 NV = {FIXED: 0, REVOLUTE: 1, PRISMATIC: 1, SPHERICAL: 3, FREE: 6}   # free: [w; v] in the body frame
 
 
-@dataclass(frozen=True)
-class Flex:
-    """A flexible body's data used at run time: invariants and what its node attachments need."""
-
-    inv: flexbody.Invariants
-    Km: np.ndarray          # (nm, nm)
-    Cm: np.ndarray          # (nm, nm)
-    x0: np.ndarray          # (N, 3) node positions, body frame
-    Phi: np.ndarray         # (N, 6, nm) mode blocks [rot; trans]
-    m: np.ndarray           # (N,) node masses
-    J: np.ndarray           # (N, 3, 3) node rotary inertias, body axes
+class Arrays(NamedTuple):
+    parent: np.ndarray        # (nb+1,) parent body, parent[0] = -1
+    jnt_type: np.ndarray      # (nb+1,) FIXED, REVOLUTE, ...
+    jnt_axis: np.ndarray      # (nb+1, 3) unit axis in the input triad
+    jnt_Xtriad: np.ndarray    # (nb+1, 6, 6) parent (or node) frame -> input triad
+    jnt_node: np.ndarray      # (nb+1,) node on a flexible parent, -1 otherwise
+    jnt_x0: np.ndarray        # (nb+1, 3) undeformed position of that node, parent frame
+    jnt_Phi: np.ndarray       # (nb+1, 6, nm) mode block of that node [rot; trans]
+    jnt_qadr: np.ndarray      # (nb+1,) first joint coordinate in q
+    jnt_vadr: np.ndarray      # (nb+1,) first joint velocity in v
+    jnt_nv: np.ndarray        # (nb+1,) joint velocity count
+    jnt_prescribed: np.ndarray  # (nb+1,) True: motion given by a profile
+    body_inertia: np.ndarray  # (nb+1, 6, 6) spatial inertia of rigid bodies at the body origin
+    body_madr: np.ndarray     # (nb+1,) first modal coordinate in q (equal to its index in v)
+    body_nm: np.ndarray       # (nb+1,) number of modes (0: rigid)
+    body_mass: np.ndarray     # (nb+1,) total mass
+    flex_K: np.ndarray        # (nb+1, nm, nm) modal stiffness
+    flex_C: np.ndarray        # (nb+1, nm, nm) modal damping
+    inv: flexbody.Invariants  # stacked over bodies (nb+1, ...), zero for rigid ones
+    load_body: np.ndarray     # (nl,) body a point load acts on
+    load_point: np.ndarray    # (nl, 3) undeformed point of application, body frame
+    load_Phi: np.ndarray      # (nl, 6, nm) mode block of the loaded node (zeros on rigid bodies)
+    load_force: np.ndarray    # (nl, 3) force at unit scale
+    load_global: np.ndarray   # (nl,) True: force given in the global frame
+    gravity: np.ndarray       # (3,) global frame, m/s^2
 
 
 @dataclass(frozen=True)
 class Model:
-    nb: int                           # number of bodies
-    names: tuple                      # (nb+1,) body names, names[0] = 'ground'
-    parent: np.ndarray                # (nb+1,) parent body, parent[0] = -1
-    jnt_type: np.ndarray              # (nb+1,) FIXED, REVOLUTE, ...
-    jnt_axis: np.ndarray              # (nb+1, 3) unit axis in the input triad
-    jnt_Xtriad: np.ndarray            # (nb+1, 6, 6) parent (or node) frame -> input triad
-    jnt_node: np.ndarray              # (nb+1,) node on a flexible parent, -1 otherwise
-    jnt_qadr: np.ndarray              # (nb+1,) first joint coordinate in q
-    jnt_vadr: np.ndarray              # (nb+1,) first joint velocity in v
-    jnt_motion: tuple                 # (nb+1,) prescribed-motion profile dict or None
-    jnt_names: tuple                  # (nb+1,) joint names
-    body_inertia: np.ndarray          # (nb+1, 6, 6) spatial inertia of rigid bodies at the body origin
-    body_flex: tuple                  # (nb+1,) Flex or None
-    body_madr: np.ndarray             # (nb+1,) first modal coordinate in q (== in v)
-    body_nm: np.ndarray               # (nb+1,) number of modes (0: rigid)
-    body_mass: np.ndarray             # (nb+1,) total mass
-    gravity: np.ndarray               # (3,) global frame, m/s^2
+    nb: int
     nq: int
     nv: int
-    q0: np.ndarray                    # (nq,)
-    v0: np.ndarray                    # (nv,)
+    arrays: Arrays
+    names: tuple              # (nb+1,) body names, names[0] = 'ground'
+    jnt_names: tuple          # (nb+1,) joint names
+    jnt_motion: tuple         # (nb+1,) prescribed-motion profile or None
+    load_profiles: tuple      # (nl,) load time profiles
+    bodies: dict              # reduced FlexBody per flexible body name (outputs, adapters)
+    q0: np.ndarray            # (nq,)
+    v0: np.ndarray            # (nv,)
 
-    def __post_init__(self):
-        for name, val in vars(self).items():
-            if isinstance(val, np.ndarray):
-                val.flags.writeable = False
+    def __getattr__(self, name):
+        if name == "arrays":
+            raise AttributeError(name)
+        return getattr(self.arrays, name)
 
-    @property
-    def children(self):
-        return [[j for j in range(1, self.nb + 1) if self.parent[j] == i] for i in range(self.nb + 1)]
+    def index(self, body: str) -> int:
+        return self.names.index(body)
 
 
-class Data:
-    """Workspace for one evaluation; created from a Model, reused between calls."""
+class Data(NamedTuple):
+    """Workspace of one evaluation, grouped by the pass that fills it. Frames: body frame."""
 
-    def __init__(self, model: Model):
-        n = model.nb + 1
-        self.Xup = np.zeros((n, 6, 6))      # parent frame -> body frame
-        self.X0 = np.zeros((n, 6, 6))       # global -> body frame
-        self.X0[0] = np.eye(6)
-        self.S = [None] * n                 # (6, nv_i) joint motion subspace, body frame
-        self.U = [None] * n                 # (6, nm_parent) parent's modal velocity -> body velocity
-        self.v = np.zeros((n, 6))           # spatial velocity, body frame
-        self.c = np.zeros((n, 6))           # velocity-product acceleration, body frame
-        self.a = np.zeros((n, 6))           # spatial acceleration, body frame (gravity included)
-        self.f = np.zeros((n, 6))           # joint force transmitted from parent to body, body frame
-        self.MA = [None] * n                # articulated inertia over (a_i, eta_dd_i)
-        self.pA = [None] * n                # articulated bias force
-        self.qdd = np.zeros(model.nv)       # generalized accelerations (joint and modal)
+    Xup: np.ndarray     # (nb+1, 6, 6)  parent frame -> body frame                  pass 1
+    X0: np.ndarray      # (nb+1, 6, 6)  global -> body frame
+    S: np.ndarray       # (nb+1, 6, 6)  joint motion subspace (first jnt_nv columns)
+    U: np.ndarray       # (nb+1, 6, nm) parent's modal velocities -> body velocity
+    v: np.ndarray       # (nb+1, 6)     spatial velocity
+    c: np.ndarray       # (nb+1, 6)     velocity-product acceleration
+    MA: np.ndarray      # (nb+1, 6+nm, 6+nm) articulated inertia over (a_i, eta_dd_i)   pass 2
+    pA: np.ndarray      # (nb+1, 6+nm)  articulated bias force
+    DiBt: np.ndarray    # (nb+1, nm, 6) D^-1 B^T of the modal elimination
+    Dip: np.ndarray     # (nb+1, nm)    D^-1 p_m
+    Uj: np.ndarray      # (nb+1, 6, 6)  IA S
+    dinv: np.ndarray    # (nb+1, 6, 6)  (S^T IA S)^-1
+    u: np.ndarray       # (nb+1, 6)     tau - S^T pA
+    a: np.ndarray       # (nb+1, 6)     spatial acceleration, gravity as base acceleration    pass 3
+    qdd: np.ndarray     # (nv,)         joint and modal accelerations
+
+
+def make_data(model: Model) -> Data:
+    n, nm = model.nb + 1, model.jnt_Phi.shape[2]
+    X0 = np.zeros((n, 6, 6))
+    X0[0] = np.eye(6)
+    return Data(Xup=np.zeros((n, 6, 6)), X0=X0, S=np.zeros((n, 6, 6)), U=np.zeros((n, 6, nm)),
+                v=np.zeros((n, 6)), c=np.zeros((n, 6)), MA=np.zeros((n, 6 + nm, 6 + nm)),
+                pA=np.zeros((n, 6 + nm)), DiBt=np.zeros((n, nm, 6)), Dip=np.zeros((n, nm)),
+                Uj=np.zeros((n, 6, 6)), dinv=np.zeros((n, 6, 6)), u=np.zeros((n, 6)),
+                a=np.zeros((n, 6)), qdd=np.zeros(model.nv))
 
 
 # ---------------------------------------------------------------------------------------------
 # building from a case
-
-
-def triad_transform(at, rpy, on_beam: bool) -> np.ndarray:
-    """X from the parent (or node) frame to the input triad: rotation rpy, origin at `at` (vec3)."""
-    from flexmbd.adapters.common import rotation_rpy
-    R = rotation_rpy(rpy)
-    r = np.zeros(3) if on_beam else np.asarray(at, dtype=float)
-    return spatial.plux(R.T, r)
-
-
-def rigid_inertia_of_beam(fb: flexbody.FlexBody) -> np.ndarray:
-    """Spatial inertia (6, 6) at the body origin of a beam declared rigid: the undeformed invariants."""
-    inv = flexbody.invariants(fb)
-    I = np.zeros((6, 6))
-    I[:3, :3] = inv.I1
-    I[:3, 3:] = spatial.skew(inv.I4)
-    I[3:, :3] = spatial.skew(inv.I4).T
-    I[3:, 3:] = inv.I8 * np.eye(3)
-    return I
 
 
 def from_case(case, bodies: dict | None = None) -> Model:
@@ -123,66 +126,99 @@ def from_case(case, bodies: dict | None = None) -> Model:
     index = {name: k + 1 for k, name in enumerate(order)}
     by_child = {j["child"]: (jn, j) for jn, j in case["joints"].items()}
     nb = len(order)
+    nm = max([fb.n_modes for fb in bodies.values()] + [0])
 
-    parent = np.full(nb + 1, -1)
-    jtype = np.zeros(nb + 1, dtype=int)
-    axis = np.zeros((nb + 1, 3))
-    Xtriad = np.tile(np.eye(6), (nb + 1, 1, 1))
-    node = np.full(nb + 1, -1)
-    qadr, vadr = np.zeros(nb + 1, dtype=int), np.zeros(nb + 1, dtype=int)
-    madr, nm = np.zeros(nb + 1, dtype=int), np.zeros(nb + 1, dtype=int)
-    inertia = np.zeros((nb + 1, 6, 6))
-    mass = np.zeros(nb + 1)
-    flex, motion, jnames = [None] * (nb + 1), [None] * (nb + 1), [""] * (nb + 1)
-    q0, v0 = [], []
+    A = dict(parent=np.full(nb + 1, -1), jnt_type=np.zeros(nb + 1, dtype=np.int64),
+             jnt_axis=np.zeros((nb + 1, 3)), jnt_Xtriad=np.tile(np.eye(6), (nb + 1, 1, 1)),
+             jnt_node=np.full(nb + 1, -1), jnt_x0=np.zeros((nb + 1, 3)), jnt_Phi=np.zeros((nb + 1, 6, nm)),
+             jnt_qadr=np.zeros(nb + 1, dtype=np.int64), jnt_vadr=np.zeros(nb + 1, dtype=np.int64),
+             jnt_nv=np.zeros(nb + 1, dtype=np.int64), jnt_prescribed=np.zeros(nb + 1, dtype=bool),
+             body_inertia=np.zeros((nb + 1, 6, 6)), body_madr=np.zeros(nb + 1, dtype=np.int64),
+             body_nm=np.zeros(nb + 1, dtype=np.int64), body_mass=np.zeros(nb + 1),
+             flex_K=np.zeros((nb + 1, nm, nm)), flex_C=np.zeros((nb + 1, nm, nm)))
+    invs = [None] * (nb + 1)
+    motion, jnames, q0, v0 = [None] * (nb + 1), [""] * (nb + 1), [], []
     nq = nv = 0
     for name in order:
         i = index[name]
         jname, j = by_child[name]
         jnames[i], motion[i] = jname, j["motion"]
-        parent[i] = 0 if j["parent"] == "ground" else index[j["parent"]]
-        jtype[i] = JOINT_CODES[j["type"]]
-        axis[i] = np.asarray(j["axis"]) / np.linalg.norm(j["axis"])
-        pbody = case["bodies"].get(j["parent"])
-        p_flex = pbody is not None and pbody["type"] == "beam" and not pbody["rigid"]
-        on_beam = pbody is not None and pbody["type"] == "beam"
-        Xtriad[i] = triad_transform(j["at"], j["rpy"], on_beam)
-        if on_beam:
-            fbp = bodies[j["parent"]] if p_flex else None
-            if p_flex:
-                node[i] = fbp.node_at(j["at"])
-            else:   # rigid-declared beam: the triad sits at the snapped node's position
-                x = snapped_position(case["bodies"][j["parent"]], j["at"])
-                Xtriad[i] = spatial.plux(Xtriad[i][:3, :3], np.array([x, 0.0, 0.0]))
-        qadr[i], vadr[i] = nq, nv
-        t = jtype[i]
+        A["jnt_prescribed"][i] = j["motion"] is not None
+        A["parent"][i] = 0 if j["parent"] == "ground" else index[j["parent"]]
+        t = JOINT_CODES[j["type"]]
+        A["jnt_type"][i], A["jnt_nv"][i] = t, NV[t]
+        A["jnt_axis"][i] = np.asarray(j["axis"]) / np.linalg.norm(j["axis"])
+        attach(A, i, j, case["bodies"].get(j["parent"]), bodies.get(j["parent"]))
+        A["jnt_qadr"][i], A["jnt_vadr"][i] = nq, nv
         q0.extend(initial_q(t, j["q0"]))
         v0.extend(j["qd0"])
         nq, nv = nq + NQ[t], nv + NV[t]
 
         body = case["bodies"][name]
         if body["type"] == "rigid":
-            inertia[i] = spatial.inertia(body["mass"], body["com"], inertia_matrix(body["inertia"]))
-            mass[i] = body["mass"]
+            A["body_inertia"][i] = spatial.inertia(body["mass"], np.asarray(body["com"], dtype=float),
+                                                   inertia_matrix(body["inertia"]))
+            A["body_mass"][i] = body["mass"]
         elif body["rigid"]:
-            fb = bodies.get(name) or flexbody.build(name, {**body, "modes": {**body["modes"], "count": 0}},
-                                                    case["materials"][body["material"]])
-            inertia[i] = rigid_inertia_of_beam(fb)
-            mass[i] = fb.m.sum()
+            fb = flexbody.build(name, {**body, "modes": {**body["modes"], "count": 0}},
+                                case["materials"][body["material"]])
+            A["body_inertia"][i] = rigid_inertia_of_beam(fb)
+            A["body_mass"][i] = fb.m.sum()
         else:
             fb = bodies[name]
-            flex[i] = Flex(inv=flexbody.invariants(fb), Km=fb.Km, Cm=fb.Cm, x0=fb.x0, Phi=fb.Phi, m=fb.m, J=fb.J)
-            mass[i] = fb.m.sum()
-            madr[i], nm[i] = nq, fb.n_modes
-            q0.extend([0.0] * fb.n_modes)
-            v0.extend([0.0] * fb.n_modes)
-            nq, nv = nq + fb.n_modes, nv + fb.n_modes
-    names = ("ground",) + tuple(order)
-    return Model(nb=nb, names=names, parent=parent, jnt_type=jtype, jnt_axis=axis, jnt_Xtriad=Xtriad,
-                 jnt_node=node, jnt_qadr=qadr, jnt_vadr=vadr, jnt_motion=tuple(motion),
-                 jnt_names=tuple(jnames), body_inertia=inertia, body_flex=tuple(flex), body_madr=madr,
-                 body_nm=nm, body_mass=mass, gravity=np.asarray(case["gravity"], dtype=float),
-                 nq=nq, nv=nv, q0=np.array(q0, dtype=float), v0=np.array(v0, dtype=float))
+            k = fb.n_modes
+            invs[i] = flexbody.invariants(fb)
+            A["body_mass"][i] = fb.m.sum()
+            A["body_madr"][i], A["body_nm"][i] = nq, k
+            A["flex_K"][i, :k, :k], A["flex_C"][i, :k, :k] = fb.Km, fb.Cm
+            q0.extend([0.0] * k)
+            v0.extend([0.0] * k)
+            nq, nv = nq + k, nv + k
+
+    loads = point_loads(case, index, bodies, nm)
+    arrays = Arrays(**A, inv=flexbody.stack(invs, nm), **loads[0],
+                    gravity=np.asarray(case["gravity"], dtype=float))
+    return Model(nb=nb, nq=nq, nv=nv, arrays=arrays, names=("ground",) + tuple(order),
+                 jnt_names=tuple(jnames), jnt_motion=tuple(motion), load_profiles=loads[1],
+                 bodies=dict(bodies), q0=np.array(q0, dtype=float), v0=np.array(v0, dtype=float))
+
+
+def attach(A: dict, i: int, j: dict, pbody: dict | None, fb: flexbody.FlexBody | None) -> None:
+    """Input triad of joint i: on ground or a rigid body at a point; on a beam at its snapped node."""
+    R = rotation_rpy(j["rpy"])
+    if pbody is None or pbody["type"] == "rigid":
+        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.asarray(j["at"], dtype=float))
+    elif pbody["rigid"]:          # a beam declared rigid: the snapped node's undeformed position
+        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.array([snapped_position(pbody, j["at"]), 0.0, 0.0]))
+    else:
+        p = fb.node_at(j["at"])
+        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.zeros(3))
+        A["jnt_node"][i], A["jnt_x0"][i] = p, fb.x0[p]
+        A["jnt_Phi"][i, :, :fb.n_modes] = fb.Phi[p]
+
+
+def point_loads(case, index: dict, bodies: dict, nm: int):
+    """Load arrays (see Arrays.load_*) and their time profiles."""
+    loads = list(case["loads"].values())
+    nl = len(loads)
+    L = dict(load_body=np.zeros(nl, dtype=np.int64), load_point=np.zeros((nl, 3)),
+             load_Phi=np.zeros((nl, 6, nm)), load_force=np.zeros((nl, 3)),
+             load_global=np.zeros(nl, dtype=bool))
+    for k, ld in enumerate(loads):
+        L["load_body"][k] = index[ld["body"]]
+        L["load_force"][k] = ld["force"]
+        L["load_global"][k] = ld["frame"] == "global"
+        body = case["bodies"][ld["body"]]
+        if body["type"] == "rigid":
+            L["load_point"][k] = ld["at"]
+        elif body["rigid"]:
+            L["load_point"][k] = [snapped_position(body, ld["at"]), 0.0, 0.0]
+        else:
+            fb = bodies[ld["body"]]
+            p = fb.node_at(ld["at"])
+            L["load_point"][k] = fb.x0[p]
+            L["load_Phi"][k, :, :fb.n_modes] = fb.Phi[p]
+    return L, tuple(ld["profile"] for ld in loads)
 
 
 def topological_order(case) -> list:
@@ -195,6 +231,17 @@ def topological_order(case) -> list:
                 order.append(name)
                 placed.add(name)
     return order
+
+
+def rigid_inertia_of_beam(fb: flexbody.FlexBody) -> np.ndarray:
+    """Spatial inertia (6, 6) at the body origin of a beam declared rigid: the undeformed invariants."""
+    inv = flexbody.invariants(fb)
+    I = np.zeros((6, 6))
+    I[:3, :3] = inv.I1[0]
+    I[:3, 3:] = spatial.skew(inv.I4[0])
+    I[3:, :3] = spatial.skew(inv.I4[0]).T
+    I[3:, 3:] = inv.I8[0] * np.eye(3)
+    return I
 
 
 def snapped_position(body: dict, x: float) -> float:
@@ -212,7 +259,7 @@ def inertia_matrix(six) -> np.ndarray:
 def initial_q(jtype: int, values) -> list:
     """Case initial values -> q entries (rotation vectors become quaternions)."""
     if jtype == SPHERICAL:
-        return list(spatial.rotvec_to_quat(values))
+        return list(spatial.rotvec_to_quat(np.asarray(values, dtype=float)))
     if jtype == FREE:
-        return list(spatial.rotvec_to_quat(values[:3])) + list(values[3:])
+        return list(spatial.rotvec_to_quat(np.asarray(values[:3], dtype=float))) + list(values[3:])
     return list(values)

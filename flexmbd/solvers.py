@@ -19,7 +19,7 @@ from flexmbd.results import Result
 
 # registered name -> module (None: not part of this build)
 MODULES = {
-    "flexmbd": None,
+    "flexmbd": "flexmbd.solver",
     "fe-linear": "flexmbd.adapters.fe_linear",
     "analytic": "flexmbd.adapters.analytic",
     "exudyn-ffrf": None,

@@ -14,17 +14,22 @@ from __future__ import annotations
 
 import numpy as np
 
+from flexmbd.jit import njit
 
+
+@njit
 def skew(a) -> np.ndarray:
     """a~ (3, 3): a~ b = a x b."""
     return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
 
+@njit
 def rot_axis(axis, angle: float) -> np.ndarray:
     """Rotation matrix R (3, 3) of `angle` about unit `axis` (R maps rotated-frame coords to base coords)."""
-    return expm_so3(np.asarray(axis, dtype=float) * angle)
+    return expm_so3(axis * angle)
 
 
+@njit
 def expm_so3(theta) -> np.ndarray:
     """exp(theta~) (3, 3), Rodrigues' formula with series for small |theta|."""
     a, b = _ab(theta)
@@ -32,15 +37,17 @@ def expm_so3(theta) -> np.ndarray:
     return np.eye(3) + a * T + b * (T @ T)
 
 
+@njit
 def _ab(theta):
     """sin(s)/s and (1 - cos s)/s^2 for s = |theta|."""
-    s2 = float(np.dot(theta, theta))
+    s2 = theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2]
     if s2 < 1e-8:
         return 1.0 - s2 / 6.0 + s2 * s2 / 120.0, 0.5 - s2 / 24.0 + s2 * s2 / 720.0
     s = np.sqrt(s2)
     return np.sin(s) / s, (1.0 - np.cos(s)) / s2
 
 
+@njit
 def jac_left_so3(theta) -> np.ndarray:
     """Left Jacobian of exp on SO(3): d/dt exp(theta~) exp(theta~)^T = (J(theta) theta_dot)~.
 
@@ -51,15 +58,17 @@ def jac_left_so3(theta) -> np.ndarray:
     return np.eye(3) + a * T + b * (T @ T)
 
 
+@njit
 def _cd(theta):
     """(1 - cos s)/s^2 and (s - sin s)/s^3."""
-    s2 = float(np.dot(theta, theta))
+    s2 = theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2]
     if s2 < 1e-8:
         return 0.5 - s2 / 24.0 + s2 * s2 / 720.0, 1.0 / 6.0 - s2 / 120.0 + s2 * s2 / 5040.0
     s = np.sqrt(s2)
     return (1.0 - np.cos(s)) / s2, (s - np.sin(s)) / (s2 * s)
 
 
+@njit
 def jac_left_so3_dot(theta, theta_dot) -> np.ndarray:
     """(d/dt J(theta)) theta_dot (3,): the velocity-product term of the exponential map.
 
@@ -67,7 +76,7 @@ def jac_left_so3_dot(theta, theta_dot) -> np.ndarray:
     J' theta_dot = a' (theta x theta_dot) + b' theta x (theta x theta_dot) + b theta_dot x (theta x theta_dot),
     a' = da/dt = (da/ds / s)(theta . theta_dot), likewise b'.
     """
-    s2 = float(np.dot(theta, theta))
+    s2 = theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2]
     if s2 < 1e-6:
         da_s, db_s = -1.0 / 12.0 + s2 / 180.0, -1.0 / 60.0 + s2 / 1260.0
         _, b = _cd(theta)
@@ -76,11 +85,12 @@ def jac_left_so3_dot(theta, theta_dot) -> np.ndarray:
         a, b = _cd(theta)
         da_s = (np.sin(s) / s - 2.0 * a) / s2
         db_s = ((1.0 - np.cos(s)) / s2 - 3.0 * b) / s2
-    sd = float(np.dot(theta, theta_dot))
+    sd = theta[0] * theta_dot[0] + theta[1] * theta_dot[1] + theta[2] * theta_dot[2]
     c = np.cross(theta, theta_dot)
     return da_s * sd * c + db_s * sd * np.cross(theta, c) + b * np.cross(theta_dot, c)
 
 
+@njit
 def xrot(E) -> np.ndarray:
     """Pure rotation X (6, 6) with E (3, 3): B-coords = E A-coords."""
     X = np.zeros((6, 6))
@@ -89,6 +99,7 @@ def xrot(E) -> np.ndarray:
     return X
 
 
+@njit
 def xlt(r) -> np.ndarray:
     """Pure translation X (6, 6): B origin at r (3,) in A, axes parallel."""
     X = np.eye(6)
@@ -96,6 +107,7 @@ def xlt(r) -> np.ndarray:
     return X
 
 
+@njit
 def plux(E, r) -> np.ndarray:
     """X_{B<-A} (6, 6) from E (3, 3) and r (3,): rotation of B relative to A, origin of B in A."""
     X = np.zeros((6, 6))
@@ -105,6 +117,7 @@ def plux(E, r) -> np.ndarray:
     return X
 
 
+@njit
 def inv(X) -> np.ndarray:
     """X^{-1} (6, 6) of a Plücker transform."""
     E = X[:3, :3]
@@ -115,11 +128,13 @@ def inv(X) -> np.ndarray:
     return Y
 
 
+@njit
 def force_transform(X) -> np.ndarray:
     """X* = X^{-T} (6, 6): maps force vectors A -> B."""
     return inv(X).T
 
 
+@njit
 def crm(v) -> np.ndarray:
     """Motion cross product operator v x (6, 6)."""
     C = np.zeros((6, 6))
@@ -130,23 +145,27 @@ def crm(v) -> np.ndarray:
     return C
 
 
+@njit
 def crf(v) -> np.ndarray:
     """Force cross product operator v x* = -crm(v)^T (6, 6)."""
     return -crm(v).T
 
 
+@njit
 def cross_motion(v, m) -> np.ndarray:
     """v x m for motion vectors (6,)."""
     w, u = v[:3], v[3:]
-    return np.concatenate([np.cross(w, m[:3]), np.cross(w, m[3:]) + np.cross(u, m[:3])])
+    return np.concatenate((np.cross(w, m[:3]), np.cross(w, m[3:]) + np.cross(u, m[:3])))
 
 
+@njit
 def cross_force(v, f) -> np.ndarray:
     """v x* f for a force vector f (6,)."""
     w, u = v[:3], v[3:]
-    return np.concatenate([np.cross(w, f[:3]) + np.cross(u, f[3:]), np.cross(w, f[3:])])
+    return np.concatenate((np.cross(w, f[:3]) + np.cross(u, f[3:]), np.cross(w, f[3:])))
 
 
+@njit
 def inertia(mass: float, com, I_c) -> np.ndarray:
     """Spatial inertia (6, 6) at the frame origin, from mass, centre of mass c (3,), I_c (3, 3) about c."""
     C = skew(com)
@@ -158,28 +177,32 @@ def inertia(mass: float, com, I_c) -> np.ndarray:
     return I
 
 
+@njit
 def quat_to_rot(q) -> np.ndarray:
     """Unit quaternion [w, x, y, z] -> rotation matrix R (3, 3) (normalised first)."""
-    w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    w, x, y, z = q[0] / n, q[1] / n, q[2] / n, q[3] / n
     return np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
+@njit
 def rotvec_to_quat(r) -> np.ndarray:
     """Rotation vector (3,) -> unit quaternion [w, x, y, z]."""
-    r = np.asarray(r, dtype=float)
-    s = np.linalg.norm(r)
+    s = np.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
     if s < 1e-12:
         return np.array([1.0, 0.5 * r[0], 0.5 * r[1], 0.5 * r[2]]) / np.sqrt(1 + 0.25 * s * s)
-    return np.concatenate([[np.cos(s / 2)], np.sin(s / 2) * r / s])
+    k = np.sin(s / 2) / s
+    return np.array([np.cos(s / 2), k * r[0], k * r[1], k * r[2]])
 
 
+@njit
 def quat_rate(q, w) -> np.ndarray:
     """dq/dt (4,) for quaternion q = [w, x, y, z] and angular velocity w (3,) in the rotated (body) frame."""
-    qw, qx, qy, qz = q
-    wx, wy, wz = w
+    qw, qx, qy, qz = q[0], q[1], q[2], q[3]
+    wx, wy, wz = w[0], w[1], w[2]
     return 0.5 * np.array([-qx * wx - qy * wy - qz * wz,
                            qw * wx + qy * wz - qz * wy,
                            qw * wy - qx * wz + qz * wx,

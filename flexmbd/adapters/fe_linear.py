@@ -3,10 +3,17 @@
     M u'' + C u' + K u = f(t),   u(0) = 0, u'(0) = 0
 
 on the same mesh, element and mass matrix as the reduced body, with the root node clamped (the
-fixed joint) and nothing truncated. Time stepping is Newmark's average-acceleration rule
-(trapezoidal: unconditionally stable, no numerical damping, period error (w dt)^2 / 12), one
-sparse LU factorisation for the whole run. Modal damping ratio zeta, when non-zero, enters as
-C = M Phi diag(2 zeta w) Phi^T M over all modes of the full model.
+fixed joint) and nothing truncated. Two time-stepping schemes (setting `scheme`):
+
+  exact    (default) the first-order system y' = A y + b(t), y = [u; u'], advanced by the matrix
+           exponential: y_{k+1} = e^{A h} y_k + A^{-1} (e^{A h} - 1) b(t_k + h/2). Exact for constant
+           and step loads switched on at a step boundary; second order for smooth loads.
+  newmark  average-acceleration Newmark (trapezoidal: unconditionally stable, no numerical
+           damping, period error (w h)^2 / 12 — 8e-4 at 314 Hz with h = 5e-5 s, a visible phase
+           drift of the higher modes over a 2 s run, which is why it is not the default).
+
+Modal damping ratio zeta, when non-zero, enters as C = M Phi diag(2 zeta w) Phi^T M over all
+modes of the full model.
 """
 
 from __future__ import annotations
@@ -22,7 +29,10 @@ from flexmbd import flexbody, profiles
 from flexmbd.adapters import common
 from flexmbd.fe import stress
 
-SETTINGS = {"dt": ("float+", 5e-5)}      # s, Newmark step
+SETTINGS = {
+    "scheme": (("exact", "newmark"), "exact"),
+    "dt": ("float+", None),             # s; default: output_dt (exact), 5e-5 s (newmark)
+}
 
 
 def version() -> str:
@@ -77,15 +87,18 @@ def run(case, t_end, settings):
         elif c["kind"] == "energy":
             outputs[cname] = ("energy",)
 
-    dt = settings.get("dt", SETTINGS["dt"][1])
+    scheme = settings.get("scheme", "exact")
+    out_dt = case["integrator"]["output_dt"]
+    dt = settings.get("dt") or (out_dt if scheme == "exact" else 5e-5)
     t_out = common.sample_times(case, t_end)
-    stride = max(int(round(case["integrator"]["output_dt"] / dt)), 1)
-    dt = case["integrator"]["output_dt"] / stride
+    stride = max(int(round(out_dt / dt)), 1)
+    dt = out_dt / stride
+    force = lambda t: (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))[free]
+    step = newmark if scheme == "newmark" else exact
     setup_s = time.perf_counter() - t_start
 
     t_solve = time.perf_counter()
-    force = lambda t: (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))[free]
-    U, V = newmark(Kf, Mf, C, force, dt, stride, t_out.size)
+    U, V = step(Kf, Mf, C, force, dt, stride, t_out.size)
     wall_s = time.perf_counter() - t_solve
 
     u_full = np.zeros((t_out.size, n_dof))
@@ -102,7 +115,7 @@ def run(case, t_end, settings):
             channels[cname] = energy(u_full, v_full, K, M, fg)
     return Result(solver="fe-linear", case=case.name, t=t_out, channels=channels, wall_s=wall_s,
                   setup_s=setup_s, steps=(t_out.size - 1) * stride, rhs_evals=(t_out.size - 1) * stride,
-                  settings={"dt": dt, "scheme": "Newmark average acceleration", "dofs": int(free.size),
+                  settings={"dt": dt, "scheme": scheme, "dofs": int(free.size),
                             "elements": body["elements"], "mass": body["mass"]})
 
 
@@ -113,6 +126,29 @@ def damping(K, M, zeta: float):
     w2, Phi = scipy.linalg.eigh(K.toarray(), M.toarray())
     MPhi = M @ Phi
     return sp.csc_matrix(MPhi @ np.diag(2.0 * zeta * np.sqrt(np.abs(w2))) @ MPhi.T)
+
+
+def exact(K, M, C, force, dt: float, stride: int, n_out: int):
+    """Matrix-exponential stepping of y = [u; u'] from rest; displacements, velocities (n_out, n)."""
+    n = K.shape[0]
+    Minv = np.linalg.inv(M.toarray())
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:, :n] = -Minv @ K.toarray()
+    if C is not None:
+        A[n:, n:] = -Minv @ C.toarray()
+    Phi = scipy.linalg.expm(A * dt)
+    Gam = np.linalg.solve(A, Phi - np.eye(2 * n))         # int_0^h e^{A s} ds
+    Gam_f = Gam[:, n:] @ Minv                              # applied to the force f: b = [0; M^-1 f]
+    y = np.zeros(2 * n)
+    U, V = np.zeros((n_out, n)), np.zeros((n_out, n))
+    t = 0.0
+    for k in range(1, n_out):
+        for _ in range(stride):
+            y = Phi @ y + Gam_f @ force(t + dt / 2)
+            t += dt
+        U[k], V[k] = y[:n], y[n:]
+    return U, V
 
 
 def newmark(K, M, C, force, dt: float, stride: int, n_out: int):
