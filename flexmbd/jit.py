@@ -4,13 +4,13 @@ Every compiled function in flexmbd is decorated with `njit` from here, so the ve
 tests and the benchmarks run the same machine code.
 
 numba's cache notices edits to a function's own file but not to the functions it calls from
-other files, so the cache lives in a folder named after a hash of all of flexmbd's sources:
-any edit starts a fresh cache, and a stale compiled kernel can never be loaded.
+other files, so the cache lives in a folder named after a hash of every source file that holds
+compiled code (those that import this module, and this one): any edit to them starts a fresh
+cache, and a stale compiled kernel can never be loaded.
 """
 
 import hashlib
 import os
-import time
 import warnings
 from pathlib import Path
 
@@ -23,10 +23,13 @@ _SOURCE = Path(__file__).resolve().parent
 
 
 def source_hash() -> str:
+    """Hash of the files with compiled code (and the constants they import from model.py)."""
     h = hashlib.sha256()
     for p in sorted(_SOURCE.rglob("*.py")):
-        h.update(p.relative_to(_SOURCE).as_posix().encode())
-        h.update(p.read_bytes())
+        text = p.read_bytes()
+        if p.name in ("jit.py", "model.py") or b"from flexmbd.jit import" in text:
+            h.update(p.relative_to(_SOURCE).as_posix().encode())
+            h.update(text)
     return h.hexdigest()[:16]
 
 
@@ -44,17 +47,3 @@ def njit(fn=None, **kw):
     if fn is None:
         return lambda f: numba.njit(**opts)(f)
     return numba.njit(**opts)(fn)
-
-
-def is_cached() -> bool:
-    """True when this source tree's kernels were compiled before (the cache folder has entries)."""
-    d = cache_dir()
-    return d.is_dir() and any(d.rglob("*.nbi"))
-
-
-def warm_up() -> float:
-    """Compile (or load from the cache) every kernel by running one small model; seconds taken."""
-    t0 = time.perf_counter()
-    from flexmbd import dynamics  # noqa: F401  (imports define the kernels)
-    dynamics.warm_up()
-    return time.perf_counter() - t0
