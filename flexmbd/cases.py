@@ -109,7 +109,7 @@ LOAD = {
 }
 
 CHANNEL = {
-    "kind": (("deflection", "stress_vm", "joint_angle", "energy"), REQUIRED),
+    "kind": (("deflection", "stress_vm", "joint_angle", "energy", "reaction_force", "reaction_moment"), REQUIRED),
     "body": ("str", None),
     "joint": ("str", None),
     "at": ("float0+", None),            # m along the beam
@@ -430,7 +430,7 @@ def _check_beam(b, d, where, k):
     m = b["modes"]
     n_nodes = b["elements"] + 1
     fixed = {"clamped-free": 6, "hinged-hinged": 6, "free-free": 0, "craig-bampton": 0}[m["boundary"]]
-    free = 6 * n_nodes - fixed - (6 if m["boundary"] == "free-free" else 0)
+    free = 6 * n_nodes - fixed - (6 if m["boundary"] in ("free-free", "craig-bampton") else 0)
     if m["count"] > free:
         _fail(where, f"{k}.modes.count",
               f"{m['count']} modes requested but the {b['elements']}-element mesh with "
@@ -523,13 +523,13 @@ def _check_channel(name, c, bodies, joints, where):
             _fail(where, f"{k}.at", f"position {c['at']} m lies beyond the beam's length {bodies[b]['length']} m")
         if c["fibre"] is not None and len(c["fibre"]) != 2:
             _fail(where, f"{k}.fibre", "expected [y, z] in m")
-    if c["kind"] == "joint_angle":
+    if c["kind"] in ("joint_angle", "reaction_force", "reaction_moment"):
         j = c["joint"]
         if j is None:
-            _fail(where, f"{k}.joint", "a joint_angle channel needs a joint")
+            _fail(where, f"{k}.joint", f"a {c['kind']} channel needs a joint")
         if j not in joints:
             _fail(where, f"{k}.joint", f"no joint {j!r}{_hint(j, joints)}")
-        if joints[j]["type"] != "revolute":
+        if c["kind"] == "joint_angle" and joints[j]["type"] != "revolute":
             _fail(where, f"{k}.joint", f"joint_angle needs a revolute joint, {j!r} is {joints[j]['type']}")
 
 

@@ -214,6 +214,11 @@ def aba(M, D, q, v, tau, load_scale, qdd_prescribed):
         if nm > 0:
             ma = M.body_madr[i]
             D.qdd[ma:ma + nm] = -(D.DiBt[i, :nm] @ a + D.Dip[i, :nm])
+
+        # joint reaction: the reference rows of MA_i [a_i; eta_dd_i] + pA_i = [f_i; 0]
+        D.f[i] = D.MA[i, :6, :6] @ a + D.pA[i, :6]
+        if nm > 0:
+            D.f[i] += D.MA[i, :6, 6:6 + nm] @ D.qdd[M.body_madr[i]:M.body_madr[i] + nm]
     return D.qdd.copy()
 
 

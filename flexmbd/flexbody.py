@@ -95,9 +95,10 @@ def mode_set(body: dict, K, M, n_nodes: int):
         nodes = sorted({int(round(x / L * n_el)) for x in m["interfaces"]})
         iface = np.array([6 * p + k for p in nodes for k in range(6)])
         n_normal = max(m["count"] - iface.size, 0)
-        Phi = modes.craig_bampton(K, M, np.array([], dtype=int), iface, n_normal)
+        Phi = modes.craig_bampton(K, M, np.array([], dtype=int), iface, n_normal + 6)
         freq, Phi = modes.orthonormalize(K, M, Phi)
-        return freq[: m["count"]], Phi[:, : m["count"]]
+        elastic = freq > 1e-6 * freq.max()       # the floating frame carries the rigid-body motion
+        return freq[elastic][: m["count"]], Phi[:, elastic][:, : m["count"]]
     fixed = modes.boundary_dofs(m["boundary"], n_nodes)
     return modes.normal_modes(K, M, fixed, m["count"])
 

@@ -100,6 +100,7 @@ class Data(NamedTuple):
     dinv: np.ndarray    # (nb+1, 6, 6)  (S^T IA S)^-1
     u: np.ndarray       # (nb+1, 6)     tau - S^T pA
     a: np.ndarray       # (nb+1, 6)     spatial acceleration, gravity as base acceleration    pass 3
+    f: np.ndarray       # (nb+1, 6)     force the joint transmits from the parent onto the body
     qdd: np.ndarray     # (nv,)         joint and modal accelerations
 
 
@@ -111,7 +112,7 @@ def make_data(model: Model) -> Data:
                 v=np.zeros((n, 6)), c=np.zeros((n, 6)), MA=np.zeros((n, 6 + nm, 6 + nm)),
                 pA=np.zeros((n, 6 + nm)), DiBt=np.zeros((n, nm, 6)), Dip=np.zeros((n, nm)),
                 Uj=np.zeros((n, 6, 6)), dinv=np.zeros((n, 6, 6)), u=np.zeros((n, 6)),
-                a=np.zeros((n, 6)), qdd=np.zeros(model.nv))
+                a=np.zeros((n, 6)), f=np.zeros((n, 6)), qdd=np.zeros(model.nv))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -37,6 +37,12 @@ def chord_frame(e) -> np.ndarray:
     return expm_so3(k / s * np.arctan2(s, x @ e))
 
 
+def reaction(model: Model, data, t: float, q, v) -> np.ndarray:
+    """Joint forces (nb+1, 6) [moment; force] from parent onto body, body frame, at one state."""
+    dynamics.forward_dynamics(model, data, q, v, t=t)
+    return data.f.copy()
+
+
 def channels(case, model: Model, t, Q, V) -> dict:
     """Every channel of the case, (n,) each, from states Q (n, nq), V (n, nv)."""
     out = {}
@@ -48,6 +54,10 @@ def channels(case, model: Model, t, Q, V) -> dict:
             out[name] = Q[:, model.jnt_qadr[model.index(case["joints"][c["joint"]]["child"])]].copy()
         elif kind == "energy":
             out[name] = np.array([sum(dynamics.energy(model, data, q, v)) for q, v in zip(Q, V)])
+        elif kind in ("reaction_force", "reaction_moment"):
+            i = model.index(case["joints"][c["joint"]]["child"])
+            row = "xyz".index(c["component"]) + (3 if kind == "reaction_force" else 0)
+            out[name] = np.array([reaction(model, data, tk, q, v)[i, row] for tk, q, v in zip(t, Q, V)])
         elif c["body"] not in model.bodies:                  # a beam declared rigid does not deform
             out[name] = np.zeros(len(t))
         else:

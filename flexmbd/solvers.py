@@ -24,9 +24,9 @@ MODULES = {
     "analytic": "flexmbd.adapters.analytic",
     "exudyn-ffrf": None,
     "exudyn-beam": None,
-    "mujoco-rod": None,
-    "pinocchio": None,
-    "mujoco": None,
+    "mujoco-rod": "flexmbd.adapters.mujoco_rod",
+    "pinocchio": "flexmbd.adapters.pinocchio_rigid",
+    "mujoco": "flexmbd.adapters.mujoco_rigid",
 }
 NAMES = tuple(MODULES)
 

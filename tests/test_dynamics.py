@@ -68,7 +68,7 @@ def oracle_tree(model):
     return {"gravity": np.asarray(model.gravity), "bodies": bodies}
 
 
-@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("seed", range(6))
 def test_flexible_tree_matches_lagrangian_oracle(seed):
     rng = np.random.default_rng(100 + seed)
     case = random_case(rng, 6, ["revolute", "prismatic", "fixed"], flexible=0.5)
@@ -83,3 +83,35 @@ def test_flexible_tree_matches_lagrangian_oracle(seed):
     qdd = dynamics.forward_dynamics(model, data, q, v, tau)
     ref = ol.accelerations(tree, q, v, tau)
     assert np.abs(qdd - ref).max() <= 1e-6 * np.abs(ref).max(), (np.abs(qdd - ref).max(), np.abs(ref).max())
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_joint_reactions_match_pinocchio_rnea(seed):
+    rng = np.random.default_rng(50 + seed)
+    case = random_case(rng, 8, ["revolute", "prismatic", "spherical", "free"])
+    model = M.from_case(case)
+    data = M.make_data(model)
+    pm, jid = pinocchio_model.build(model)
+    pd = pm.createData()
+    q, v = random_state(rng, model)
+    qdd = dynamics.forward_dynamics(model, data, q, v, rng.normal(size=model.nv))
+    pin.rnea(pm, pd, pinocchio_model.to_pin_q(model, q), pinocchio_model.to_pin_v(model, v),
+             pinocchio_model.to_pin_v(model, qdd))
+    for i in range(1, model.nb + 1):
+        ref = pd.f[jid[i]]
+        mine = data.f[i]
+        assert np.allclose(mine[3:], ref.linear, atol=1e-9 * (1 + np.abs(ref.linear).max()))
+        assert np.allclose(mine[:3], ref.angular, atol=1e-9 * (1 + np.abs(ref.angular).max()))
+
+
+def test_flexible_reactions_project_to_joint_forces():
+    rng = np.random.default_rng(60)
+    model = M.from_case(random_case(rng, 5, ["revolute", "prismatic"], flexible=0.6))
+    data = M.make_data(model)
+    q, v = random_state(rng, model, scale_eta=0.1)
+    tau = rng.normal(size=model.nv)
+    dynamics.forward_dynamics(model, data, q, v, tau)
+    for i in range(1, model.nb + 1):
+        k = model.jnt_vadr[i]
+        # S^T f = tau is a cancellation of forces of size |f| (elastic forces reach 1e6 N here)
+        assert abs(data.S[i, :, 0] @ data.f[i] - tau[k]) <= 1e-12 * np.abs(data.f[i]).max()

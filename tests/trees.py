@@ -18,11 +18,13 @@ def random_inertia(rng, mass):
 
 def random_beam(rng, boundary=None, modes=None):
     L = rng.uniform(0.4, 1.2)
+    boundary = boundary or str(rng.choice(["clamped-free", "free-free", "craig-bampton"]))
+    modes = {"count": int(modes or rng.integers(2, 6)), "boundary": boundary}
+    if boundary == "craig-bampton":
+        modes["interfaces"] = [0.0, L]
     return {"type": "beam", "material": "steel", "length": L, "elements": int(rng.integers(6, 14)),
             "section": {"shape": "rectangle", "b": rng.uniform(0.02, 0.04), "h": rng.uniform(0.02, 0.05)},
-            "modes": {"count": int(modes or rng.integers(2, 6)),
-                      "boundary": boundary or str(rng.choice(["clamped-free", "free-free"]))},
-            "damping_ratio": 0.0}
+            "modes": modes, "damping_ratio": 0.0}
 
 
 def random_case(rng, n_bodies, joint_types, flexible=0.0, gravity=(0.0, -9.81, 0.3)):

@@ -33,6 +33,13 @@ def inertia(I6) -> "pin.Inertia":
 
 def build(model: Model) -> tuple["pin.Model", list]:
     """Pinocchio model of a rigid flexmbd Model; returns (pin model, pin joint id per body)."""
+    pm, frame = build_frames(model)
+    return pm, [f[0] for f in frame]
+
+
+def build_frames(model: Model) -> tuple["pin.Model", list]:
+    """Like `build`, but per body (0..nb) the pair (pin joint id, placement of the body frame in
+    that joint's frame): a body on a fixed joint lives in its ancestor's joint at an offset."""
     if model.body_nm.any():
         raise ValueError("a Pinocchio model needs every body rigid")
     pm = pin.Model()
@@ -59,7 +66,7 @@ def build(model: Model) -> tuple["pin.Model", list]:
         jid = pm.addJoint(jid_parent, jm, placement, name)
         pm.appendBodyToJoint(jid, inertia(model.body_inertia[i]), pin.SE3.Identity())
         frame[i] = (jid, pin.SE3.Identity())
-    return pm, [f[0] for f in frame]
+    return pm, frame
 
 
 def to_pin_q(model: Model, q) -> np.ndarray:

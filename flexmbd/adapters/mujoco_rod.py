@@ -1,0 +1,273 @@
+"""`mujoco-rod`: each beam as a MuJoCo 1D `flexcomp` elastic rod (discrete elastic rod, DER).
+
+MuJoCo 4 removed the `cable` plugin and the `composite` element; a rod is now a flexcomp with
+`dim="1"` and `<elasticity young=...>` (changelog 4.0.0, Deformables, items 9-12). The traps,
+and how they are handled here (docs/peers.md has the evidence):
+
+- the clamp: `<pin id="0 1"/>` clamps the first edge's material frame to the parent body, and the
+  first bending hinge sits at vertex 1, whose Voronoi segment starts at the middle of edge 0. The
+  effective clamp is therefore at the middle of the first edge, so edge 0 straddles the
+  attachment point: vertices at x_k = (k - 1/2) l, k = 0..ne, with l = L / (ne - 1/2), so
+  vertex 0 sits at -l/2 (inside the support), vertex 1 at +l/2 and the tip vertex at L;
+- stretching: DER has no axial stiffness, so every edge carries an equality constraint, made
+  stiff (solref timeconst `edge_timeconst`, maximal impedance); a soft one lets the rod stretch;
+- mass: flexcomp gives every vertex body `mass / npoints` and drops pinned vertices; the vertex
+  bodies get the rod's own lumped distribution instead (rho A l inside, rho A l / 2 at the tip),
+  and the segment [0, l] that the pinned vertex 1 stands for becomes the inertia of the parent
+  body (a uniform bar of mass rho A l, centred at l/2), so the total is rho A L;
+- integration: rod elasticity needs the `discrete` integrator (implicit in position; backward-
+  Euler dissipation, damping ratio ~ w h / 2 per mode) or an explicit one with a tiny step.
+
+The parent body is the world (fixed joint) or a body with a hinge at the joint (revolute joint
+to ground). A box section of half-sizes (extent along y, extent along z) / 2 gives the rod the
+beam's two bending stiffnesses (checked: 23.29 mm / 52.4 mm static tip deflections).
+
+Channels, from the rod's own vertex positions in the root frame (the parent body's frame, which
+holds the clamped first edge, i.e. the frame attached to the root and tangent to the beam there):
+  deflection   position of the rod point at `at` (linear between vertices) minus its undeformed one;
+  stress_vm    |E (y kz - z ky)| at the section point (y, z), default the outer fibre y = extent/2,
+               with the discrete curvature binormal kb_k = 2 e_{k-1} x e_k / (|e_{k-1}||e_k| +
+               e_{k-1}.e_k) divided by the Voronoi length (l_{k-1} + l_k)/2 at vertex k, linearly
+               interpolated between the two vertices that bracket `at`;
+  joint_angle  the hinge coordinate (angle of the clamped first edge from +x);
+  energy       MuJoCo's kinetic and gravitational energy (mj_energyVel / mj_energyPos) plus the
+               rod's bending energy, sum_k k1 kb_1^2 + k2 kb_2^2 with k = E I / (l_{k-1} + l_k)
+               (MuJoCo's DER energy; torsion is not excited in the planar cases).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+import mujoco
+from flexmbd import profiles
+from flexmbd.adapters import common
+from flexmbd.adapters.mujoco_common import fmt, rot_to_quat
+
+SETTINGS = {
+    "edges": ("int+", 40),                  # rod edges per beam
+    "dt": ("float+", 5e-5),                 # s, discrete-integrator step (divides output_dt)
+    "edge_timeconst": ("float+", 1e-6),     # s, solref time constant of the edge equalities
+    "integrator": (("discrete", "RK4", "Euler"), "discrete"),
+}
+
+
+def version() -> str:
+    return mujoco.__version__
+
+
+def applies(case) -> str:
+    bodies, joints = case["bodies"], case["joints"]
+    if len(bodies) != 1 or len(joints) != 1:
+        return "one beam on one joint only (a hinge on a rod vertex has no material frame to follow)"
+    (name, body), (jname, j) = next(iter(bodies.items())), next(iter(joints.items()))
+    if body["type"] != "beam" or body["rigid"]:
+        return f"body {name!r} is not a flexible beam"
+    if j["parent"] != "ground" or j["type"] not in ("fixed", "revolute"):
+        return f"joint {jname!r}: only a fixed or revolute joint to ground"
+    if j["motion"] is not None:
+        return f"joint {jname!r}: prescribed motion is not modelled"
+    if body["section"]["shape"] != "rectangle":
+        return "rectangular sections only (box section of the rod)"
+    if body["damping_ratio"] > 0:
+        return "modal damping has no counterpart in the rod"
+    return ""
+
+
+# ---------------------------------------------------------------------------------------------
+# the rod: geometry, section, model text
+
+
+def rod_points(L: float, ne: int) -> tuple[np.ndarray, float]:
+    """Vertex positions along the beam x_k = (k - 1/2) l (ne + 1,) and the edge length l."""
+    l = L / (ne - 0.5)
+    return (np.arange(ne + 1) - 0.5) * l, l
+
+
+def section(body: dict) -> tuple[float, float]:
+    """Extents of the rectangle along the body's y and z axes, m."""
+    s = body["section"]
+    return (s["h"], s["b"]) if s["h_axis"] == "y" else (s["b"], s["h"])
+
+
+def mjcf(case, ne: int, dt: float, tc: float, integrator: str) -> str:
+    """MJCF text of the case's beam as a rod named `rod` in a parent body `root`."""
+    (name, body), j = next(iter(case["bodies"].items())), next(iter(case["joints"].values()))
+    mat = case["materials"][body["material"]]
+    L, (ey, ez) = body["length"], section(body)
+    x, l = rod_points(L, ne)
+    A = ey * ez
+    m_seg = mat["rho"] * A * l                              # the segment [0, l] held by the root
+    r = np.asarray(j["at"] if isinstance(j["at"], list) else [0.0, 0.0, 0.0], dtype=float)
+    R = common.rotation_rpy(j["rpy"])
+    axis = np.asarray(j["axis"], dtype=float)
+    hinge = f'<joint name="pivot" type="hinge" axis="{fmt(axis)}"/>' if j["type"] == "revolute" else ""
+    pts = " ".join(fmt(xk, 0.0, 0.0) for xk in x)
+    elements = " ".join(f"{k} {k + 1}" for k in range(ne))
+    q0 = float(j["q0"][0]) if j["q0"] else 0.0
+    return f'''<mujoco model="flexmbd rod">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="{fmt(dt)}" integrator="{integrator}" solver="Newton" gravity="{fmt(case["gravity"])}"
+          tolerance="1e-12" iterations="200">
+    <flag contact="disable" energy="enable" refsafe="disable"/>
+  </option>
+  <worldbody>
+    <body name="root" pos="{fmt(r)}" quat="{fmt(rot_to_quat(R))}">
+      <inertial pos="{fmt(l / 2, 0, 0)}" mass="{fmt(m_seg)}"
+                diaginertia="{fmt(m_seg * (ey ** 2 + ez ** 2) / 12, m_seg * (l ** 2 + ez ** 2) / 12, m_seg * (l ** 2 + ey ** 2) / 12)}"/>
+      {hinge}
+      <flexcomp name="rod" type="direct" dim="1" point="{pts}" element="{elements}"
+                mass="{fmt(m_seg * (ne + 1))}" radius="{fmt(min(ey, ez) / 2)}">
+        <pin id="0 1"/>
+        <edge equality="true" solref="{fmt(tc)} 1" solimp="0.9999 0.9999 0.001 0.5 2"/>
+        <elasticity young="{fmt(mat["E"])}" poisson="{fmt(mat["nu"])}" section="box" sectionsize="{fmt(ey / 2, ez / 2)}"/>
+        <contact contype="0" conaffinity="0"/>
+      </flexcomp>
+    </body>
+  </worldbody>
+</mujoco>
+''', q0
+
+
+def compile_rod(case, ne: int, dt: float, tc: float, integrator: str):
+    """MjModel of the rod with the beam's lumped vertex masses (rho A l inside, rho A l / 2 at the tip)."""
+    body = next(iter(case["bodies"].values()))
+    rho = case["materials"][body["material"]]["rho"]
+    ey, ez = section(body)
+    _, l = rod_points(body["length"], ne)
+    text, q0 = mjcf(case, ne, dt, tc, integrator)
+    spec = mujoco.MjSpec.from_string(text)
+    for k in range(2, ne + 1):
+        spec.body(f"rod_{k}").mass = rho * ey * ez * l * (0.5 if k == ne else 1.0)
+    m = spec.compile()
+    return m, q0
+
+
+def vertex_positions(m, d, ne: int) -> np.ndarray:
+    """Rod vertices (ne + 1, 3) in the world: 0 and 1 pinned to `root`, the rest vertex bodies."""
+    root = m.body("root").id
+    R, p = d.xmat[root].reshape(3, 3), d.xpos[root]
+    x = np.zeros((ne + 1, 3))
+    for k in range(2):
+        x[k] = p + R @ m.flex_vert[m.flex_vertadr[0] + k]
+    for k in range(2, ne + 1):
+        x[k] = d.xpos[m.body(f"rod_{k}").id]
+    return x
+
+
+# ---------------------------------------------------------------------------------------------
+# channels from the rod's vertices
+
+
+def root_frame(m, d) -> tuple[np.ndarray, np.ndarray]:
+    """(R (3, 3) root frame -> world, origin (3,)): the frame holding the clamped first edge."""
+    root = m.body("root").id
+    return d.xmat[root].reshape(3, 3).copy(), d.xpos[root].copy()
+
+
+def curvatures(X) -> np.ndarray:
+    """Discrete curvature vectors (ne + 1, 3) at the vertices of a polyline X (ne + 1, 3), 1/m:
+    2 e0 x e1 / (|e0||e1| + e0.e1) / ((|e0| + |e1|)/2); zero at the two end vertices."""
+    e = np.diff(X, axis=0)
+    n = np.linalg.norm(e, axis=1)
+    kb = 2.0 * np.cross(e[:-1], e[1:]) / (n[:-1] * n[1:] + np.einsum("ij,ij->i", e[:-1], e[1:]))[:, None]
+    out = np.zeros_like(X)
+    out[1:-1] = kb / (0.5 * (n[:-1] + n[1:]))[:, None]
+    return out
+
+
+def bending_energy(X, E: float, Iz: float, Iy: float, l0: float) -> float:
+    """MuJoCo's DER bending energy sum_k k |kb|^2, k = E I / (2 l0), per bending plane (root frame)."""
+    kappa = curvatures(X)[1:-1] * l0                        # kb = kappa * Voronoi length (= l0 at rest)
+    return float(np.sum(E * Iz / (2 * l0) * kappa[:, 2] ** 2 + E * Iy / (2 * l0) * kappa[:, 1] ** 2))
+
+
+def sample(case, m, d, ne: int, s: np.ndarray, l: float) -> dict:
+    """Channel values of the current state (root-frame vertex positions, MuJoCo energies)."""
+    body = next(iter(case["bodies"].values()))
+    mat = case["materials"][body["material"]]
+    ey, ez = section(body)
+    R, p = root_frame(m, d)
+    X = (vertex_positions(m, d, ne) - p) @ R                 # (ne + 1, 3) in the root frame
+    X0 = np.c_[s, np.zeros((s.size, 2))]
+    out = {}
+    for name, c in case["channels"].items():
+        kind = c["kind"]
+        if kind == "joint_angle":
+            out[name] = d.qpos[m.jnt_qposadr[m.joint("pivot").id]] if "pivot" in names(m) else 0.0
+        elif kind == "deflection":
+            k = common.component_index(c["component"])
+            out[name] = np.interp(c["at"], s, X[:, k] - X0[:, k])
+        elif kind == "stress_vm":
+            kap = curvatures(X)
+            y, z = c["fibre"] if c["fibre"] is not None else (ey / 2, 0.0)
+            ky, kz = np.interp(c["at"], s[1:-1], kap[1:-1, 1]), np.interp(c["at"], s[1:-1], kap[1:-1, 2])
+            out[name] = abs(mat["E"] * (y * kz - z * ky))
+        elif kind == "energy":
+            mujoco.mj_energyPos(m, d)
+            mujoco.mj_energyVel(m, d)
+            out[name] = d.energy.sum() + bending_energy(X, mat["E"], ez * ey ** 3 / 12, ey * ez ** 3 / 12, l)
+    return out
+
+
+def names(m) -> set:
+    return {m.joint(i).name for i in range(m.njnt)}
+
+
+def apply_loads(case, m, d, ne: int, s: np.ndarray) -> None:
+    """Point loads on the nearest rod vertex (xfrc_applied, world frame), at time d.time."""
+    d.xfrc_applied[:] = 0.0
+    R, _ = root_frame(m, d)
+    for ld in case["loads"].values():
+        k = int(np.argmin(np.abs(s - ld["at"])))
+        if k < 2:                                           # on the support: carried by the root body
+            continue
+        f = np.asarray(ld["force"], dtype=float) * float(profiles.load_factor(ld["profile"], d.time))
+        d.xfrc_applied[m.body(f"rod_{k}").id, :3] += f if ld["frame"] == "global" else R @ f
+
+
+# ---------------------------------------------------------------------------------------------
+# the solver
+
+
+def run(case, t_end, settings):
+    from flexmbd.results import Result
+    get = lambda k: settings.get(k, SETTINGS[k][1])
+    ne, tc, integrator = get("edges"), get("edge_timeconst"), get("integrator")
+    t0 = time.perf_counter()
+    out_dt = case["integrator"]["output_dt"]
+    stride = max(int(np.ceil(out_dt / get("dt") - 1e-9)), 1)
+    dt = out_dt / stride
+    m, q0 = compile_rod(case, ne, dt, tc, integrator)
+    d = mujoco.MjData(m)
+    if "pivot" in names(m):
+        d.qpos[m.jnt_qposadr[m.joint("pivot").id]] = q0
+    body = next(iter(case["bodies"].values()))
+    s, l = rod_points(body["length"], ne)
+    setup_s = time.perf_counter() - t0
+
+    t_out = common.sample_times(case, t_end)
+    rows, status = [], "ok"
+    t1 = time.perf_counter()
+    mujoco.mj_forward(m, d)
+    rows.append(sample(case, m, d, ne, s, l))
+    for k in range(1, t_out.size):
+        for _ in range(stride):
+            apply_loads(case, m, d, ne, s)
+            mujoco.mj_step(m, d)
+        if not np.all(np.isfinite(d.qpos)):
+            status = f"failed: non-finite state at t = {d.time:.6g} s"
+            break
+        mujoco.mj_fwdPosition(m, d)                             # kinematics and inertia of the new state
+        rows.append(sample(case, m, d, ne, s, l))
+    wall_s = time.perf_counter() - t1
+
+    n = len(rows)
+    ch = {name: np.array([r[name] for r in rows]) for name in case["channels"]}
+    return Result(solver="mujoco-rod", case=case.name, t=t_out[:n], channels=ch, status=status,
+                  wall_s=wall_s, setup_s=setup_s, steps=(n - 1) * stride, rhs_evals=(n - 1) * stride,
+                  settings={"edges": ne, "edge_length": l, "dt": dt, "integrator": integrator,
+                            "solver": "Newton", "edge_timeconst": tc, "section": "box",
+                            "mass": "lumped, rho A l per vertex, rho A l/2 at the tip"})

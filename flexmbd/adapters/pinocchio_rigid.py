@@ -1,0 +1,211 @@
+"""`pinocchio`: the rigid limit of a case, in Pinocchio.
+
+Every beam is declared rigid (mass, centre of mass and inertia from its reduced body's
+undeformed invariants, `model.rigid_inertia_of_beam`), so a difference from `flexmbd` is
+elasticity and nothing else. The tree is built programmatically (`pinocchio_model.build_frames`,
+no URDF); forward dynamics by `aba` (by `crba` + `rnea` when some joints are prescribed),
+integrated by scipy's DOP853 at tight tolerance.
+
+State y = [q; v] in Pinocchio's layout (quaternions [x, y, z, w], free flyer [p; quat] and
+[v; w] in the joint frame); `pinocchio_model` converts to and from flexmbd's layout.
+Channels: joint angles and energy (kinetic + gravitational, Pinocchio's own energy functions)
+from the engine's state; deflections and stresses of the rigid beams are identically zero.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pinocchio as pin
+from scipy.integrate import DOP853, RK45, Radau
+
+from flexmbd import cases, profiles
+from flexmbd.adapters import common, pinocchio_model
+from flexmbd.model import from_case
+
+SETTINGS = {
+    "method": (("DOP853", "RK45", "Radau"), "DOP853"),
+    "rtol": ("float+", 1e-12),
+    "atol": ("float+", 1e-12),
+}
+METHODS = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau}
+QUAT_JOINTS = ("JointModelSpherical", "JointModelFreeFlyer")
+
+
+def version() -> str:
+    return pin.__version__
+
+
+def applies(case) -> str:
+    return ""                       # every case has a rigid limit
+
+
+def rigid_case(case):
+    """The case with every beam declared rigid (validated like any case)."""
+    extra = [f"bodies.{n}.rigid=true" for n, b in case["bodies"].items() if b["type"] == "beam"]
+    return cases.load(str(case.path), list(case.overrides) + extra)
+
+
+# ---------------------------------------------------------------------------------------------
+# the engine side: equations of motion in Pinocchio's layout
+
+
+class Rigid:
+    """Pinocchio model and data of the rigid limit, with its prescribed joints and point loads."""
+
+    def __init__(self, model):
+        self.model = model
+        self.pm, self.frame = pinocchio_model.build_frames(model)
+        self.pd = self.pm.createData()
+        self.nq, self.nv = self.pm.nq, self.pm.nv
+        # prescribed 1-DOF joints: (pin q index, pin v index, profile, flexmbd q0)
+        self.prescribed = []
+        for i in range(1, model.nb + 1):
+            p = model.jnt_motion[i]
+            if p is not None:
+                j = self.pm.joints[self.frame[i][0]]
+                self.prescribed.append((j.idx_q, j.idx_v, p, model.q0[model.jnt_qadr[i]]))
+        self.pv = np.array([k[1] for k in self.prescribed], dtype=int)
+        self.fv = np.setdiff1d(np.arange(self.nv), self.pv)
+        # point loads: (pin joint id, body placement in it, point (3,) and force (3,) body frame, global?, profile)
+        self.loads = [(self.frame[b][0], self.frame[b][1], model.load_point[k], model.load_force[k],
+                       bool(model.load_global[k]), model.load_profiles[k])
+                      for k, b in enumerate(model.load_body) if self.frame[b][0] != 0]
+        self.evals = 0
+
+    def impose(self, t, q, v):
+        """q, v with prescribed joints set from their profiles; their accelerations (np,)."""
+        a = np.zeros(len(self.prescribed))
+        for k, (iq, iv, p, q0) in enumerate(self.prescribed):
+            q[iq], v[iv], a[k] = profiles.motion(p, t, q0)
+        return q, v, a
+
+    def fext(self, t, q):
+        """External forces per Pinocchio joint, in the joint frame ([linear; angular] at its origin)."""
+        f = [pin.Force.Zero() for _ in range(self.pm.njoints)]
+        if any(ld[4] for ld in self.loads):
+            pin.forwardKinematics(self.pm, self.pd, q)
+        for jid, X, point, force, glob, prof in self.loads:
+            fb = force * float(profiles.load_factor(prof, t))
+            if glob:                                            # global direction -> body frame
+                fb = (self.pd.oMi[jid].rotation @ X.rotation).T @ fb
+            fj, pj = X.rotation @ fb, X.act(point)
+            f[jid] = f[jid] + pin.Force(fj, np.cross(pj, fj))
+        return f
+
+    def qdd(self, t, q, v):
+        """Accelerations (nv,) at time t; prescribed joints follow their profiles."""
+        q, v, a_p = self.impose(t, q.copy(), v.copy())
+        fext = self.fext(t, q)
+        if not self.prescribed:
+            return pin.aba(self.pm, self.pd, q, v, np.zeros(self.nv), fext), q, v
+        # hybrid dynamics: M_ff a_f = -(b_f - f_ext,f) - M_fp a_p
+        M = pin.crba(self.pm, self.pd, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        b = pin.rnea(self.pm, self.pd, q, v, np.zeros(self.nv), fext)
+        a = np.zeros(self.nv)
+        a[self.pv] = a_p
+        a[self.fv] = np.linalg.solve(M[np.ix_(self.fv, self.fv)], -b[self.fv] - M[np.ix_(self.fv, self.pv)] @ a_p)
+        return a, q, v
+
+    def rhs(self, t, y):
+        """dy/dt for y = [q; v]."""
+        self.evals += 1
+        q, v = y[:self.nq], y[self.nq:]
+        a, q, v = self.qdd(t, q, v)
+        return np.concatenate([qdot(self.pm, q, v), a])
+
+    def energy(self, q, v) -> float:
+        """Kinetic + gravitational potential energy, J."""
+        return pin.computeKineticEnergy(self.pm, self.pd, q, v) + pin.computePotentialEnergy(self.pm, self.pd, q)
+
+
+def qdot(pm, q, v) -> np.ndarray:
+    """dq/dt (nq,): v for 1-DOF joints; for quaternions [x, y, z, w] 1/2 q (x) [w_local; 0];
+    for the free flyer's position R v_local."""
+    dq = np.zeros(pm.nq)
+    for j in pm.joints[1:]:
+        iq, iv, name = j.idx_q, j.idx_v, j.shortname()
+        if name not in QUAT_JOINTS:
+            dq[iq:iq + j.nq] = v[iv:iv + j.nv]
+            continue
+        k, w = iq, v[iv:iv + 3]
+        if name == "JointModelFreeFlyer":
+            quat = q[iq + 3:iq + 7]
+            dq[iq:iq + 3] = pin.Quaternion(quat[3], *quat[:3]).toRotationMatrix() @ v[iv:iv + 3]
+            k, w = iq + 3, v[iv + 3:iv + 6]
+        x, s = q[k:k + 3], q[k + 3]
+        dq[k:k + 3] = 0.5 * (s * w + np.cross(x, w))
+        dq[k + 3] = -0.5 * x @ w
+    return dq
+
+
+# ---------------------------------------------------------------------------------------------
+# the solver
+
+
+def integrate(eng: Rigid, y0, t_out, method: str, rtol: float, atol: float):
+    """States Y (n, nq + nv) at t_out, steps, status."""
+    Y = np.full((t_out.size, y0.size), np.nan)
+    Y[0] = y0
+    if y0.size == 0 or eng.nv == 0:                             # nothing moves (all joints fixed)
+        return np.tile(y0, (t_out.size, 1)), 0, "ok"
+    sol = METHODS[method](eng.rhs, 0.0, y0, t_out[-1], rtol=rtol, atol=atol)
+    k, steps = 1, 0
+    while sol.status == "running":
+        msg = sol.step()
+        if sol.status == "failed":
+            return Y[:k], steps, f"failed: {method}: {msg} at t = {sol.t:.6g} s"
+        steps += 1
+        dense = sol.dense_output()
+        while k < t_out.size and t_out[k] <= sol.t + 1e-12:
+            Y[k] = dense(t_out[k])
+            k += 1
+        if not np.all(np.isfinite(sol.y)):
+            return Y[:k], steps, f"failed: non-finite state at t = {sol.t:.6g} s"
+    return Y, steps, "ok"
+
+
+def channels(case, model, eng: Rigid, t, Q, V) -> dict:
+    """The case's channels (n,) from Pinocchio states Q (n, nq), V (n, nv)."""
+    out = {}
+    for name, c in case["channels"].items():
+        if c["kind"] == "joint_angle":
+            i = model.index(case["joints"][c["joint"]]["child"])
+            out[name] = Q[:, eng.pm.joints[eng.frame[i][0]].idx_q].copy()
+        elif c["kind"] == "energy":
+            out[name] = np.array([eng.energy(q, v) for q, v in zip(Q, V)])
+        else:                                                   # rigid beams do not deform
+            out[name] = np.zeros(len(t))
+    return out
+
+
+def run(case, t_end, settings):
+    from flexmbd.results import Result
+    t0 = time.perf_counter()
+    model = from_case(rigid_case(case))
+    eng = Rigid(model)
+    setup_s = time.perf_counter() - t0
+
+    method = settings.get("method", SETTINGS["method"][1])
+    rtol = settings.get("rtol", SETTINGS["rtol"][1])
+    atol = settings.get("atol", SETTINGS["atol"][1])
+    t_out = common.sample_times(case, t_end)
+    q0 = pinocchio_model.to_pin_q(model, model.q0)
+    v0 = pinocchio_model.to_pin_v(model, model.v0)
+    q0, v0, _ = eng.impose(0.0, q0, v0)
+
+    t1 = time.perf_counter()
+    Y, steps, status = integrate(eng, np.concatenate([q0, v0]), t_out, method, rtol, atol)
+    wall_s = time.perf_counter() - t1
+
+    # prescribed joints exactly on their profiles at the samples
+    t_out = t_out[:len(Y)]
+    Q, V = Y[:, :eng.nq].copy(), Y[:, eng.nq:].copy()
+    for k, t in enumerate(t_out):
+        Q[k], V[k], _ = eng.impose(t, Q[k], V[k])
+    return Result(solver="pinocchio", case=case.name, t=t_out, channels=channels(case, model, eng, t_out, Q, V),
+                  status=status, wall_s=wall_s, setup_s=setup_s, steps=steps, rhs_evals=eng.evals,
+                  settings={"method": method, "rtol": rtol, "atol": atol,
+                            "model": "rigid limit: every beam rigid, undeformed reduced-body inertia"})
