@@ -89,26 +89,92 @@ def cmd_run(args) -> int:
     return 0 if r.ok else 1
 
 
-def cmd_report(args) -> int:
+def _solver_list(text: str | None, flag: str) -> list:
+    chosen = text.split(",") if text else list(solvers.NAMES)
+    for name in chosen:
+        if name not in solvers.NAMES:
+            raise InputError(f"{flag}: unknown solver {name!r}{cases._hint(name, solvers.NAMES)} "
+                             f"(known: {', '.join(solvers.NAMES)})")
+    return chosen
+
+
+def run_all(jobs: list, out: Path) -> None:
+    """Run (case, solver) jobs into out/results with a progress bar; failures become results."""
     from flexmbd import results
-    from flexmbd.report import summary
-    out = Path(args.out)
-    names = args.cases.split(",") if args.cases else cases.available()
-    chosen = args.solvers.split(",") if args.solvers else list(solvers.NAMES)
-    for s in chosen:
-        if s not in solvers.NAMES:
-            raise InputError(f"--solvers: unknown solver {s!r}{cases._hint(s, solvers.NAMES)}")
-    loaded = [cases.load(n) for n in names]
-    jobs = [(c, s) for c in loaded for s in chosen]
     t0 = time.perf_counter()
     for k, (c, s) in enumerate(jobs, 1):
         progress(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
-        r = solvers.run(c, s)
-        results.write(r, out / "results")
+        results.write(solvers.run(c, s), out / "results")
     progress_done(len(jobs), time.perf_counter() - t0)
-    index = summary.write_index(out, [c.name for c in loaded], chosen)
+
+
+def cmd_report(args) -> int:
+    from flexmbd.report import build
+    out = Path(args.out)
+    names = args.cases.split(",") if args.cases else cases.available()
+    chosen = _solver_list(args.solvers, "--solvers")
+    loaded = [cases.load(n) for n in names]
+    jobs = [(c, s) for c in loaded for s in chosen if not c["report"]["solvers"] or s in c["report"]["solvers"]]
+    if not args.no_run:
+        run_all(jobs, out)
+    index = build.write(out, [c.name for c in loaded], chosen)
     print(f"report: {index}")
     return 0
+
+
+def cmd_compare(args) -> int:
+    from flexmbd.report import build
+    out = Path(args.out)
+    case = _load(args)
+    chosen = _solver_list(args.solvers, "--solvers")
+    run_all([(case, s) for s in chosen], out)
+    build.case_page(out, case, chosen)
+    print(f"page: {out / case.name / 'index.html'}")
+    return 0
+
+
+def cmd_regress(args) -> int:
+    from flexmbd.report import regress, tables
+    from flexmbd import results
+    base = Path(args.baseline)
+    pairs = regress.listing(base)
+    if args.update and (args.cases or args.solvers):          # create baselines too, not only rewrite
+        names = args.cases.split(",") if args.cases else cases.available()
+        pairs = [(c, s) for c in names for s in _solver_list(args.solvers, "--solvers")
+                 if not solvers.status_for(cases.load(c), s)]
+    if args.cases:
+        pairs = [p for p in pairs if p[0] in args.cases.split(",")]
+    if args.solvers:
+        pairs = [p for p in pairs if p[1] in _solver_list(args.solvers, "--solvers")]
+    if not pairs:
+        raise InputError(f"--baseline {base}: no baselines (expected CASE/SOLVER.csv files)")
+    rows = []
+    t0 = time.perf_counter()
+    for k, (case_name, solver) in enumerate(pairs, 1):
+        progress(k, len(pairs), f"{case_name} / {solver}", time.perf_counter() - t0)
+        case = cases.load(case_name)
+        if args.results:
+            r = results.read(Path(args.results), case_name, solver)
+        else:
+            r = solvers.run(case, solver)
+        if args.update:
+            if not r.ok:
+                raise InputError(f"{case_name} / {solver}: {r.status}; baseline not written")
+            print(f"updated {regress.write(base, case, r)}")
+            continue
+        rows += regress.compare(case, r, regress.read(base, case_name, solver))
+    progress_done(len(pairs), time.perf_counter() - t0)
+    if args.update:
+        return 0
+    head = ["case", "solver", "channel", "RMS diff / max|baseline|", "tolerance", "moved", "note"]
+    body = [[r["case"], r["solver"], r["channel"], r["rms"], r["tolerance"], "MOVED" if r["moved"] else "ok",
+             r["why"]] for r in rows]
+    print(tables.markdown(head, body), end="")
+    moved = [r for r in rows if r["moved"]]
+    for r in moved:
+        print(f"moved: {r['case']} / {r['solver']} / {r['channel']}: RMS difference {tables.fmt(r['rms'])} "
+              f"> tolerance {tables.fmt(r['tolerance'])}", file=sys.stderr)
+    return 1 if moved else 0
 
 
 def progress(k: int, n: int, label: str, elapsed: float) -> None:
@@ -155,7 +221,23 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--cases", default=None, help="comma-separated case names (default: all)")
     s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
     s.add_argument("--out", default="reports")
+    s.add_argument("--no-run", action="store_true", help="rebuild the pages from the stored results only")
     s.set_defaults(func=cmd_report)
+
+    s = sub.add_parser("compare", help="run solvers on one case and write its report page")
+    s.add_argument("case")
+    s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
+    s.add_argument("--out", default="reports")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE")
+    s.set_defaults(func=cmd_compare)
+
+    s = sub.add_parser("regress", help="compare fresh results with stored baselines (exit 1 if anything moved)")
+    s.add_argument("--baseline", default=str(Path(__file__).resolve().parent.parent / "references" / "baselines"))
+    s.add_argument("--results", default=None, help="compare these stored results instead of running the solvers")
+    s.add_argument("--cases", default=None)
+    s.add_argument("--solvers", default=None)
+    s.add_argument("--update", action="store_true", help="rewrite the baselines from fresh results")
+    s.set_defaults(func=cmd_regress)
     return p
 
 

@@ -37,6 +37,12 @@ def chord_frame(e) -> np.ndarray:
     return expm_so3(k / s * np.arctan2(s, x @ e))
 
 
+def energies(model: Model, Q, V) -> np.ndarray:
+    """(n, 2): kinetic and potential (gravity + strain) energy of every state, J."""
+    data = make_data(model)
+    return np.array([dynamics.energy(model, data, q, v) for q, v in zip(Q, V)])
+
+
 def reaction(model: Model, data, t: float, q, v) -> np.ndarray:
     """Joint forces (nb+1, 6) [moment; force] from parent onto body, body frame, at one state."""
     dynamics.forward_dynamics(model, data, q, v, t=t)
@@ -53,7 +59,7 @@ def channels(case, model: Model, t, Q, V) -> dict:
         if kind == "joint_angle":
             out[name] = Q[:, model.jnt_qadr[model.index(case["joints"][c["joint"]]["child"])]].copy()
         elif kind == "energy":
-            out[name] = np.array([sum(dynamics.energy(model, data, q, v)) for q, v in zip(Q, V)])
+            out[name] = energies(model, Q, V).sum(axis=1)
         elif kind in ("reaction_force", "reaction_moment"):
             i = model.index(case["joints"][c["joint"]]["child"])
             row = "xyz".index(c["component"]) + (3 if kind == "reaction_force" else 0)

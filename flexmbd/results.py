@@ -6,6 +6,7 @@ interrupted run never leaves a half-written result behind.
 
 from __future__ import annotations
 
+import datetime
 import json
 import os
 import platform
@@ -72,7 +73,8 @@ def environment() -> dict:
         except metadata.PackageNotFoundError:
             versions[name] = None
     return {"python": sys.version.split()[0], "versions": versions, "git_commit": git_commit(),
-            "machine": f"{platform.machine()} {platform.system()} {os.cpu_count()} cpu"}
+            "machine": f"{platform.machine()} {platform.system()} {os.cpu_count()} cpu",
+            "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")}
 
 
 def sidecar(r: Result) -> dict:
@@ -89,6 +91,7 @@ def _atomic_write(path: Path, text: str) -> None:
     try:
         with os.fdopen(fd, "w") as f:
             f.write(text)
+        os.chmod(tmp, 0o644)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -114,9 +117,11 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
     meta = json.loads((base / f"{solver}.json").read_text())
     csv = base / f"{solver}.csv"
     df = pd.read_csv(csv) if csv.exists() else pd.DataFrame({"t": []})
+    known = set(sidecar(Result(solver=solver, case=case)))
     return Result(solver=solver, case=case, t=df["t"].to_numpy(),
                   channels={c: df[c].to_numpy() for c in df.columns if c != "t"},
                   status=meta["status"], solver_version=meta.get("solver_version", ""),
                   settings=meta.get("settings", {}), wall_s=meta.get("wall_s", 0.0),
                   setup_s=meta.get("setup_s", 0.0), steps=meta.get("steps", 0),
-                  rhs_evals=meta.get("rhs_evals", 0), case_sha256=meta.get("case_sha256", ""))
+                  rhs_evals=meta.get("rhs_evals", 0), case_sha256=meta.get("case_sha256", ""),
+                  extra={k: v for k, v in meta.items() if k not in known})

@@ -39,6 +39,8 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
     ch = outputs.channels(case, model, sim.t, sim.q, sim.v)
     modes = {n: {"count": fb.n_modes, "boundary": fb.boundary, "freq_hz": np.round(fb.freq_hz, 4).tolist()}
              for n, fb in model.bodies.items()}
+    kinetic_max = float(outputs.energies(model, sim.q, sim.v)[:, 0].max()) if len(sim.t) else 0.0
     return Result(solver="flexmbd", case=case.name, t=sim.t, channels=ch, status=sim.status,
                   wall_s=sim.wall_s, setup_s=setup_s, steps=sim.steps, rhs_evals=sim.rhs_evals,
-                  settings={**sim.settings, "modes": modes}, extra={"compile_s": compile_s})
+                  settings={**sim.settings, "modes": modes},
+                  extra={"compile_s": compile_s, "kinetic_max_J": kinetic_max})

@@ -1,0 +1,139 @@
+"""Error measures between two histories, FFT spectra with interpolated peaks, timing figures.
+
+Comparing undamped vibrations (DESIGN.md §2): over many cycles a tiny frequency difference
+becomes a large phase difference, so besides RMS differences we report phase-robust measures:
+the identified frequencies, the amplitude envelope, and the slow (low-pass) part.
+Every measure is normalised by the reference's maximum magnitude unless stated.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import butter, find_peaks, hilbert, sosfiltfilt
+
+
+def on_grid(t_ref, t, y) -> np.ndarray:
+    """y(t) sampled at t_ref (linear interpolation; NaN outside t)."""
+    return np.interp(t_ref, t, y, left=np.nan, right=np.nan)
+
+
+def scale(ref) -> float:
+    """Normalisation: the reference's maximum magnitude (1 when it is identically zero)."""
+    m = float(np.nanmax(np.abs(ref))) if len(ref) else 0.0
+    return m if m > 0 else 1.0
+
+
+def rms_diff(ref, y, norm: float | None = None) -> float:
+    """RMS of y - ref over the common samples, over `norm` (default max |ref|)."""
+    d = y - ref
+    d = d[np.isfinite(d)]
+    return float(np.sqrt(np.mean(d ** 2)) / (norm or scale(ref))) if d.size else np.nan
+
+
+def max_diff(ref, y, norm: float | None = None) -> float:
+    """max |y - ref| over `norm` (default max |ref|)."""
+    d = np.abs(y - ref)
+    d = d[np.isfinite(d)]
+    return float(d.max() / (norm or scale(ref))) if d.size else np.nan
+
+
+def peak_diff(ref, y, norm: float | None = None) -> float:
+    """(max |y| - max |ref|) over `norm` (default max |ref|): how far the extreme value is off."""
+    return float((np.nanmax(np.abs(y)) - np.nanmax(np.abs(ref))) / (norm or scale(ref)))
+
+
+# ---------------------------------------------------------------------------------------------
+# spectra
+
+
+def spectrum(t, y, pad: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """One-sided amplitude spectrum of y (mean removed, Hann window, zero-padded `pad` times).
+
+    Amplitudes are scaled so that a sinusoid of amplitude A shows a peak of height A.
+    Returns (frequencies Hz, amplitudes).
+    """
+    y = np.asarray(y, dtype=float) - np.mean(y)
+    n = y.size
+    w = np.hanning(n)
+    N = int(2 ** np.ceil(np.log2(n * pad)))
+    Y = np.fft.rfft(y * w, N)
+    dt = (t[-1] - t[0]) / (n - 1)
+    return np.fft.rfftfreq(N, dt), 2.0 * np.abs(Y) / w.sum()
+
+
+def peaks(f, A, n: int = 8, rel: float = 1e-3, fmin: float = 0.0, sep_hz: float = 0.0) -> list:
+    """The n largest spectral peaks above rel * max(A) and fmin, at least sep_hz apart, as
+    (frequency, amplitude) sorted by frequency. Each peak is refined by a parabola through the
+    log-amplitudes of the three samples around it, so frequencies are read to a small fraction
+    of the bin width. With zero padding the window's side lobes are local maxima too: a
+    separation of the main-lobe width (4 / T for a Hann window over T seconds) removes them."""
+    df = f[1] - f[0]
+    logA = np.log(np.maximum(A, 1e-300))
+    idx, _ = find_peaks(A, height=rel * A.max(), distance=max(int(sep_hz / df), 1))
+    found = []
+    for i in idx:
+        if f[i] < fmin or i == 0 or i == A.size - 1:
+            continue
+        a, b, c = logA[i - 1], logA[i], logA[i + 1]
+        den = a - 2 * b + c
+        p = 0.5 * (a - c) / den if den != 0 else 0.0
+        found.append((f[i] + p * df, float(np.exp(b - 0.25 * (a - c) * p))))
+    found.sort(key=lambda x: -x[1])
+    return sorted(found[:n])
+
+
+def spectral_peaks(t, y, n: int = 8, fmin: float = 0.0, rel: float = 1e-3) -> list:
+    """Peaks of the amplitude spectrum of y(t) (see `spectrum`, `peaks`), separated by the Hann
+    main-lobe width 4 / T."""
+    f, A = spectrum(t, y)
+    return peaks(f, A, n=n, rel=rel, fmin=fmin, sep_hz=4.0 / (t[-1] - t[0]))
+
+
+def match_peaks(found, targets, tol: float = 0.05) -> list:
+    """For each target frequency, the nearest identified peak within tol (relative), else None."""
+    out = []
+    for ft in targets:
+        near = [fp for fp, _ in found if abs(fp - ft) <= tol * ft]
+        out.append(min(near, key=lambda fp: abs(fp - ft)) if near else None)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# phase-robust measures
+
+
+def lowpass(t, y, cutoff_hz: float) -> np.ndarray:
+    """Zero-phase 4th-order Butterworth low-pass (the slow part of a history)."""
+    fs = 1.0 / ((t[-1] - t[0]) / (len(t) - 1))
+    if cutoff_hz >= 0.5 * fs or len(y) < 30:
+        return np.asarray(y, dtype=float)
+    sos = butter(4, cutoff_hz, fs=fs, output="sos")
+    return sosfiltfilt(sos, y)
+
+
+def envelope(t, y, cutoff_hz: float) -> np.ndarray:
+    """Amplitude envelope of the vibration about the slow part: |analytic signal| of y - lowpass(y),
+    itself smoothed below the cutoff."""
+    fast = np.asarray(y, dtype=float) - lowpass(t, y, cutoff_hz)
+    return lowpass(t, np.abs(hilbert(fast)), cutoff_hz)
+
+
+def slow_rms_diff(t, ref, y, cutoff_hz: float) -> float:
+    """RMS difference of the slow parts, over max |ref|."""
+    d = lowpass(t, y, cutoff_hz) - lowpass(t, ref, cutoff_hz)
+    return float(np.sqrt(np.mean(d ** 2)) / scale(ref))
+
+
+def envelope_rms_diff(t, ref, y, cutoff_hz: float) -> float:
+    """RMS difference of the amplitude envelopes, over max |ref|."""
+    e_ref, e = envelope(t, ref, cutoff_hz), envelope(t, y, cutoff_hz)
+    return float(np.sqrt(np.mean((e - e_ref) ** 2)) / scale(ref))
+
+
+# ---------------------------------------------------------------------------------------------
+# timing
+
+
+def per_simulated_second(wall_s: float, t_end: float) -> float:
+    """Wall time per simulated second."""
+    return wall_s / t_end if t_end > 0 else np.nan

@@ -1,0 +1,91 @@
+"""Accuracy of every solver against the case's reference solver, per channel (stored results only)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from flexmbd import metrics
+
+DEFORMATION = ("deflection", "stress_vm")
+
+
+def comparable(case, solver_module, channel: str) -> bool:
+    """Rigid peers (module attribute RIGID) report deformation channels as zero: not compared."""
+    kind = case["channels"][channel]["kind"]
+    return not (getattr(solver_module, "RIGID", False) and kind in DEFORMATION)
+
+
+def cutoff_hz(case, channel: str, freqs: dict) -> float:
+    """Low-pass cutoff separating the slow part of a channel from its vibration: half the lowest
+    retained natural frequency of the channel's body (of any flexible body for body-less channels)."""
+    body = case["channels"][channel].get("body")
+    pool = freqs.get(body) if body in freqs else [f for fs in freqs.values() for f in fs]
+    pool = [f for f in pool if f > 0]
+    return 0.5 * min(pool) if pool else np.nan
+
+
+def dominant_frequency(t, y, fmin: float) -> float:
+    """Frequency of the largest spectral peak above fmin (Hz), NaN if none."""
+    pk = metrics.spectral_peaks(t, y, n=1, fmin=fmin)
+    return pk[0][0] if pk else np.nan
+
+
+def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
+    """One row per (solver, channel) compared with the reference. `results`: solver -> Result."""
+    ref_name = case["report"]["reference"]
+    ref = results.get(ref_name)
+    if ref is None or not ref.ok:
+        return []
+    tol = case["report"]["tolerances"]
+    out = []
+    for name, r in results.items():
+        if name == ref_name or not r.ok:
+            continue
+        for ch in case["channels"]:
+            if ch not in r.channels or ch not in ref.channels or not comparable(case, modules.get(name), ch):
+                continue
+            y = metrics.on_grid(ref.t, r.t, r.channels[ch])
+            x = ref.channels[ch]
+            # a conserved total energy sits near zero: measure it against the largest kinetic energy
+            k = ref.extra.get("kinetic_max_J") if case["channels"][ch]["kind"] == "energy" else None
+            row = {"case": case.name, "solver": name, "reference": ref_name, "channel": ch,
+                   "rms": metrics.rms_diff(x, y, k), "max": metrics.max_diff(x, y, k),
+                   "peak": metrics.peak_diff(x, y, k),
+                   "f_ref": np.nan, "f_solver": np.nan, "envelope": np.nan, "slow": np.nan,
+                   "tolerance": tol.get(ch, np.nan)}
+            fc = cutoff_hz(case, ch, freqs)
+            if case["channels"][ch]["kind"] in DEFORMATION and np.isfinite(fc):
+                ok = np.isfinite(y)
+                tt, xx, yy = ref.t[ok], x[ok], y[ok]
+                row["f_ref"] = dominant_frequency(tt, xx, fc)
+                row["f_solver"] = dominant_frequency(tt, yy, fc)
+                row["envelope"] = metrics.envelope_rms_diff(tt, xx, yy, fc)
+                row["slow"] = metrics.slow_rms_diff(tt, xx, yy, fc)
+            row["pass"] = "" if np.isnan(row["tolerance"]) else ("pass" if row["rms"] <= row["tolerance"] else "fail")
+            out.append(row)
+    return out
+
+
+def worst(rows_: list[dict], solver: str) -> float:
+    """The largest normalised RMS difference of a solver over its compared channels."""
+    vals = [r["rms"] for r in rows_ if r["solver"] == solver and np.isfinite(r["rms"])]
+    return max(vals) if vals else np.nan
+
+
+def peak_table(case, results: dict, modes: dict) -> list[dict]:
+    """Identified spectral peaks of each deflection channel against the FE natural frequencies of
+    the channel's body: rows (solver, channel, mode label, f_FE, f_identified, relative difference)."""
+    out = []
+    for ch, c in case["channels"].items():
+        if c["kind"] != "deflection" or c["body"] not in modes:
+            continue
+        f_fe, labels = modes[c["body"]]
+        for name, r in results.items():
+            if not r.ok or ch not in r.channels or not np.any(r.channels[ch]):
+                continue
+            found = metrics.spectral_peaks(r.t, r.channels[ch], n=12, fmin=0.5 * min(f_fe))
+            for lab, fe, fp in zip(labels, f_fe, metrics.match_peaks(found, f_fe, tol=0.05)):
+                if fp is not None:
+                    out.append({"case": case.name, "solver": name, "channel": ch, "mode": lab, "f_fe": fe,
+                                "f_identified": fp, "difference": fp / fe - 1.0})
+    return out

@@ -1,0 +1,94 @@
+"""Figures of a case page (matplotlib, PNG, written atomically)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from flexmbd import metrics  # noqa: E402
+
+UNITS = {"deflection": ("mm", 1e3), "stress_vm": ("MPa", 1e-6), "joint_angle": ("rad", 1.0),
+         "energy": ("J", 1.0), "reaction_force": ("N", 1.0), "reaction_moment": ("N m", 1.0)}
+
+
+def save(fig, path: Path) -> str:
+    """Write the figure atomically; return its file name (pages link relatively)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".png")
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=90)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    finally:
+        plt.close(fig)
+        Path(tmp).unlink(missing_ok=True)
+    return path.name
+
+
+def channel(case, name: str, results: dict, reference: str, path: Path) -> str:
+    """Overlay of one channel for every solver, and each solver's difference from the reference."""
+    kind = case["channels"][name]["kind"]
+    unit, k = UNITS[kind]
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 5.2), sharex=True, height_ratios=[3, 2])
+    ref = results.get(reference)
+    for s, r in results.items():
+        if name not in r.channels or not len(r.t):
+            continue
+        style = {"lw": 2.2, "alpha": 0.6} if s == reference else {"lw": 1.0}
+        top.plot(r.t, r.channels[name] * k, label=s, **style)
+        if ref is not None and s != reference and name in ref.channels:
+            bottom.plot(ref.t, (metrics.on_grid(ref.t, r.t, r.channels[name]) - ref.channels[name]) * k,
+                        lw=1.0, label=f"{s} - {reference}")
+    top.set_ylabel(f"{name} [{unit}]")
+    top.legend(fontsize=8, ncol=3)
+    top.grid(alpha=0.3)
+    bottom.set_ylabel(f"difference [{unit}]")
+    bottom.set_xlabel("t [s]")
+    bottom.grid(alpha=0.3)
+    if bottom.lines:
+        bottom.legend(fontsize=8, ncol=3)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def spectra(case, name: str, results: dict, fe_hz, path: Path) -> str:
+    """Amplitude spectra (Hann window, zero-padded) with the FE natural frequencies marked."""
+    fig, ax = plt.subplots(figsize=(9, 4))
+    fmax = 1.15 * max(fe_hz) if len(fe_hz) else 200.0
+    for s, r in results.items():
+        if name not in r.channels or len(r.t) < 16 or not np.any(r.channels[name]):
+            continue
+        f, A = metrics.spectrum(r.t, r.channels[name])
+        keep = (f > 0) & (f <= fmax)
+        ax.semilogy(f[keep], np.maximum(A[keep] * 1e3, 1e-9), lw=1.0, label=s)
+    for fe in fe_hz:
+        ax.axvline(fe, color="k", ls=":", lw=0.8)
+    ax.set_xlabel("frequency [Hz]  (dotted: FE natural frequencies of the retained modes)")
+    ax.set_ylabel(f"|FFT| of {name} [mm]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, ncol=3)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def elasticity(case, flexible, rigid, rigid_name: str, path: Path) -> str:
+    """Flexible minus rigid joint angles: what elasticity changes."""
+    fig, ax = plt.subplots(figsize=(9, 3.6))
+    for ch, c in case["channels"].items():
+        if c["kind"] == "joint_angle" and ch in flexible.channels and ch in rigid.channels:
+            d = flexible.channels[ch] - metrics.on_grid(flexible.t, rigid.t, rigid.channels[ch])
+            ax.plot(flexible.t, d, lw=1.0, label=f"{ch}: flexmbd - {rigid_name}")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("angle difference [rad]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return save(fig, path)

@@ -1,0 +1,69 @@
+"""Regression against stored baselines: `references/baselines/CASE/SOLVER.csv`.
+
+A baseline is a result table with a provenance header (lines starting with '#': source, solver
+version, settings, date, units, columns). `compare` measures every channel's RMS difference
+from the baseline over the baseline's maximum magnitude and flags what moved beyond the case's
+tolerance for that channel.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from flexmbd import metrics, results
+from flexmbd.results import Result, _atomic_write
+
+BASELINES = Path(__file__).resolve().parent.parent.parent / "references" / "baselines"
+UNITS = {"deflection": "m", "stress_vm": "Pa", "joint_angle": "rad", "energy": "J",
+         "reaction_force": "N", "reaction_moment": "N m"}
+DEFAULT_TOLERANCE = 1e-3          # channels without a tolerance in the case file
+
+
+def listing(base: Path) -> list[tuple[str, str]]:
+    """(case, solver) of every baseline under base."""
+    return sorted((p.parent.name, p.stem) for p in Path(base).glob("*/*.csv"))
+
+
+def write(base: Path, case, r: Result) -> Path:
+    """Store a result as the baseline of (case, solver), with its provenance header."""
+    env = results.environment()
+    units = "; ".join(["t s"] + [f"{c} {UNITS[case['channels'][c]['kind']]}" for c in r.channels])
+    head = [f"source: flexmbd run {case.name} --solver {r.solver} (case file {case.path.name}, sha256 {case.sha256})",
+            f"solver: {r.solver} {r.solver_version}",
+            f"settings: {json.dumps(r.settings, sort_keys=True)}",
+            f"date: {env['date']}; git commit: {env['git_commit']}; python {env['python']}",
+            f"units: {units}",
+            f"columns: {', '.join(['t'] + list(r.channels))}"]
+    text = "".join(f"# {h}\n" for h in head) + r.table().to_csv(index=False, float_format="%.10g")
+    path = Path(base) / case.name / f"{r.solver}.csv"
+    _atomic_write(path, text)
+    return path
+
+
+def read(base: Path, case: str, solver: str) -> pd.DataFrame:
+    return pd.read_csv(Path(base) / case / f"{solver}.csv", comment="#")
+
+
+def compare(case, r: Result, baseline: pd.DataFrame) -> list[dict]:
+    """One row per baseline channel: RMS difference over max |baseline|, tolerance, moved?"""
+    tol = case["report"]["tolerances"]
+    t_ref = baseline["t"].to_numpy()
+    rows = []
+    for ch in baseline.columns:
+        if ch == "t":
+            continue
+        limit = tol.get(ch, DEFAULT_TOLERANCE)
+        if not r.ok or ch not in r.channels:
+            rows.append({"case": case.name, "solver": r.solver, "channel": ch, "rms": np.nan, "tolerance": limit,
+                         "moved": True, "why": r.status if not r.ok else "channel missing"})
+            continue
+        y = metrics.on_grid(t_ref, r.t, r.channels[ch])
+        d = metrics.rms_diff(baseline[ch].to_numpy(), y)
+        short = np.isnan(y).any()
+        rows.append({"case": case.name, "solver": r.solver, "channel": ch, "rms": d, "tolerance": limit,
+                     "moved": bool(short or not d <= limit), "why": "shorter run" if short else ""})
+    return rows

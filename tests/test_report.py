@@ -1,0 +1,144 @@
+"""The report: pages and links, the same numbers in every format, FFT peaks, regression, robustness."""
+
+import csv
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from flexmbd import cases, flexbody, metrics, solvers
+from flexmbd.cli import main
+from flexmbd.report import regress, tables
+
+FAST = "analytic,fe-linear"
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("rep")
+    assert main(["report", "--cases", "cantilever_step", "--solvers", FAST + ",pinocchio", "--out", str(out)]) == 0
+    return out
+
+
+def referenced_files(page: Path) -> list:
+    text = page.read_text()
+    return re.findall(r"(?:src|href)='([^'#:]+)'", text) + re.findall(r"\]\(([^)#:]+)\)", text)
+
+
+def test_every_referenced_file_exists(report):
+    pages = [report / "index.html", report / "index.md", report / "cantilever_step" / "index.html",
+             report / "cantilever_step" / "index.md"]
+    for page in pages:
+        refs = referenced_files(page)
+        assert refs, page
+        for ref in refs:
+            assert (page.parent / ref).is_file(), f"{page}: broken link {ref}"
+
+
+def test_page_has_every_section(report):
+    page = (report / "cantilever_step" / "index.html").read_text()
+    for title in ("Deflection", "Stress", "FFT spectra", "Timing", "Accuracy", "Provenance"):
+        assert f"<h2>{title}" in page
+    assert "fe-linear" in page and "analytic" in page
+
+
+def test_unavailable_and_inapplicable_solvers_show_their_reason(report):
+    index = (report / "index.html").read_text()
+    assert "not applicable" in index or "unavailable" in index
+
+
+def test_same_numbers_in_csv_markdown_latex_and_html(report):
+    rows = list(csv.DictReader((report / "accuracy.csv").open()))
+    assert rows
+    md = (report / "accuracy.md").read_text()
+    tex = (report / "accuracy.tex").read_text()
+    page = (report / "cantilever_step" / "index.html").read_text()
+    for r in rows:
+        for key in ("rms", "max", "peak", "envelope", "slow"):
+            if r[key] == "nan":
+                continue
+            s = tables.fmt(float(r[key]))
+            assert s in md and s in page and s.replace("-", "-") in tex, (key, s)
+
+
+def test_fft_peaks_match_fe_frequencies_on_cantilever_step():
+    """The first three excited (in-plane) bending modes, read from 2 s of signal, within 1 %."""
+    case = cases.load("cantilever_step")
+    fb = flexbody.for_case(case)["beam"]
+    excited = [f for f, lab in zip(fb.freq_hz, fb.labels) if lab.startswith("bending xy")][:3]
+    bin_width = 1.0 / case["duration"]
+    assert excited[0] < 12 * bin_width                 # coarse bins: interpolation has to do the work
+    for name in ("flexmbd", "fe-linear", "analytic"):
+        r = solvers.run(case, name)
+        found = metrics.match_peaks(metrics.spectral_peaks(r.t, r.channels["tip_deflection"], n=8, fmin=1.0),
+                                    excited, tol=0.05)
+        for fe, fp in zip(excited, found):
+            assert fp is not None and abs(fp / fe - 1) < 0.01, (name, fe, fp)
+
+
+def test_peak_interpolation_beats_the_bin_width():
+    t = np.linspace(0, 2, 2001)
+    y = np.sin(2 * np.pi * 5.527 * t) + 0.1 * np.sin(2 * np.pi * 34.63 * t + 1)
+    f, A = metrics.spectrum(t, y, pad=1)
+    found = metrics.peaks(f, A, n=2)
+    assert abs(found[0][0] - 5.527) < 0.05 * (f[1] - f[0]) * 8
+    assert abs(found[1][0] - 34.63) < 0.01 * 34.63
+
+
+def test_regress_flags_a_perturbed_baseline_and_passes_the_real_one(tmp_path, capsys):
+    real = regress.BASELINES
+    args = ["--cases", "cantilever_step", "--solvers", FAST]
+    assert main(["regress", "--baseline", str(real)] + args) == 0
+    capsys.readouterr()
+    shutil.copytree(real / "cantilever_step", tmp_path / "cantilever_step")
+    p = tmp_path / "cantilever_step" / "fe-linear.csv"
+    header = [line for line in p.read_text().splitlines() if line.startswith("#")]
+    df = pd.read_csv(p, comment="#")
+    df["tip_deflection"] *= 1.02
+    p.write_text("\n".join(header) + "\n" + df.to_csv(index=False))
+    assert main(["regress", "--baseline", str(tmp_path)] + args) == 1
+    err = capsys.readouterr().err
+    assert "cantilever_step / fe-linear / tip_deflection" in err
+    assert "moved: cantilever_step / analytic" not in err
+
+
+def test_baselines_carry_provenance():
+    for c, s in regress.listing(regress.BASELINES):
+        head = [l for l in (regress.BASELINES / c / f"{s}.csv").read_text().splitlines()[:8] if l.startswith("#")]
+        keys = {l[2:].split(":")[0] for l in head}
+        assert {"source", "solver", "settings", "date", "units", "columns"} <= keys, (c, s)
+
+
+def test_a_failing_solver_does_not_stop_the_report(tmp_path, monkeypatch):
+    from flexmbd.adapters import analytic
+
+    def boom(*a, **k):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(analytic, "run", boom)
+    assert main(["report", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(tmp_path)]) == 0
+    index = (tmp_path / "index.html").read_text()
+    assert "failed: RuntimeError: boom" in index
+    assert "fe-linear" in index
+
+
+def test_an_interrupted_report_leaves_no_half_written_files(tmp_path, monkeypatch):
+    from flexmbd.report import figures
+    calls = {"n": 0}
+    real_savefig = figures.plt.Figure.savefig
+
+    def interrupt(self, *a, **k):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+        return real_savefig(self, *a, **k)
+
+    monkeypatch.setattr(figures.plt.Figure, "savefig", interrupt)
+    assert main(["report", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(tmp_path)]) == 130
+    leftovers = [p for p in tmp_path.rglob("*") if p.name.startswith(".")]
+    assert leftovers == []
+    for p in tmp_path.rglob("*.png"):
+        assert p.stat().st_size > 1000
