@@ -493,7 +493,21 @@ def _check_joint_values(j, where, k):
         f = Path(where).parent / m["file"]
         if not f.is_file():
             _fail(where, f"{k}.motion.file", f"no such file {str(f)!r}")
+        _check_table_file(f, where, f"{k}.motion.file")
         m["file"] = str(f)
+
+
+def _check_table_file(f: Path, where, key):
+    """A motion table: header line, then rows 't, q' with strictly increasing t (at least 4 rows)."""
+    import numpy as np
+    try:
+        data = np.loadtxt(f, delimiter=",", skiprows=1, ndmin=2)
+    except ValueError as e:
+        _fail(where, key, f"{f.name}: not a CSV of numbers after the header line ({e})")
+    if data.shape[1] != 2 or data.shape[0] < 4:
+        _fail(where, key, f"{f.name}: expected columns t, q and at least 4 rows, got shape {data.shape}")
+    if not np.all(np.diff(data[:, 0]) > 0):
+        _fail(where, key, f"{f.name}: t must increase strictly")
 
 
 def _check_tree(joints, where):

@@ -131,3 +131,17 @@ def test_no_traceback_from_the_console_script(tmp_path):
     assert r.returncode == 2
     assert "Traceback" not in r.stderr and r.stderr.count("\n") == 1
     assert not (tmp_path / "results").exists()
+
+
+def test_motion_table_file_is_checked(tmp_path):
+    case = (cases.CASES_DIR / "pendulum.toml").read_text()
+    p = tmp_path / "c.toml"
+    p.write_text(case.replace("qd0 = 0.0", 'qd0 = 0.0\nmotion = { type = "table", file = "q.csv" }'))
+    (tmp_path / "q.csv").write_text("t,q\n0,0\n0.1,0.1\n0.1,0.2\n0.3,0.3\n")
+    with pytest.raises(InputError, match="t must increase"):
+        cases.load(str(p))
+    (tmp_path / "q.csv").write_text("t,q\n0,0\n0.1,0.1\n0.2,0.2\n0.3,0.3\n")
+    c = cases.load(str(p))
+    from flexmbd import profiles
+    q, qd, qdd = profiles.motion(c["joints"]["pivot"]["motion"], 0.15)
+    assert q == pytest.approx(0.15) and qd == pytest.approx(1.0)

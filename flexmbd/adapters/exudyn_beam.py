@@ -1,0 +1,363 @@
+"""`exudyn-beam`: the beams of a planar case as chains of Exudyn's geometrically exact 2-D beam
+elements (`ObjectBeamGeometricallyExact2D`, Simo-Reissner: axial, shear and bending strains of
+the large-rotation kinematics), full nonlinear FE in the role LS-Dyna plays in the paper.
+
+Every beam: `elements` equal elements (setting, default 64) on `NodeRigidBody2D` nodes
+(x, y, rotation), E A, k G A (k = 5/6 rectangle, 9/10 circle), E I of the bending plane x-y,
+rho A per length, rho I cross-section rotary inertia. Its body frame starts where the case's
+tree puts it (joint q0 included), undeformed and at rest.
+
+Joints (planar only): a revolute joint about z is `ObjectJointRevolute2D` (a pin: the two node
+positions coincide) between ground and the root node or between a node of the parent beam (the
+one the case snaps `at` to) and the child's root node; a fixed joint to ground clamps the root
+node's three coordinates. Point loads are `LoadForceVector` on their node (a body-frame load
+turns with the root node); gravity is `LoadMassProportional` on every element.
+
+Channels from Exudyn's nodes and elements (DESIGN §2):
+  deflection   clamped-root body: node displacement in the root node's frame (the cross-section
+               frame: it differs from the tangent by the shear angle, ~1e-6 rad here) minus the
+               undeformed offset; hinged-hinged body: signed distance from the chord through the
+               end nodes, in the chord frame;
+  joint_angle  child body frame angle (root node rotation, or chord angle for a hinged-hinged
+               body) minus the input triad's (ground: 0; a beam: the rotation of its node);
+  stress_vm    |E eps - E y kappa| at the fibre y, eps and kappa taken at the element centres
+               (where the constant-strain element is most accurate) and interpolated linearly to
+               the stress point;
+  energy       Exudyn's kinetic and strain energies of the elements plus -g . (rho A l (r1 + r2) / 2).
+Time integration: Exudyn's implicit solver, fixed step.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from flexmbd import flexbody, profiles
+from flexmbd.adapters import exudyn_common as xc
+from flexmbd.adapters.exudyn_common import eii, exu
+
+SETTINGS = {
+    "elements": ("int+", 64),                # per beam
+    "dt": ("float+", 1e-4),                  # s, fixed step (rounded to divide output_dt)
+    "solver": (tuple(xc.IMPLICIT), "generalized-alpha"),
+    "spectral_radius": ("float0+", 0.9),
+    "newton_rtol": ("float+", 1e-5),
+    "adaptive": ("bool", False),
+}
+
+OV = exu.OutputVariableType
+
+
+def version() -> str:
+    return xc.version()
+
+
+def applies(case) -> str:
+    why = xc.is_planar(case)
+    if why:
+        return f"planar beam model only (3-D beams are not built yet): {why}"
+    for name, b in case["bodies"].items():
+        if b["type"] != "beam" or b["rigid"]:
+            return f"body {name!r}: only flexible beams are modelled (no rigid bodies)"
+        if b["damping_ratio"] > 0:
+            return f"body {name!r}: modal damping has no counterpart in the beam elements"
+    for jn, j in case["joints"].items():
+        if j["type"] not in ("revolute", "fixed"):
+            return f"joint {jn!r}: only revolute (pin) and fixed joints"
+        if j["type"] == "fixed" and j["parent"] != "ground":
+            return f"joint {jn!r}: fixed joints only to ground"
+        if j["motion"] is not None:
+            return f"joint {jn!r}: prescribed motion is not modelled"
+        if any(abs(x) > 0 for x in j["qd0"]):
+            return f"joint {jn!r}: the beams start at rest"
+    for cname, c in case["channels"].items():
+        if c.get("component") == "z":
+            return f"channel {cname!r}: out-of-plane component in a planar model"
+    return ""
+
+
+def section_constants(body: dict, mat: dict) -> dict:
+    """Element constants of a case beam (bending in x-y: I = Iz of the FE section)."""
+    sec = flexbody.beam_section(body)
+    E, G, rho = mat["E"], flexbody.shear_modulus(mat), mat["rho"]
+    k = 0.9 if body["section"]["shape"] == "circle" else 5.0 / 6.0
+    return {"massPerLength": rho * sec.A, "crossSectionInertia": rho * sec.Iz,
+            "bendingStiffness": E * sec.Iz, "axialStiffness": E * sec.A, "shearStiffness": k * G * sec.A,
+            "E": E, "cy": sec.cy, "Iz": sec.Iz, "A": sec.A}
+
+
+# ---------------------------------------------------------------------------------------------
+# building
+
+
+def initial_frames(case, n_el: dict) -> dict:
+    """Planar (angle, origin (2,)) of every body frame at t = 0; a child sits on the parent's
+    snapped node."""
+    by_child = {j["child"]: j for j in case["joints"].values()}
+    out = {"ground": (0.0, np.zeros(2))}
+    from flexmbd.model import topological_order
+    for name in topological_order(case):
+        j = by_child[name]
+        a, p = out[j["parent"]]
+        at = j["at"] if not isinstance(j["at"], list) else j["at"]
+        if j["parent"] == "ground":
+            off = np.asarray(at, dtype=float)[:2] if isinstance(at, list) else np.array([at, 0.0])
+        else:
+            off = np.array([snapped(case["bodies"][j["parent"]], at, n_el[j["parent"]]), 0.0])
+        c, s = np.cos(a), np.sin(a)
+        q0 = j["q0"][0] if j["type"] == "revolute" else 0.0
+        out[name] = (a + j["rpy"][2] + q0, p + np.array([c * off[0] - s * off[1], s * off[0] + c * off[1]]))
+    return out
+
+
+def snapped(body: dict, at, n: int) -> float:
+    """Position along a beam snapped to the nearest node of an n-element mesh."""
+    x = at if not isinstance(at, list) else at[0]
+    h = body["length"] / n
+    return round(x / h) * h
+
+
+def node_index(body: dict, at, n: int) -> int:
+    x = at if not isinstance(at, list) else at[0]
+    return int(round(x / body["length"] * n))
+
+
+def add_beam(mbs, body: dict, mat: dict, n: int, angle: float, origin) -> dict:
+    """Nodes (n+1) and elements (n) of one beam along its frame's x axis."""
+    k = section_constants(body, mat)
+    l = body["length"] / n
+    ex = np.array([np.cos(angle), np.sin(angle)])
+    nodes = [mbs.AddNode(eii.NodeRigidBody2D(referenceCoordinates=[*(origin + i * l * ex), angle],
+                                             visualization=eii.VNodeRigidBody2D(show=False)))
+             for i in range(n + 1)]
+    elems = [mbs.AddObject(eii.ObjectBeamGeometricallyExact2D(
+        nodeNumbers=[nodes[i], nodes[i + 1]], length=l, massPerLength=k["massPerLength"],
+        crossSectionInertia=k["crossSectionInertia"], bendingStiffness=k["bendingStiffness"],
+        axialStiffness=k["axialStiffness"], shearStiffness=k["shearStiffness"],
+        visualization=eii.VObjectBeamGeometricallyExact2D(show=False))) for i in range(n)]
+    return {"nodes": nodes, "elems": elems, "l": l, "k": k}
+
+
+def add_joint(mbs, case, beams: dict, ground, j: dict) -> None:
+    """Pin (revolute about z) or clamp (fixed to ground) at the child's root node."""
+    child = beams[j["child"]]
+    m1 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=child["nodes"][0]))
+    if j["parent"] == "ground":
+        at = j["at"]
+        pos = list(at) if isinstance(at, list) else [at, 0.0, 0.0]
+        m0 = mbs.AddMarker(eii.MarkerBodyPosition(bodyNumber=ground, localPosition=pos))
+    else:
+        pb = case["bodies"][j["parent"]]
+        par = beams[j["parent"]]
+        m0 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=par["nodes"][node_index(pb, j["at"], len(par["elems"]))]))
+    mbs.AddObject(eii.ObjectJointRevolute2D(markerNumbers=[m0, m1],
+                                            visualization=eii.VObjectJointRevolute2D(show=False)))
+    if j["type"] == "fixed":                     # lock the root rotation as well
+        ng = mbs.AddNode(eii.NodePointGround(visualization=eii.VNodePointGround(show=False)))
+        mg = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=ng, coordinate=0))
+        mr = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=child["nodes"][0], coordinate=2))
+        mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[mg, mr],
+                                               visualization=eii.VCoordinateConstraint(show=False)))
+
+
+def add_loads(mbs, case, beams: dict) -> None:
+    """Point loads on their snapped nodes (body frame: turning with the root node), gravity."""
+    for ld in case["loads"].values():
+        b = beams[ld["body"]]
+        body = case["bodies"][ld["body"]]
+        node = b["nodes"][node_index(body, ld["at"], len(b["elems"]))]
+        m = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node))
+        f = np.asarray(ld["force"], dtype=float)
+        prof, body_frame, root = ld["profile"], ld["frame"] == "body", b["nodes"][0]
+        steady = prof["type"] == "constant" or (prof["type"] == "step" and prof["t0"] <= 0.0)
+        clamped = case["joints"][joint_of(case, ld["body"])]["type"] == "fixed"
+        if steady and (not body_frame or clamped):
+            a0 = b["angle0"] if body_frame else 0.0
+            mbs.AddLoad(eii.LoadForceVector(markerNumber=m, loadVector=list(rot2(a0) @ f)))
+            continue
+
+        def force(mbs_, t, load, f=f, prof=prof, body_frame=body_frame, root=root):
+            s = float(profiles.load_factor(prof, t))
+            a = float(np.ravel(mbs_.GetNodeOutput(root, OV.Rotation))[-1])
+            return list(s * (rot2(a) @ f if body_frame else f))
+        mbs.AddLoad(eii.LoadForceVector(markerNumber=m, loadVector=list(f), loadVectorUserFunction=force))
+    g = np.asarray(case["gravity"], dtype=float)
+    if np.any(g):
+        for b in beams.values():
+            for e in b["elems"]:
+                mm = mbs.AddMarker(eii.MarkerBodyMass(bodyNumber=e))
+                mbs.AddLoad(eii.LoadMassProportional(markerNumber=mm, loadVector=list(g)))
+
+
+def rot2(a: float) -> np.ndarray:
+    """Rotation (3, 3) about z by a."""
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def joint_of(case, body: str) -> str:
+    return next(jn for jn, j in case["joints"].items() if j["child"] == body)
+
+
+def add_sensors(mbs, case, beams: dict) -> dict:
+    """Node positions and rotations of every beam; element curvature and strain near stress
+    points; element energies when the case asks for energy."""
+    node = lambda n, ov: mbs.AddSensor(eii.SensorNode(nodeNumber=n, outputVariableType=ov, writeToFile=False,
+                                                      storeInternal=True, visualization=eii.VSensorNode(show=False)))
+    elem = lambda e, ov: mbs.AddSensor(eii.SensorBody(bodyNumber=e, localPosition=[0, 0, 0], outputVariableType=ov,
+                                                      writeToFile=False, storeInternal=True,
+                                                      visualization=eii.VSensorBody(show=False)))
+    energy = any(c["kind"] == "energy" for c in case["channels"].values())
+    S = {}
+    for name, b in beams.items():
+        S[name] = {"r": {k: node(n, OV.Position) for k, n in enumerate(b["nodes"])},
+                   "rot": {k: node(n, OV.Rotation) for k, n in enumerate(b["nodes"])},
+                   "kappa": {}, "eps": {}}
+        for c in case["channels"].values():
+            if c["kind"] == "stress_vm" and c["body"] == name:
+                for e in stress_elements(b, c["at"]):
+                    S[name]["kappa"][e] = elem(b["elems"][e], OV.CurvatureLocal)
+                    S[name]["eps"][e] = elem(b["elems"][e], OV.StrainLocal)
+        if energy:
+            S[name]["T"] = {e: elem(eo, OV.KineticEnergy) for e, eo in enumerate(b["elems"])}
+            S[name]["U"] = {e: elem(eo, OV.PotentialEnergy) for e, eo in enumerate(b["elems"])}
+    return S
+
+
+def stress_elements(b: dict, x: float) -> tuple:
+    """The two elements whose centres bracket x (clipped to the beam)."""
+    n, l = len(b["elems"]), b["l"]
+    e0 = int(np.clip(np.floor(x / l - 0.5), 0, n - 2))
+    return e0, e0 + 1
+
+
+# ---------------------------------------------------------------------------------------------
+# channels
+
+
+def channels(case, beams: dict, X: dict, t: np.ndarray) -> dict:
+    out = {}
+    for cname, c in case["channels"].items():
+        kind = c["kind"]
+        if kind == "joint_angle":
+            out[cname] = joint_angle(case, beams, X, case["joints"][c["joint"]])
+        elif kind == "energy":
+            out[cname] = energy(case, beams, X)
+        elif kind == "deflection":
+            body = case["bodies"][c["body"]]
+            b = beams[c["body"]]
+            p = node_index(body, c["at"], len(b["elems"]))
+            out[cname] = deflection(body, b, X[c["body"]], p, "xyz".index(c["component"]))
+        else:
+            out[cname] = stress(c, beams[c["body"]], X[c["body"]])
+    return out
+
+
+def frame_angle(body: dict, Xb: dict) -> np.ndarray:
+    """Body frame angle (n,): chord angle (hinged-hinged modes) or root node rotation."""
+    if body["modes"]["boundary"] == "hinged-hinged":
+        last = max(Xb["r"])
+        e = Xb["r"][last] - Xb["r"][0]
+        return np.unwrap(np.arctan2(e[:, 1], e[:, 0]))
+    return node_angle(Xb, 0)
+
+
+def node_angle(Xb: dict, k: int) -> np.ndarray:
+    return Xb["rot"][k][:, -1]
+
+
+def deflection(body, b, Xb: dict, p: int, axis: int) -> np.ndarray:
+    """Node p's displacement along `axis` in the root-node (or chord) frame, minus undeformed."""
+    a = frame_angle(body, Xb)
+    d = Xb["r"][p] - Xb["r"][0]
+    local = np.column_stack([np.cos(a) * d[:, 0] + np.sin(a) * d[:, 1], -np.sin(a) * d[:, 0] + np.cos(a) * d[:, 1]])
+    return local[:, axis] - (p * b["l"] if axis == 0 else 0.0)
+
+
+def joint_angle(case, beams, X, j: dict) -> np.ndarray:
+    """Child frame angle minus the input triad's angle (a beam's triad turns with its node)."""
+    child = frame_angle(case["bodies"][j["child"]], X[j["child"]])
+    if j["parent"] == "ground":
+        return child - j["rpy"][2]
+    pb = case["bodies"][j["parent"]]
+    p = node_index(pb, j["at"], len(beams[j["parent"]]["elems"]))
+    return child - node_angle(X[j["parent"]], p) - j["rpy"][2]
+
+
+def stress(c: dict, b: dict, Xb: dict) -> np.ndarray:
+    """|E eps - E y kappa| at the fibre y, interpolated between element centres."""
+    e0, e1 = stress_elements(b, c["at"])
+    w = (c["at"] - (e0 + 0.5) * b["l"]) / b["l"]
+    kap = (1 - w) * Xb["kappa"][e0][:, 2] + w * Xb["kappa"][e1][:, 2]
+    eps = (1 - w) * Xb["eps"][e0][:, 0] + w * Xb["eps"][e1][:, 0]
+    y = c["fibre"][0] if c["fibre"] is not None else b["k"]["cy"]
+    E = b["k"]["E"]
+    return np.abs(E * eps - E * y * kap)
+
+
+def energy(case, beams, X) -> np.ndarray:
+    g = np.asarray(case["gravity"], dtype=float)[:2]
+    E = 0.0
+    for name, b in beams.items():
+        Xb = X[name]
+        mass = b["k"]["massPerLength"] * b["l"]
+        for e in range(len(b["elems"])):
+            E = E + Xb["T"][e][:, 0] + Xb["U"][e][:, 0]
+            E = E - mass * 0.5 * (Xb["r"][e][:, :2] + Xb["r"][e + 1][:, :2]) @ g
+    return E
+
+
+# ---------------------------------------------------------------------------------------------
+# the solver
+
+
+def build(case, n: int):
+    SC, mbs = xc.system()
+    ground = mbs.AddObject(eii.ObjectGround())
+    frames = initial_frames(case, {name: n for name in case["bodies"]})
+    beams = {}
+    for name, body in case["bodies"].items():
+        a, p = frames[name]
+        beams[name] = add_beam(mbs, body, case["materials"][body["material"]], n, a, p)
+        beams[name]["angle0"] = a
+    for j in case["joints"].values():
+        add_joint(mbs, case, beams, ground, j)
+    add_loads(mbs, case, beams)
+    S = add_sensors(mbs, case, beams)
+    mbs.Assemble()
+    return SC, mbs, beams, S
+
+
+def run(case, t_end, settings):
+    from flexmbd.results import Result
+    opt = {k: settings.get(k, d) for k, (_, d) in SETTINGS.items()}
+    t_start = time.perf_counter()
+    out_dt = case["integrator"]["output_dt"]
+    dt = out_dt / max(int(round(out_dt / opt["dt"])), 1) if opt["dt"] <= out_dt else opt["dt"]
+    with xc.quiet():
+        SC, mbs, beams, S = build(case, opt["elements"])
+    sim = xc.simulation_settings(case, t_end, dt, opt)
+    setup_s = time.perf_counter() - t_start
+
+    status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"])
+    t = xc.output_grid(case, t_end)
+    recorded = {"dt": dt, **opt, "element": "ObjectBeamGeometricallyExact2D", "node": "NodeRigidBody2D",
+                "shear_correction": "5/6 rectangle, 9/10 circle", "linear_solver": "EigenSparse"}
+    r = Result(solver="exudyn-beam", case=case.name, status=status, wall_s=wall_s, setup_s=setup_s,
+               steps=steps, rhs_evals=newton, settings=recorded, solver_version=version(),
+               extra={"newton_iterations": newton,
+                      "dofs": int(sum(3 * len(b["nodes"]) for b in beams.values()))})
+    first = S[next(iter(S))]["r"][0]
+    n_ok = xc.completed(mbs, first, t) if status == "ok" else 0
+    if status == "ok" and n_ok < t.size:
+        r.status = f"failed: Exudyn stopped at t = {t[max(n_ok - 1, 0)]:.6g} s of {t_end:g} s"
+    if not r.ok:
+        return r
+    X = {name: {k: ({i: xc.sensor_series(mbs, s, t) for i, s in v.items()}) for k, v in Sb.items()}
+         for name, Sb in S.items()}
+    r.t, r.channels = t, channels(case, beams, X, t)
+    bad = [k for k, v in r.channels.items() if not np.all(np.isfinite(v))]
+    if bad:
+        r.status = f"failed: non-finite values in {', '.join(bad)}"
+    return r

@@ -1,0 +1,165 @@
+"""The Exudyn adapters: exudyn-ffrf (same reduced body, Exudyn's FFRF) and exudyn-beam
+(nonlinear geometrically exact 2-D beams). Acceptance runs of the whole paper cases are slow."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+pytest.importorskip("exudyn")
+
+from flexmbd import cases, flexbody, solvers  # noqa: E402
+from flexmbd.adapters import exudyn_beam, exudyn_ffrf  # noqa: E402
+
+
+def rel_rms(a, b):
+    """RMS difference over the first signal's maximum magnitude."""
+    return np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)) / np.abs(a).max()
+
+
+# ---------------------------------------------------------------------------------------------
+# exudyn-ffrf
+
+
+def test_ffrf_data_is_the_reduced_body():
+    """Exudyn's FFRF invariants, built by its interface from the FlexBody, equal flexmbd's."""
+    fb = flexbody.for_case(cases.load("double_pendulum"))["beam1"]
+    inv = flexbody.invariants(fb)
+    cms = exudyn_ffrf.ffrf_interface(fb, rotary=True)
+    assert cms.totalMass == pytest.approx(inv.I8[0], rel=1e-14)
+    np.testing.assert_allclose(cms.chiU * cms.totalMass, inv.I4[0], atol=1e-14)
+    np.testing.assert_allclose(cms.inertiaLocal, inv.I1[0], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(cms.massMatrixReduced, np.eye(fb.n_modes), atol=1e-10)   # mass-orthonormal
+    np.testing.assert_allclose(-cms.mXRefTildePsi, inv.I6[0] + inv.I10[0], atol=1e-12)
+    np.testing.assert_allclose(cms.mPhitTPsi, inv.I5[0], atol=1e-14)
+    np.testing.assert_allclose(cms.stiffnessMatrixReduced, fb.Km)
+
+
+def test_ffrf_cantilever_follows_flexmbd_short():
+    """0.3 s of the step load: tip deflection within 0.5 %, stress within 3 % (high modes)."""
+    case = cases.load("cantilever_step")
+    ref = solvers.run(case, "flexmbd", 0.3)
+    r = solvers.run(case, "exudyn-ffrf", 0.3)
+    assert r.ok, r.status
+    np.testing.assert_allclose(r.t, ref.t)
+    assert rel_rms(ref.channels["tip_deflection"], r.channels["tip_deflection"]) < 0.005
+    assert rel_rms(ref.channels["stress_vm"], r.channels["stress_vm"]) < 0.03
+    assert r.settings["dt"] == pytest.approx(2.5e-5) and r.steps > 0 and r.wall_s > 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["cantilever_step", "pendulum", "double_pendulum"])
+def test_ffrf_matches_flexmbd(name):
+    """Acceptance: every deflection RMS difference < 0.5 % of its maximum, joint angles within
+    1e-3 rad over the whole run, default settings."""
+    case = cases.load(name)
+    ref = solvers.run(case, "flexmbd")
+    r = solvers.run(case, "exudyn-ffrf")
+    assert r.ok, r.status
+    for ch, c in case["channels"].items():
+        a, b = ref.channels[ch], r.channels[ch]
+        if c["kind"] == "deflection":
+            assert rel_rms(a, b) < 0.005, (ch, rel_rms(a, b))
+        elif c["kind"] == "joint_angle":
+            assert np.abs(a - b).max() < 1e-3, (ch, np.abs(a - b).max())
+
+
+def test_ffrf_gravity_nodal_vs_mass_proportional():
+    """Exudyn's LoadMassProportional leaves out the lever arm of the deflection in the gravity
+    moment: the nodal realisation keeps flexmbd's energy balance, the other one loses it."""
+    case = cases.load("pendulum")
+    drift = {}
+    for mode in ("nodal", "mass-proportional"):
+        c = cases.load("pendulum", [f'solvers.exudyn-ffrf.gravity="{mode}"', "solvers.exudyn-ffrf.dt=1e-4"])
+        r = solvers.run(c, "exudyn-ffrf", 0.5)
+        assert r.ok, r.status
+        drift[mode] = np.abs(r.channels["energy"]).max()
+    assert drift["nodal"] < 2e-6 < 1e-3 < drift["mass-proportional"]
+    assert case["solvers"] == {}
+
+
+def test_broken_run_is_a_failed_result_and_others_untouched(tmp_path):
+    """A step far too large ends as `failed: Exudyn: ...`; a solver run beside it is unchanged."""
+    from flexmbd import results
+    good = cases.load("cantilever_step")
+    before = solvers.run(good, "analytic", 0.1)
+    bad = cases.load("pendulum", ["solvers.exudyn-ffrf.dt=0.2"])
+    r = solvers.run(bad, "exudyn-ffrf", 1.0)
+    assert r.status.startswith("failed: Exudyn"), r.status
+    assert len(r.t) == 0 and r.wall_s > 0
+    csv, js = results.write(r, tmp_path)
+    assert not csv.exists() and json.loads(js.read_text())["status"] == r.status
+    after = solvers.run(good, "analytic", 0.1)
+    assert after.ok
+    np.testing.assert_array_equal(before.channels["tip_deflection"], after.channels["tip_deflection"])
+    rb = solvers.run(cases.load("pendulum", ["solvers.exudyn-beam.dt=0.2"]), "exudyn-beam", 1.0)
+    assert rb.status.startswith("failed: Exudyn"), rb.status
+
+
+def test_missing_exudyn_is_unavailable():
+    code = ("import sys; sys.modules['exudyn'] = None\n"
+            "from flexmbd import cases, solvers\n"
+            "c = cases.load('pendulum')\n"
+            "print(solvers.status_for(c, 'exudyn-ffrf')); print(solvers.status_for(c, 'exudyn-beam'))\n"
+            "print(solvers.run(c, 'exudyn-beam').status)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    lines = out.stdout.strip().splitlines()
+    assert len(lines) == 3 and all(s.startswith("unavailable") for s in lines), out.stdout + out.stderr
+
+
+def test_not_applicable_reasons():
+    c = cases.load("pendulum", ["gravity=[0.0, -9.81, 1.0]"])
+    assert "planar" in exudyn_beam.applies(c)
+    assert exudyn_ffrf.applies(c) == ""                      # root joint: any direction
+    assert exudyn_ffrf.applies(cases.load("double_pendulum")) == ""
+
+
+def test_run_json_stdout_is_clean(tmp_path):
+    out = subprocess.run([sys.executable, "-m", "flexmbd", "run", "cantilever_step", "--solver", "exudyn-beam",
+                          "--t-end", "0.02", "--json", "--out", str(tmp_path)],
+                         capture_output=True, text=True, timeout=300)
+    meta = json.loads(out.stdout)
+    assert meta["status"] == "ok" and meta["solver"] == "exudyn-beam"
+    assert meta["settings"]["elements"] == 64 and meta["steps"] == 200
+
+
+# ---------------------------------------------------------------------------------------------
+# exudyn-beam
+
+
+def test_beam_mesh_convergence():
+    """Halving the element size (64 -> 128) changes the cantilever tip deflection by < 1 % of
+    its maximum magnitude, at every instant of the 2 s run."""
+    tip = {}
+    for n in (32, 64, 128):
+        r = solvers.run(cases.load("cantilever_step", [f"solvers.exudyn-beam.elements={n}"]), "exudyn-beam")
+        assert r.ok, r.status
+        tip[n] = r.channels["tip_deflection"]
+    scale = np.abs(tip[128]).max()
+    change = {n: np.abs(tip[n] - tip[2 * n]).max() / scale for n in (32, 64)}
+    assert change[64] < 0.01, change
+    assert change[64] < change[32]                          # and the change shrinks with h
+
+
+def test_beam_cantilever_against_flexmbd():
+    """Acceptance: tip deflection RMS difference < 5 % of its maximum on cantilever_step."""
+    case = cases.load("cantilever_step")
+    ref = solvers.run(case, "flexmbd")
+    r = solvers.run(case, "exudyn-beam")
+    assert r.ok, r.status
+    assert rel_rms(ref.channels["tip_deflection"], r.channels["tip_deflection"]) < 0.05
+    # the quasi-static part: mean tip deflection over the run near the static value P L^3 / 3 E I
+    assert np.mean(r.channels["tip_deflection"]) == pytest.approx(-0.02330, rel=0.01)
+
+
+def test_beam_pendulum_channels_short():
+    """0.3 s of the pendulum: the swing agrees with flexmbd; energy starts at zero and stays small."""
+    case = cases.load("pendulum")
+    ref = solvers.run(case, "flexmbd", 0.3)
+    r = solvers.run(case, "exudyn-beam", 0.3)
+    assert r.ok, r.status
+    assert np.abs(ref.channels["joint_angle"] - r.channels["joint_angle"]).max() < 2e-3
+    assert r.channels["energy"][0] == pytest.approx(0.0, abs=1e-12)
+    assert np.abs(r.channels["energy"]).max() < 1e-3 * 12.9   # 0.1 % of the kinetic energy at the bottom
