@@ -61,32 +61,44 @@ def spectrum(t, y, pad: int = 8) -> tuple[np.ndarray, np.ndarray]:
     return np.fft.rfftfreq(N, dt), 2.0 * np.abs(Y) / w.sum()
 
 
-def peaks(f, A, n: int = 8, rel: float = 1e-3, fmin: float = 0.0, sep_hz: float = 0.0) -> list:
-    """The n largest spectral peaks above rel * max(A) and fmin, at least sep_hz apart, as
-    (frequency, amplitude) sorted by frequency. Each peak is refined by a parabola through the
-    log-amplitudes of the three samples around it, so frequencies are read to a small fraction
-    of the bin width. With zero padding the window's side lobes are local maxima too: a
-    separation of the main-lobe width (4 / T for a Hann window over T seconds) removes them."""
+def hann_sidelobe(k):
+    """Envelope of a Hann window's side lobes, relative to its main peak, k bins (1/T) away."""
+    k = np.maximum(np.abs(k), 2.0)
+    return 1.0 / (np.pi * k * (k * k - 1.0))
+
+
+def peaks(f, A, T: float, n: int = 8, rel: float = 1e-3, fmin: float = 0.0) -> list:
+    """The n largest spectral peaks above rel * max(A) and fmin, as (frequency, amplitude) sorted by
+    frequency, from a Hann-windowed record of T seconds (possibly zero-padded).
+
+    With zero padding the window's side lobes are local maxima too, so a peak must stand a main-lobe
+    width (2/T) away from every larger peak and above three times the larger peak's side-lobe
+    envelope there. Each peak is refined by a parabola through the log-amplitudes of the three
+    samples around it, so frequencies are read to a small fraction of the bin width 1/T."""
     df = f[1] - f[0]
     logA = np.log(np.maximum(A, 1e-300))
-    idx, _ = find_peaks(A, height=rel * A.max(), distance=max(int(sep_hz / df), 1))
-    found = []
+    idx, _ = find_peaks(A, height=rel * A.max())
+    idx = sorted((i for i in idx if f[i] >= fmin and 0 < i < A.size - 1), key=lambda i: -A[i])
+    kept = []
     for i in idx:
-        if f[i] < fmin or i == 0 or i == A.size - 1:
-            continue
+        if all(abs(f[i] - f[j]) * T > 2.0 and A[i] > 3.0 * A[j] * hann_sidelobe((f[i] - f[j]) * T)
+               for j in kept):
+            kept.append(i)
+        if len(kept) == n:
+            break
+    found = []
+    for i in kept:
         a, b, c = logA[i - 1], logA[i], logA[i + 1]
         den = a - 2 * b + c
         p = 0.5 * (a - c) / den if den != 0 else 0.0
         found.append((f[i] + p * df, float(np.exp(b - 0.25 * (a - c) * p))))
-    found.sort(key=lambda x: -x[1])
-    return sorted(found[:n])
+    return sorted(found)
 
 
 def spectral_peaks(t, y, n: int = 8, fmin: float = 0.0, rel: float = 1e-3) -> list:
-    """Peaks of the amplitude spectrum of y(t) (see `spectrum`, `peaks`), separated by the Hann
-    main-lobe width 4 / T."""
+    """Peaks of the amplitude spectrum of y(t) (see `spectrum` and `peaks`)."""
     f, A = spectrum(t, y)
-    return peaks(f, A, n=n, rel=rel, fmin=fmin, sep_hz=4.0 / (t[-1] - t[0]))
+    return peaks(f, A, T=t[-1] - t[0], n=n, rel=rel, fmin=fmin)
 
 
 def match_peaks(found, targets, tol: float = 0.05) -> list:

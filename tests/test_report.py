@@ -83,7 +83,7 @@ def test_peak_interpolation_beats_the_bin_width():
     t = np.linspace(0, 2, 2001)
     y = np.sin(2 * np.pi * 5.527 * t) + 0.1 * np.sin(2 * np.pi * 34.63 * t + 1)
     f, A = metrics.spectrum(t, y, pad=1)
-    found = metrics.peaks(f, A, n=2)
+    found = metrics.peaks(f, A, T=2.0, n=2)
     assert abs(found[0][0] - 5.527) < 0.05 * (f[1] - f[0]) * 8
     assert abs(found[1][0] - 34.63) < 0.01 * 34.63
 
@@ -142,3 +142,12 @@ def test_an_interrupted_report_leaves_no_half_written_files(tmp_path, monkeypatc
     assert leftovers == []
     for p in tmp_path.rglob("*.png"):
         assert p.stat().st_size > 1000
+
+
+def test_side_lobes_are_not_peaks():
+    """A strong line and a 300x weaker one far away: zero padding makes the strong line's side lobes
+    local maxima, which must not be reported."""
+    t = np.linspace(0, 2, 2001)
+    y = 20 * np.sin(2 * np.pi * 5.527 * t) + 0.07 * np.sin(2 * np.pi * 96.94 * t)
+    found = [f for f, _ in metrics.spectral_peaks(t, y, n=8, fmin=1.0)]
+    assert len(found) == 2 and abs(found[0] - 5.527) < 0.01 and abs(found[1] - 96.94) < 0.05, found

@@ -52,3 +52,17 @@ def sample_times(case, t_end: float) -> np.ndarray:
 
 def component_index(c: str) -> int:
     return "xyz".index(c)
+
+
+def rigid_channels(case, model, n: int, angle, energy) -> dict:
+    """Channels of a rigid-limit solver: joint angles from `angle(body index)` (n,), `energy()` (n,);
+    deflections and stresses of rigid beams are identically zero; reactions are not recovered."""
+    out = {}
+    for name, c in case["channels"].items():
+        if c["kind"] == "joint_angle":
+            out[name] = angle(model.index(case["joints"][c["joint"]]["child"]))
+        elif c["kind"] == "energy":
+            out[name] = energy()
+        elif c["kind"] in ("deflection", "stress_vm"):
+            out[name] = np.zeros(n)
+    return out

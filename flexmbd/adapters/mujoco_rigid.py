@@ -156,16 +156,8 @@ def apply_loads(model, m, d) -> None:
 
 def channels(case, model, m, t, P, E) -> dict:
     """The case's channels (n,) from qpos samples P (n, nq) and energies E (n,)."""
-    out = {}
-    for name, c in case["channels"].items():
-        if c["kind"] == "joint_angle":
-            i = model.index(case["joints"][c["joint"]]["child"])
-            out[name] = P[:, m.jnt_qposadr[m.joint(f"j{i}").id]].copy()
-        elif c["kind"] == "energy":
-            out[name] = E.copy()
-        else:                                                   # rigid beams do not deform
-            out[name] = np.zeros(len(t))
-    return out
+    return common.rigid_channels(case, model, len(t), lambda i: P[:, m.jnt_qposadr[m.joint(f"j{i}").id]].copy(),
+                                 lambda: E.copy())
 
 
 def run(case, t_end, settings):

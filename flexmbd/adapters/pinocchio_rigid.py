@@ -172,16 +172,8 @@ def integrate(eng: Rigid, y0, t_out, method: str, rtol: float, atol: float):
 
 def channels(case, model, eng: Rigid, t, Q, V) -> dict:
     """The case's channels (n,) from Pinocchio states Q (n, nq), V (n, nv)."""
-    out = {}
-    for name, c in case["channels"].items():
-        if c["kind"] == "joint_angle":
-            i = model.index(case["joints"][c["joint"]]["child"])
-            out[name] = Q[:, eng.pm.joints[eng.frame[i][0]].idx_q].copy()
-        elif c["kind"] == "energy":
-            out[name] = np.array([eng.energy(q, v) for q, v in zip(Q, V)])
-        else:                                                   # rigid beams do not deform
-            out[name] = np.zeros(len(t))
-    return out
+    return common.rigid_channels(case, model, len(t), lambda i: Q[:, eng.pm.joints[eng.frame[i][0]].idx_q].copy(),
+                                 lambda: np.array([eng.energy(q, v) for q, v in zip(Q, V)]))
 
 
 def run(case, t_end, settings):
