@@ -40,6 +40,15 @@ def test_analytic_and_fe_linear_agree(runs):
     assert np.sqrt(np.mean((a - f) ** 2)) < 0.01 * np.abs(f).max()
 
 
+def test_closed_form_frequencies_and_static_deflection():
+    E, rho, b, h, L = 2.06e11, 7820.0, 0.01, 0.015, 1.5
+    f_weak = analytic.clamped_free_frequencies(E, h * b ** 3 / 12, rho, b * h, L, 3)
+    f_strong = analytic.clamped_free_frequencies(E, b * h ** 3 / 12, rho, b * h, L, 3)
+    assert f_weak == pytest.approx([3.685, 23.09, 64.66], rel=1e-3)
+    assert f_strong == pytest.approx([5.527, 34.64, 96.99], rel=1e-3)
+    assert analytic.static_tip_deflection(12.0, E, b * h ** 3 / 12, L) == pytest.approx(-STATIC_TIP)
+
+
 def test_analytic_closed_forms():
     roots = analytic.clamped_free_roots(4)
     assert roots == pytest.approx([1.8751040687, 4.6940911330, 7.8547574382, 10.9955407349], rel=1e-9)

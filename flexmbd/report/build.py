@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, flexbody, results, solvers
+from flexmbd import cases, flexbody, metrics, results, solvers
 from flexmbd.report import accuracy, figures, tables
 from flexmbd.results import _atomic_write
 
@@ -54,7 +54,7 @@ def timing_rows(res: dict, t_end: float) -> list[list]:
     for s, r in res.items():
         sim = r.t[-1] if len(r.t) else t_end
         rows.append([s, r.status, r.wall_s, r.setup_s, r.extra.get("compile_s", np.nan), r.steps, r.rhs_evals,
-                     r.wall_s / sim if sim else np.nan])
+                     metrics.per_simulated_second(r.wall_s, sim)])
     return rows
 
 
