@@ -177,6 +177,33 @@ def cmd_regress(args) -> int:
     return 1 if moved else 0
 
 
+def cmd_bench(args) -> int:
+    from flexmbd import bench
+
+    def show(row):
+        sys.stderr.write(f"bench: {row['case']} / {row['solver']} {row['setting']}: error {row['error']:.3g}, "
+                         f"{row['wall_s']:.2f} s\n")
+
+    result = bench.run(quick=args.quick, with_work_precision=not args.no_work_precision, progress=show)
+    bench.plots(result, Path(args.out))
+    if args.json:
+        print(json.dumps(result, default=float))
+        return 0
+    c = result["compile_s"]
+    print(f"compile: {c['cold_s']:.1f} s first time, {c['cached_s']:.1f} s from the cache")
+    for r in result["rigid_chain"]:
+        print(f"rigid chain n={r['n']:3d}: flexmbd {r['flexmbd_us']:9.1f} us, pinocchio {r['pinocchio_us']:7.2f} us, "
+              f"ratio {r['ratio']:.1f}")
+    for r in result["flexible_chain"]:
+        print(f"flexible chain n={r['n']:3d}: {r['flexmbd_us']:10.1f} us")
+    print(f"flexible chain exponent (n >= 4): {result['flexible_chain_exponent']:.2f}")
+    for r in result.get("matched_accuracy", []):
+        print(f"{r['case']:16s} error {r['error_target']:.0e}: flexmbd {r['flexmbd_wall_s']:.2f} s, "
+              f"exudyn-ffrf {r['exudyn_ffrf_wall_s']:.2f} s, ratio {r['ratio']:.2f}")
+    print(f"plots: {Path(args.out) / 'index.html'}")
+    return 0
+
+
 def progress(k: int, n: int, label: str, elapsed: float) -> None:
     """One-line progress on stderr (redrawn in place on a terminal)."""
     bar = "#" * int(20 * (k - 1) / n)
@@ -230,6 +257,13 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default="reports")
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
     s.set_defaults(func=cmd_compare)
+
+    s = sub.add_parser("bench", help="timing and work-precision against peers on this machine")
+    s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    s.add_argument("--quick", action="store_true", help="fewer sizes and settings (a smoke run)")
+    s.add_argument("--no-work-precision", action="store_true", help="skip the (long) work-precision sweeps")
+    s.add_argument("--out", default="reports/bench")
+    s.set_defaults(func=cmd_bench)
 
     s = sub.add_parser("regress", help="compare fresh results with stored baselines (exit 1 if anything moved)")
     s.add_argument("--baseline", default=str(Path(__file__).resolve().parent.parent / "references" / "baselines"))

@@ -1,0 +1,225 @@
+"""`flexmbd bench`: timing measured against peers in the same process, on the same machine.
+
+    work_precision    flexmbd (Adams tolerances) and exudyn-ffrf (time steps) on each paper case:
+                      error = RMS of the deflection channels' difference from a reference run
+                      (flexmbd at rtol 1e-12), over the reference's maximum magnitude (worst channel)
+    matched_accuracy  for error targets 1e-3 and 1e-4: the fastest setting of each that meets it
+    rigid_chain       one forward-dynamics evaluation of an n-link revolute chain, flexmbd vs
+                      Pinocchio, median of many calls from Python
+    flexible_chain    one evaluation for n flexible beams (12 modes) in a chain, each on its
+                      parent's tip node; the fitted exponent of cost against n (n >= 4)
+    compile_s         first compilation of the kernels (empty cache, in a subprocess) and a cached load
+
+Wall times are solve-only (`Result.wall_s`) for both solvers. Nothing here asserts a time.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from flexmbd import cases, dynamics, metrics, solvers
+from flexmbd.model import from_case, make_data
+
+BEAM = {"type": "beam", "material": "steel", "length": 1.5, "elements": 30,
+        "section": {"shape": "rectangle", "b": 0.01, "h": 0.015}, "modes": {"count": 12}}
+
+
+def chain_case(n: int, flexible: bool) -> cases.Case:
+    """n links in a revolute chain (axis z) under gravity: rigid bars or 12-mode beams, each on
+    its parent's tip."""
+    bodies, joints = {}, {}
+    for k in range(n):
+        if flexible:
+            bodies[f"b{k}"] = dict(BEAM)
+        else:
+            bodies[f"b{k}"] = {"type": "rigid", "mass": 1.0, "com": [0.25, 0.0, 0.0],
+                               "inertia": [1e-4, 2e-2, 2e-2, 0.0, 0.0, 0.0]}
+        parent = "ground" if k == 0 else f"b{k - 1}"
+        at = [0.0, 0.0, 0.0] if k == 0 else (1.5 if flexible else [0.5, 0.0, 0.0])
+        joints[f"j{k}"] = {"type": "revolute", "parent": parent, "child": f"b{k}", "at": at}
+    raw = {"title": f"{n}-link chain", "duration": 1.0, "gravity": [0.0, -9.81, 0.0],
+           "materials": {"steel": {"E": 2.06e11, "nu": 0.29, "rho": 7820.0}}, "bodies": bodies,
+           "joints": joints, "channels": {"energy": {"kind": "energy"}}}
+    return cases.Case(name=f"chain{n}", path=Path("bench"), data=cases.validate(raw, "bench chain"))
+
+
+def median_us(f, calls: int = 2000, repeats: int = 7) -> float:
+    """Median over repeats of the mean time of one call, microseconds."""
+    f()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            f()
+        times.append((time.perf_counter() - t0) / calls)
+    return float(np.median(times) * 1e6)
+
+
+def evaluation(model):
+    """A zero-argument call of one flexmbd forward-dynamics evaluation at a fixed random state."""
+    rng = np.random.default_rng(0)
+    data = make_data(model)
+    q, v = rng.normal(size=model.nq) * 0.3, rng.normal(size=model.nv) * 0.3
+    tau, scale, qdd = np.zeros(model.nv), np.zeros(0), np.zeros(model.nv)
+    return lambda: dynamics.aba(model.arrays, data, q, v, tau, scale, qdd), (q, v, tau)
+
+
+def rigid_chain(ns=(1, 2, 8, 32, 64)) -> list[dict]:
+    import pinocchio as pin
+    from flexmbd.adapters import pinocchio_model
+    rows = []
+    for n in ns:
+        model = from_case(chain_case(n, flexible=False))
+        f, (q, v, tau) = evaluation(model)
+        pm, _ = pinocchio_model.build(model)
+        pd = pm.createData()
+        ours = median_us(f)
+        theirs = median_us(lambda: pin.aba(pm, pd, q, v, tau))
+        rows.append({"n": n, "flexmbd_us": ours, "pinocchio_us": theirs, "ratio": ours / theirs})
+    return rows
+
+
+def flexible_chain(ns=(1, 2, 4, 8, 16, 32, 64)) -> tuple[list[dict], float]:
+    rows = []
+    for n in ns:
+        model = from_case(chain_case(n, flexible=True))
+        f, _ = evaluation(model)
+        rows.append({"n": n, "flexmbd_us": median_us(f, calls=max(20, 2000 // n))})
+    big = [(r["n"], r["flexmbd_us"]) for r in rows if r["n"] >= 4]
+    exponent = float(np.polyfit(np.log([b[0] for b in big]), np.log([b[1] for b in big]), 1)[0]) if len(big) > 1 else np.nan
+    return rows, exponent
+
+
+def compile_seconds() -> dict:
+    """First compilation (empty cache, subprocess) and a cached start (same cache, second subprocess)."""
+    code = ("import time; t=time.perf_counter(); from flexmbd import bench, dynamics; "
+            "from flexmbd.model import from_case; m=from_case(bench.chain_case(2, True)); "
+            "bench.evaluation(m)[0](); print(time.perf_counter()-t)")
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "XDG_CACHE_HOME": cache}
+        cold = float(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                                    check=True).stdout.split()[-1])
+        warm = float(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                                    check=True).stdout.split()[-1])
+    return {"cold_s": cold, "cached_s": warm}
+
+
+# ---------------------------------------------------------------------------------------------
+# work-precision
+
+
+def deflection_error(case, ref, r) -> float:
+    """Worst deflection channel's RMS difference from the reference over its maximum magnitude."""
+    if not r.ok:
+        return np.nan
+    errs = [metrics.rms_diff(ref.channels[c], metrics.on_grid(ref.t, r.t, r.channels[c]))
+            for c, ch in case["channels"].items() if ch["kind"] == "deflection" and c in r.channels]
+    return float(max(errs)) if errs else np.nan
+
+
+def work_precision(names, rtols, dts, progress=None) -> tuple[list[dict], dict]:
+    rows, converges = [], {}
+    for name in names:
+        ref = solvers.run(cases.load(name, ["integrator.rtol=1e-12", "integrator.atol=1e-14"]), "flexmbd")
+        for rtol in rtols:
+            case = cases.load(name, [f"integrator.rtol={rtol}", f"integrator.atol={rtol * 1e-2}"])
+            r = solvers.run(case, "flexmbd")
+            rows.append({"case": name, "solver": "flexmbd", "setting": f"rtol={rtol:g}",
+                         "error": deflection_error(case, ref, r), "wall_s": r.wall_s})
+            if progress:
+                progress(rows[-1])
+        errs = []
+        for dt in dts:
+            case = cases.load(name, [f"solvers.exudyn-ffrf.dt={dt}"])
+            r = solvers.run(case, "exudyn-ffrf")
+            rows.append({"case": name, "solver": "exudyn-ffrf", "setting": f"dt={dt:g}",
+                         "error": deflection_error(case, ref, r), "wall_s": r.wall_s})
+            errs.append(rows[-1]["error"])
+            if progress:
+                progress(rows[-1])
+        fin = [e for e in errs if np.isfinite(e)]
+        converges[name] = {"errors": errs, "decreasing": bool(len(fin) > 1 and all(np.diff(fin) < 0)),
+                           "smallest": min(fin) if fin else np.nan}
+    return rows, converges
+
+
+def matched_accuracy(rows: list[dict], targets=(1e-3, 1e-4)) -> list[dict]:
+    out = []
+    for name in sorted({r["case"] for r in rows}):
+        for target in targets:
+            best = {}
+            for s in ("flexmbd", "exudyn-ffrf"):
+                ok = [r["wall_s"] for r in rows if r["case"] == name and r["solver"] == s
+                      and np.isfinite(r["error"]) and r["error"] <= target]
+                best[s] = min(ok) if ok else np.nan
+            out.append({"case": name, "error_target": target, "flexmbd_wall_s": best["flexmbd"],
+                        "exudyn_ffrf_wall_s": best["exudyn-ffrf"],
+                        "ratio": best["flexmbd"] / best["exudyn-ffrf"]})
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# the command
+
+
+def run(quick: bool = False, with_work_precision: bool = True, progress=None) -> dict:
+    out = {"machine": f"{os.cpu_count()} cpu", "quick": quick}
+    out["compile_s"] = compile_seconds()
+    out["rigid_chain"] = rigid_chain((1, 2, 8) if quick else (1, 2, 8, 32, 64))
+    out["flexible_chain"], out["flexible_chain_exponent"] = flexible_chain((1, 4, 8) if quick else (1, 2, 4, 8, 16, 32, 64))
+    if with_work_precision:
+        names = ["cantilever_step"] if quick else ["cantilever_step", "pendulum", "double_pendulum"]
+        rtols = (1e-6, 1e-8) if quick else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+        dts = (1e-4, 5e-5) if quick else (2e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5)
+        out["work_precision"], out["exudyn_convergence"] = work_precision(names, rtols, dts, progress)
+        out["matched_accuracy"] = matched_accuracy(out["work_precision"])
+    return out
+
+
+def plots(result: dict, folder: Path) -> list[str]:
+    """Work-precision and scaling plots plus an index page in `folder`; returns the file names."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from flexmbd.report.figures import save
+    names = []
+    for name in sorted({r["case"] for r in result.get("work_precision", [])}):
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for s, mk in (("flexmbd", "o-"), ("exudyn-ffrf", "s--")):
+            pts = sorted((r["wall_s"], r["error"]) for r in result["work_precision"]
+                         if r["case"] == name and r["solver"] == s and np.isfinite(r["error"]))
+            if pts:
+                ax.loglog(*zip(*pts), mk, label=s)
+        ax.set_xlabel("wall time, solve only [s]")
+        ax.set_ylabel("deflection error / max |reference|")
+        ax.set_title(name)
+        ax.grid(alpha=0.3, which="both")
+        ax.legend()
+        names.append(save(fig, folder / f"work_precision_{name}.png"))
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    rc, fc = result["rigid_chain"], result["flexible_chain"]
+    ax.loglog([r["n"] for r in rc], [r["flexmbd_us"] for r in rc], "o-", label="flexmbd, rigid chain")
+    ax.loglog([r["n"] for r in rc], [r["pinocchio_us"] for r in rc], "s--", label="pinocchio, rigid chain")
+    ax.loglog([r["n"] for r in fc], [r["flexmbd_us"] for r in fc], "^-",
+              label=f"flexmbd, flexible chain (exponent {result['flexible_chain_exponent']:.2f})")
+    ax.set_xlabel("bodies n")
+    ax.set_ylabel("one forward-dynamics evaluation [us]")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend()
+    names.append(save(fig, folder / "scaling.png"))
+    page = ("<!doctype html><html><head><meta charset='utf-8'><title>flexmbd bench</title></head><body>"
+            "<p><a href='../index.html'>report</a></p><h1>flexmbd bench</h1>"
+            + "".join(f"<p><img src='{n}' alt='{n}'></p>" for n in names)
+            + f"<pre>{json.dumps(result, indent=1, default=float)}</pre></body></html>")
+    from flexmbd.results import _atomic_write
+    _atomic_write(folder / "index.html", page + "\n")
+    _atomic_write(folder / "bench.json", json.dumps(result, indent=1, default=float) + "\n")
+    return names + ["index.html", "bench.json"]
