@@ -178,7 +178,7 @@ def run(quick: bool = False, with_work_precision: bool = True, progress=None) ->
     if with_work_precision:
         names = ["cantilever_step"] if quick else ["cantilever_step", "pendulum", "double_pendulum"]
         rtols = (1e-6, 1e-8) if quick else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
-        dts = (1e-4, 5e-5) if quick else (2e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5)
+        dts = (1e-4, 5e-5) if quick else (2e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5, 6.25e-6)
         out["work_precision"], out["exudyn_convergence"] = work_precision(names, rtols, dts, progress)
         out["matched_accuracy"] = matched_accuracy(out["work_precision"])
     return out
