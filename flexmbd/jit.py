@@ -47,3 +47,9 @@ def njit(fn=None, **kw):
     if fn is None:
         return lambda f: numba.njit(**opts)(f)
     return numba.njit(**opts)(fn)
+
+
+def is_cached() -> bool:
+    """True when this source version's kernels were compiled before on this machine."""
+    d = cache_dir()
+    return d.is_dir() and any(d.rglob("*.nbi"))

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
 
 import flexmbd
-from flexmbd import dynamics, flexbody, integrate, outputs
+from flexmbd import dynamics, flexbody, integrate, jit, outputs
 from flexmbd.model import from_case, make_data
 from flexmbd.results import Result
 
@@ -28,6 +29,9 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
     setup_s = time.perf_counter() - t0
 
     # compile (or load from the cache) before the clock starts
+    if not jit.is_cached():
+        print("flexmbd: compiling the solver's kernels once for this source version (about a minute)",
+              file=sys.stderr, flush=True)
     t0 = time.perf_counter()
     dynamics.forward_dynamics(model, make_data(model), model.q0, model.v0)
     compile_s = time.perf_counter() - t0
