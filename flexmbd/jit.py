@@ -52,4 +52,4 @@ def njit(fn=None, **kw):
 def is_cached() -> bool:
     """True when this source version's kernels were compiled before on this machine."""
     d = cache_dir()
-    return d.is_dir() and any(d.rglob("*.nbi"))
+    return d.is_dir() and any(d.rglob("dynamics.aba-*.nbi"))
