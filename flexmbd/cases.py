@@ -551,11 +551,6 @@ def _check_channel(name, c, bodies, joints, where):
 # derived facts used by several solvers
 
 
-def beams(case: Case) -> dict:
-    """The case's beam bodies, by name."""
-    return {n: b for n, b in case["bodies"].items() if b["type"] == "beam"}
-
-
 def is_fixed_base(case: Case) -> bool:
     """True when every joint is fixed: the structure cannot move as a whole."""
     return all(j["type"] == "fixed" for j in case["joints"].values())

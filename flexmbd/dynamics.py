@@ -21,8 +21,8 @@ from flexmbd import profiles
 from flexmbd.flexbody import mass_matrix, quadratic_forces
 from flexmbd.jit import njit
 from flexmbd.model import FREE, PRISMATIC, REVOLUTE, SPHERICAL, Data, Model
-from flexmbd.spatial import (cross_force, cross_motion, expm_so3, jac_left_so3, jac_left_so3_dot, plux,
-                             quat_to_rot, rot_axis, xlt, xrot)
+from flexmbd.spatial import (cross_force, cross_motion, expm_so3, inertia_parts, jac_left_so3, jac_left_so3_dot,
+                             plux, plux_parts, quat_to_rot, rot_axis, xlt, xrot)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -262,9 +262,8 @@ def kinetic_energy(M, D, q, v):
 @njit
 def body_pose(D, i):
     """(R (3, 3) body -> global, p (3,) body origin in global) from X0[i]."""
-    E = D.X0[i, :3, :3]
-    rx = -E.T @ D.X0[i, 3:, :3]
-    return E.T.copy(), np.array([rx[2, 1], rx[0, 2], rx[1, 0]])
+    p, R = plux_parts(D.X0[i])
+    return R, p
 
 
 @njit
@@ -275,8 +274,8 @@ def potential_energy(M, D, q):
         R, p = body_pose(D, i)
         a, nm = M.body_madr[i], M.body_nm[i]
         if nm == 0:
-            I = M.body_inertia[i]
-            first = np.array([I[2, 4], I[0, 5], I[1, 3]])      # m c from the m c~ block
+            m, c, _ = inertia_parts(M.body_inertia[i])
+            first = m * c
         else:
             eta = q[a:a + nm]
             first = M.inv.I4[i] + M.inv.I5[i, :, :nm] @ eta

@@ -118,6 +118,14 @@ def plux(E, r) -> np.ndarray:
 
 
 @njit
+def plux_parts(X):
+    """(r (3,), R (3, 3)) of X_{B<-A}: B's origin in A and the rotation B -> A (R = E^T); inverse of plux."""
+    E = X[:3, :3]
+    rx = -E.T @ X[3:, :3]
+    return np.array([rx[2, 1], rx[0, 2], rx[1, 0]]), E.T.copy()
+
+
+@njit
 def inv(X) -> np.ndarray:
     """X^{-1} (6, 6) of a Plücker transform."""
     E = X[:3, :3]
@@ -175,6 +183,15 @@ def inertia(mass: float, com, I_c) -> np.ndarray:
     I[3:, :3] = mass * C.T
     I[3:, 3:] = mass * np.eye(3)
     return I
+
+
+@njit
+def inertia_parts(I):
+    """(mass, centre of mass c (3,), I_c (3, 3) about c) of a spatial inertia; inverse of `inertia`."""
+    m = I[3, 3]
+    c = np.array([I[2, 4], I[0, 5], I[1, 3]]) / m
+    C = skew(c)
+    return m, c, I[:3, :3] - m * C @ C.T
 
 
 @njit

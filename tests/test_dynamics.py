@@ -4,7 +4,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from flexmbd import dynamics, model as M
+from flexmbd import dynamics, model as M, spatial
 from flexmbd.adapters import pinocchio_model
 from trees import random_case, random_state
 
@@ -48,19 +48,14 @@ def oracle_tree(model):
     """The oracle's plain description of a flexmbd Model (constants only, no flexmbd algorithms)."""
     bodies = []
     for i in range(1, model.nb + 1):
-        X = model.jnt_Xtriad[i]
-        E = X[:3, :3]
-        rx = -E.T @ X[3:, :3]
+        pos, rot = spatial.plux_parts(model.jnt_Xtriad[i])
         jt = {M.REVOLUTE: "revolute", M.PRISMATIC: "prismatic", M.FIXED: "fixed"}[int(model.jnt_type[i])]
         b = {"parent": int(model.parent[i]) - 1, "joint": jt, "axis": model.jnt_axis[i],
              "node": None if model.jnt_node[i] < 0 else int(model.jnt_node[i]),
-             "triad_pos": np.array([rx[2, 1], rx[0, 2], rx[1, 0]]), "triad_rot": E.T}
+             "triad_pos": pos, "triad_rot": rot}
         if model.body_nm[i] == 0:
-            I = model.body_inertia[i]
-            m = I[3, 3]
-            c = np.array([I[2, 4], I[0, 5], I[1, 3]]) / m
-            C = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
-            b["rigid"] = {"mass": m, "com": c, "inertia": I[:3, :3] - m * C @ C.T}
+            m, c, I_c = spatial.inertia_parts(model.body_inertia[i])
+            b["rigid"] = {"mass": m, "com": c, "inertia": I_c}
         else:
             fb = model.bodies[model.names[i]]
             b["flex"] = {"x0": fb.x0, "m": fb.m, "J": fb.J, "Phi": fb.Phi, "Km": fb.Km, "Cm": fb.Cm}

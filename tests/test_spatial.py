@@ -80,3 +80,13 @@ def test_quaternions():
     R0 = sp.quat_to_rot(q - h * sp.quat_rate(q, w))
     W = sp.quat_to_rot(q).T @ (R1 - R0) / (2 * h)
     assert np.allclose([W[2, 1], W[0, 2], W[1, 0]], w, atol=1e-7)
+
+
+def test_parts_invert_plux_and_inertia():
+    rng = np.random.default_rng(6)
+    E, r = expm(sp.skew(rng.normal(size=3))), rng.normal(size=3)
+    r2, R = sp.plux_parts(sp.plux(E, r))
+    assert np.allclose(r2, r) and np.allclose(R, E.T)
+    A = rng.normal(size=(3, 3))
+    m, c, Ic = sp.inertia_parts(sp.inertia(1.7, np.array([0.1, -0.2, 0.3]), A @ A.T))
+    assert m == pytest.approx(1.7) and np.allclose(c, [0.1, -0.2, 0.3]) and np.allclose(Ic, A @ A.T)

@@ -31,18 +31,3 @@ def quat_to_rot(q) -> np.ndarray:
     R = np.zeros(9)
     mujoco.mju_quat2Mat(R, np.asarray(q, dtype=float))
     return R.reshape(3, 3)
-
-
-def plux_parts(X) -> tuple[np.ndarray, np.ndarray]:
-    """(position r (3,) of frame B in A, rotation R (3, 3) B -> A) from a Plücker transform X_{B<-A}."""
-    E = X[:3, :3]
-    rx = -E.T @ X[3:, :3]
-    return np.array([rx[2, 1], rx[0, 2], rx[1, 0]]), E.T.copy()
-
-
-def inertial(I6) -> tuple[float, np.ndarray, np.ndarray]:
-    """(mass, centre of mass (3,), inertia about it (3, 3)) from a flexmbd spatial inertia at the origin."""
-    m = I6[3, 3]
-    c = np.array([I6[2, 4], I6[0, 5], I6[1, 3]]) / m
-    C = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
-    return m, c, I6[:3, :3] - m * C @ C.T

@@ -21,7 +21,8 @@ import numpy as np
 import mujoco
 from flexmbd import cases, profiles
 from flexmbd.adapters import common
-from flexmbd.adapters.mujoco_common import fmt, inertial, plux_parts, quat_to_rot, rot_to_quat
+from flexmbd.adapters.mujoco_common import fmt, quat_to_rot, rot_to_quat
+from flexmbd.spatial import inertia_parts, plux_parts
 from flexmbd.model import FIXED, FREE, PRISMATIC, REVOLUTE, SPHERICAL, from_case
 
 RIGID = True                        # every beam rigid: deformation channels are zero, not compared
@@ -59,7 +60,7 @@ def mjcf(model, dt: float) -> str:
 
     def body(i: int, indent: str) -> list:
         r, R = plux_parts(model.jnt_Xtriad[i])                  # input triad in the parent frame
-        m, c, Ic = inertial(model.body_inertia[i])
+        m, c, Ic = inertia_parts(model.body_inertia[i])
         lines = [f'{indent}<body name="b{i}" pos="{fmt(r)}" quat="{fmt(rot_to_quat(R))}">',
                  f'{indent}  <inertial pos="{fmt(c)}" mass="{fmt(m)}" '
                  f'fullinertia="{fmt(Ic[0, 0], Ic[1, 1], Ic[2, 2], Ic[0, 1], Ic[0, 2], Ic[1, 2])}"/>']

@@ -12,22 +12,19 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from flexmbd import spatial
 from flexmbd.model import FIXED, FREE, PRISMATIC, REVOLUTE, SPHERICAL, Model
 
 
 def se3(X) -> "pin.SE3":
     """Pinocchio placement of frame B in A from the Plücker transform X_{B<-A} (6, 6)."""
-    E = X[:3, :3]
-    rx = -E.T @ X[3:, :3]
-    return pin.SE3(E.T.copy(), np.array([rx[2, 1], rx[0, 2], rx[1, 0]]))
+    r, R = spatial.plux_parts(np.asarray(X, dtype=float))
+    return pin.SE3(R, r)
 
 
 def inertia(I6) -> "pin.Inertia":
     """Pinocchio inertia from a flexmbd spatial inertia (6, 6) at the body origin."""
-    m = I6[3, 3]
-    c = np.array([I6[2, 4], I6[0, 5], I6[1, 3]]) / m
-    C = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
-    I_c = I6[:3, :3] - m * C @ C.T
+    m, c, I_c = spatial.inertia_parts(np.asarray(I6, dtype=float))
     return pin.Inertia(m, c, I_c)
 
 
