@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd import profiles
-from flexmbd.flexbody import mass_matrix, quadratic_forces
+from flexmbd.profiles import load_at, motion_at
+from flexmbd.dense import chol_solve, chol_solve_vec, cholesky, congruence_add_into, inv_spd, mm, mtm, mtv, mv
+from flexmbd.flexbody import inertia_and_forces, mass_matrix
 from flexmbd.jit import njit
 from flexmbd.model import FREE, PRISMATIC, REVOLUTE, SPHERICAL, Data, Model
 from flexmbd.spatial import (cross_force, cross_motion, expm_so3, inertia_parts, jac_left_so3, jac_left_so3_dot,
@@ -57,13 +58,17 @@ def node_kinematics(Phi, x0, eta, eta_d):
     Jacobian of exp; cn = [E J'(theta) theta_d; -E (w_rel x Phi_t eta_d)].
     """
     Pr, Pt = Phi[:3], Phi[3:]
-    theta, theta_d = Pr @ eta, Pr @ eta_d
+    theta, theta_d = mv(Pr, eta), mv(Pr, eta_d)
     E = expm_so3(theta).T
-    Xn = plux(E, x0 + Pt @ eta)
+    Xn = plux(E, x0 + mv(Pt, eta))
     Jl = jac_left_so3(theta)
-    Sn = np.vstack((E @ (Jl @ Pr), E @ Pt))
-    w_rel = Jl @ theta_d
-    cn = np.concatenate((E @ jac_left_so3_dot(theta, theta_d), -(E @ np.cross(w_rel, Pt @ eta_d))))
+    Sn = np.empty((6, eta.size))
+    Sn[:3] = mm(E, mm(Jl, Pr))
+    Sn[3:] = mm(E, Pt)
+    w_rel = mv(Jl, theta_d)
+    cn = np.empty(6)
+    cn[:3] = mv(E, jac_left_so3_dot(theta, theta_d))
+    cn[3:] = -mv(E, np.cross(w_rel, mv(Pt, eta_d)))
     return Xn, Sn, cn
 
 
@@ -78,25 +83,25 @@ def forward_kinematics(M, D, q, v):
         lam = M.parent[i]
         XJ, S = jcalc(M.jnt_type[i], M.jnt_axis[i], q, M.jnt_qadr[i])
         kv, nvj = M.jnt_vadr[i], M.jnt_nv[i]
-        vJ = S[:, :nvj] @ v[kv:kv + nvj]
-        XJT = XJ @ M.jnt_Xtriad[i]
+        vJ = mv(S[:, :nvj], v[kv:kv + nvj])
+        XJT = mm(XJ, M.jnt_Xtriad[i])
         D.U[i] = 0.0
         if M.jnt_node[i] >= 0:                          # triad on a node of a flexible parent
             a, nm = M.body_madr[lam], M.body_nm[lam]
             eta_d = v[a:a + nm]
             Xn, Sn, cn = node_kinematics(M.jnt_Phi[i, :, :nm], M.jnt_x0[i], q[a:a + nm], eta_d)
-            vn_rel = Sn @ eta_d
-            vn = Xn @ D.v[lam] + vn_rel
-            D.Xup[i] = XJT @ Xn
-            D.U[i, :, :nm] = XJT @ Sn
-            D.v[i] = XJT @ vn + vJ
-            D.c[i] = XJT @ (cn + cross_motion(vn, vn_rel)) + cross_motion(D.v[i], vJ)
+            vn_rel = mv(Sn, eta_d)
+            vn = mv(Xn, D.v[lam]) + vn_rel
+            D.Xup[i] = mm(XJT, Xn)
+            D.U[i, :, :nm] = mm(XJT, Sn)
+            D.v[i] = mv(XJT, vn) + vJ
+            D.c[i] = mv(XJT, cn + cross_motion(vn, vn_rel)) + cross_motion(D.v[i], vJ)
         else:
             D.Xup[i] = XJT
-            D.v[i] = XJT @ D.v[lam] + vJ
+            D.v[i] = mv(XJT, D.v[lam]) + vJ
             D.c[i] = cross_motion(D.v[i], vJ)
         D.S[i] = S
-        D.X0[i] = D.Xup[i] @ D.X0[lam]
+        D.X0[i] = mm(D.Xup[i], D.X0[lam])
 
 
 @njit
@@ -113,11 +118,11 @@ def external_forces(M, D, q, load_scale):
         Pt = M.load_Phi[k, 3:, :nm]
         f = M.load_force[k] * load_scale[k]
         if M.load_global[k]:
-            f = D.X0[i, :3, :3] @ f
-        r = M.load_point[k] + Pt @ q[a:a + nm]
+            f = mv(D.X0[i, :3, :3], f)
+        r = M.load_point[k] + mv(Pt, q[a:a + nm])
         F[i, :3] += np.cross(r, f)
         F[i, 3:6] += f
-        F[i, 6:6 + nm] += Pt.T @ f
+        F[i, 6:6 + nm] += mtv(Pt, f)
     return F
 
 
@@ -131,12 +136,11 @@ def body_forces(M, D, q, v, F):
         if nm == 0:
             I = M.body_inertia[i]
             D.MA[i, :6, :6] = I
-            D.pA[i, :6] = cross_force(D.v[i], I @ D.v[i]) - F[i, :6]
+            D.pA[i, :6] = cross_force(D.v[i], mv(I, D.v[i])) - F[i, :6]
         else:
             eta, eta_d = q[a:a + nm], v[a:a + nm]
-            D.MA[i, :6 + nm, :6 + nm] = mass_matrix(M.inv, i, eta)
-            h = quadratic_forces(M.inv, i, eta, D.v[i], eta_d)
-            h[6:] += M.flex_K[i, :nm, :nm] @ eta + M.flex_C[i, :nm, :nm] @ eta_d
+            D.MA[i, :6 + nm, :6 + nm], h = inertia_and_forces(M.inv, i, eta, D.v[i], eta_d)
+            h[6:] += mv(M.flex_K[i, :nm, :nm], eta) + mv(M.flex_C[i, :nm, :nm], eta_d)
             D.pA[i, :6 + nm] = h - F[i, :6 + nm]
 
 
@@ -161,28 +165,28 @@ def aba(M, D, q, v, tau, load_scale, qdd_prescribed):
         MA, pA = D.MA[i, :6 + nm, :6 + nm], D.pA[i, :6 + nm]
         if nm > 0:                                      # eliminate the body's own modes
             B = MA[:6, 6:]
-            L = np.linalg.cholesky(MA[6:, 6:])
-            D.DiBt[i, :nm] = chol_solve(L, np.ascontiguousarray(B.T))
-            D.Dip[i, :nm] = chol_solve(L, pA[6:].copy().reshape(nm, 1))[:, 0]
-            IA = MA[:6, :6] - B @ D.DiBt[i, :nm]
-            pa = pA[:6] - B @ D.Dip[i, :nm]
+            L = cholesky(MA[6:, 6:])
+            D.DiBt[i, :nm] = chol_solve(L, B.T)
+            D.Dip[i, :nm] = chol_solve_vec(L, pA[6:])
+            IA = MA[:6, :6] - mm(B, D.DiBt[i, :nm])
+            pa = pA[:6] - mv(B, D.Dip[i, :nm])
         else:
             IA, pa = MA[:6, :6].copy(), pA[:6].copy()
         S, c = D.S[i, :, :M.jnt_nv[i]], D.c[i]
         kv = M.jnt_vadr[i]
         if M.jnt_prescribed[i]:
-            Ia, pa_up = IA, pa + IA @ (c + S @ qdd_prescribed[kv:kv + S.shape[1]])
+            Ia, pa_up = IA, pa + mv(IA, c + mv(S, qdd_prescribed[kv:kv + S.shape[1]]))
         elif S.shape[1] > 0:
-            Uj = IA @ S
-            dinv = np.linalg.inv(S.T @ Uj)
-            u = tau[kv:kv + S.shape[1]] - S.T @ pa
+            Uj = mm(IA, S)
+            dinv = inv_spd(mtm(S, Uj))
+            u = tau[kv:kv + S.shape[1]] - mtv(S, pa)
             D.Uj[i, :, :S.shape[1]] = Uj
             D.dinv[i, :S.shape[1], :S.shape[1]] = dinv
             D.u[i, :S.shape[1]] = u
-            Ia = IA - Uj @ dinv @ Uj.T
-            pa_up = pa + Ia @ c + Uj @ (dinv @ u)
+            Ia = IA - mm(Uj, mm(dinv, Uj.T))
+            pa_up = pa + mv(Ia, c) + mv(Uj, mv(dinv, u))
         else:
-            Ia, pa_up = IA, pa + IA @ c
+            Ia, pa_up = IA, pa + mv(IA, c)
 
         lam = M.parent[i]
         if lam == 0:
@@ -191,54 +195,35 @@ def aba(M, D, q, v, tau, load_scale, qdd_prescribed):
         G = np.zeros((6, n))
         G[:, :6] = D.Xup[i]
         G[:, 6:] = D.U[i, :, :n - 6]
-        D.MA[lam, :n, :n] += G.T @ Ia @ G
-        D.pA[lam, :n] += G.T @ pa_up
+        congruence_add_into(G, Ia, D.MA[lam, :n, :n])
+        D.pA[lam, :n] += mtv(G, pa_up)
 
     # pass 3: root to leaves
     D.a[0, :3] = 0.0
     D.a[0, 3:] = -M.gravity
     for i in range(1, nb + 1):
         lam = M.parent[i]
-        a = D.Xup[i] @ D.a[lam] + D.c[i]
+        a = mv(D.Xup[i], D.a[lam]) + D.c[i]
         if M.jnt_node[i] >= 0:
             ma, nml = M.body_madr[lam], M.body_nm[lam]
-            a += D.U[i, :, :nml] @ D.qdd[ma:ma + nml]
+            a += mv(D.U[i, :, :nml], D.qdd[ma:ma + nml])
         kv, nvj = M.jnt_vadr[i], M.jnt_nv[i]
         if M.jnt_prescribed[i]:
             D.qdd[kv:kv + nvj] = qdd_prescribed[kv:kv + nvj]
         elif nvj > 0:
-            D.qdd[kv:kv + nvj] = D.dinv[i, :nvj, :nvj] @ (D.u[i, :nvj] - D.Uj[i, :, :nvj].T @ a)
-        a += D.S[i, :, :nvj] @ D.qdd[kv:kv + nvj]
+            D.qdd[kv:kv + nvj] = mv(D.dinv[i, :nvj, :nvj], D.u[i, :nvj] - mtv(D.Uj[i, :, :nvj], a))
+        a += mv(D.S[i, :, :nvj], D.qdd[kv:kv + nvj])
         D.a[i] = a
         nm = M.body_nm[i]
         if nm > 0:
             ma = M.body_madr[i]
-            D.qdd[ma:ma + nm] = -(D.DiBt[i, :nm] @ a + D.Dip[i, :nm])
+            D.qdd[ma:ma + nm] = -(mv(D.DiBt[i, :nm], a) + D.Dip[i, :nm])
 
         # joint reaction: the reference rows of MA_i [a_i; eta_dd_i] + pA_i = [f_i; 0]
-        D.f[i] = D.MA[i, :6, :6] @ a + D.pA[i, :6]
+        D.f[i] = mv(D.MA[i, :6, :6], a) + D.pA[i, :6]
         if nm > 0:
-            D.f[i] += D.MA[i, :6, 6:6 + nm] @ D.qdd[M.body_madr[i]:M.body_madr[i] + nm]
+            D.f[i] += mv(D.MA[i, :6, 6:6 + nm], D.qdd[M.body_madr[i]:M.body_madr[i] + nm])
     return D.qdd.copy()
-
-
-@njit
-def chol_solve(L, B):
-    """Solve (L L^T) X = B for X (n, k), L lower triangular (n, n)."""
-    n, k = B.shape
-    Y = np.zeros((n, k))
-    for j in range(k):
-        for r in range(n):
-            s = B[r, j]
-            for c in range(r):
-                s -= L[r, c] * Y[c, j]
-            Y[r, j] = s / L[r, r]
-        for r in range(n - 1, -1, -1):
-            s = Y[r, j]
-            for c in range(r + 1, n):
-                s -= L[c, r] * Y[c, j]
-            Y[r, j] = s / L[r, r]
-    return Y
 
 
 # ---------------------------------------------------------------------------------------------
@@ -288,24 +273,41 @@ def potential_energy(M, D, q):
 # Python-level entry points
 
 
+@njit
+def prescribed(M, t, q, v):
+    """q, v (copies) with the prescribed joints set from their profiles at time t, those joints'
+    accelerations (nv,), and the point loads' profile factors (nl,)."""
+    q, v = q.copy(), v.copy()
+    qdd = np.zeros(v.size)
+    for i in range(1, M.parent.size):
+        kind = M.jnt_motion_kind[i]
+        if kind >= 0:
+            n = M.jnt_motion_n[i]
+            k, kv = M.jnt_qadr[i], M.jnt_vadr[i]
+            q[k], v[kv], qdd[kv] = motion_at(kind, M.jnt_motion_par[i], M.jnt_motion_x[i, :n],
+                                             M.jnt_motion_c[i, :, :max(n - 1, 1)], t, M.jnt_q0[i])
+    scale = np.empty(M.load_kind.size)
+    for k in range(scale.size):
+        scale[k] = load_at(M.load_kind[k], M.load_par[k], t)
+    return q, v, qdd, scale
+
+
+@njit
+def forward(M, D, t, q, v, tau):
+    """Generalized accelerations (nv,) at time t: profiles applied, then `aba`."""
+    q, v, qdd_p, scale = prescribed(M, t, q, v)
+    return aba(M, D, q, v, tau, scale, qdd_p)
+
+
 def inputs(model: Model, t: float, q, v):
     """q, v with prescribed joints set from their profiles, qdd of those joints (nv,), load factors (nl,)."""
-    q, v = np.array(q, dtype=float), np.array(v, dtype=float)
-    qdd = np.zeros(model.nv)
-    for i in range(1, model.nb + 1):
-        p = model.jnt_motion[i]
-        if p is not None:
-            k, kv = model.jnt_qadr[i], model.jnt_vadr[i]
-            q[k], v[kv], qdd[kv] = profiles.motion(p, t, model.q0[k])
-    scale = np.array([float(profiles.load_factor(p, t)) for p in model.load_profiles])
-    return q, v, qdd, scale
+    return prescribed(model.arrays, float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float))
 
 
 def forward_dynamics(model: Model, data: Data, q, v, tau=None, t: float = 0.0) -> np.ndarray:
     """Generalized accelerations (nv,) at time t (profiles of loads and prescribed joints applied)."""
-    q, v, qdd_p, scale = inputs(model, t, q, v)
     tau = np.zeros(model.nv) if tau is None else np.asarray(tau, dtype=float)
-    return aba(model.arrays, data, q, v, tau, scale, qdd_p)
+    return forward(model.arrays, data, float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), tau)
 
 
 def energy(model: Model, data: Data, q, v) -> tuple[float, float]:

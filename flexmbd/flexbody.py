@@ -26,6 +26,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flexmbd.fe import assembly, modes, section, stress
+from flexmbd.dense import mv
 from flexmbd.jit import njit
 from flexmbd.spatial import cross_force, skew
 
@@ -254,122 +255,162 @@ def _skew_rows(a: np.ndarray) -> np.ndarray:
 
 
 @njit
-def rotational_inertia(inv, j, eta):
-    """I_O(eta) = I1 + sum_k eta_k I2_k + sum_kl eta_k eta_l I3_kl  (3, 3), about the body origin."""
-    nm = eta.size
-    IO = np.empty((3, 3))
-    for a in range(3):
-        for b in range(3):
-            s = inv.I1[j, a, b]
-            for k in range(nm):
-                s += eta[k] * inv.I2[j, k, a, b]
-                for l in range(nm):
-                    s += eta[k] * eta[l] * inv.I3[j, k, l, a, b]
-            IO[a, b] = s
-    return IO
+def contractions(inv, j, eta, eta_d, w):
+    """The O(nm^2) contractions of I3 and I7 that the mass matrix, its rate and the quadratic
+    forces share, for body j at modal state (eta, eta_d) and angular velocity w (3,).
 
-
-@njit
-def N1(inv, j, eta):
-    """N1(eta) = I6 + I10 + sum_k eta_k I7_k  (3, nm): the rotation-mode block of the mass matrix."""
+    P_k = sum_l eta_l I3_kl; since I3_lk = I3_kl^T (I3_kl = sum_p m_p Phi_t,k~^T Phi_t,l~),
+        I_O(eta)   = I1 + sum_k eta_k (I2_k + P_k)        rotational inertia about the origin (3, 3)
+        N2_k(eta)  = dI_O/deta_k = I2_k + P_k + P_k^T
+        I_O'       = sum_k eta_d_k N2_k                   (3, 3)
+        wN2w_k     = w^T N2_k w                           (nm,)
+        N1(eta)    = I6 + I10 + sum_k eta_k I7_k          rotation-mode block (3, nm)
+        N1'        = sum_k eta_d_k I7_k                   (3, nm)
+        wI7e_k     = w^T I7_k eta_d                       (nm,)
+    """
     nm = eta.size
-    n1 = np.empty((3, nm))
-    for a in range(3):
+    P = np.zeros((nm, 3, 3))
+    for k in range(nm):
         for l in range(nm):
-            s = inv.I6[j, a, l] + inv.I10[j, a, l]
-            for k in range(nm):
-                s += eta[k] * inv.I7[j, k, a, l]
-            n1[a, l] = s
-    return n1
-
-
-@njit
-def N2(inv, j, eta):
-    """N2_k(eta) = dI_O/deta_k = I2_k + sum_l eta_l (I3_kl + I3_lk)  (nm, 3, 3)."""
-    nm = eta.size
-    n2 = np.empty((nm, 3, 3))
+            e = eta[l]
+            for a in range(3):
+                for b in range(3):
+                    P[k, a, b] += e * inv.I3[j, k, l, a, b]
+    IO = inv.I1[j].copy()
+    IOd = np.zeros((3, 3))
+    wN2w = np.zeros(nm)
     for k in range(nm):
         for a in range(3):
             for b in range(3):
-                s = inv.I2[j, k, a, b]
-                for l in range(nm):
-                    s += eta[l] * (inv.I3[j, k, l, a, b] + inv.I3[j, l, k, a, b])
-                n2[k, a, b] = s
-    return n2
+                n2 = inv.I2[j, k, a, b] + P[k, a, b] + P[k, b, a]
+                IO[a, b] += eta[k] * (inv.I2[j, k, a, b] + P[k, a, b])
+                IOd[a, b] += eta_d[k] * n2
+                wN2w[k] += w[a] * n2 * w[b]
+    N1 = np.empty((3, nm))
+    for a in range(3):
+        for l in range(nm):
+            N1[a, l] = inv.I6[j, a, l] + inv.I10[j, a, l]
+    N1d = np.zeros((3, nm))
+    wI7e = np.zeros(nm)
+    for k in range(nm):
+        for a in range(3):
+            for l in range(nm):
+                x = inv.I7[j, k, a, l]
+                N1[a, l] += eta[k] * x
+                N1d[a, l] += eta_d[k] * x
+                wI7e[k] += w[a] * x * eta_d[l]
+    return IO, IOd, wN2w, N1, N1d, wI7e
+
+
+@njit
+def first_moment(inv, j, eta):
+    """c = I4 + I5 eta (3,): the body's mass times its centre of mass, body frame."""
+    c = inv.I4[j].copy()
+    for a in range(3):
+        for k in range(eta.size):
+            c[a] += inv.I5[j, a, k] * eta[k]
+    return c
+
+
+@njit
+def mass_matrix_from(inv, j, IO, c, N1):
+    """Assemble M (6+nm, 6+nm) over [w; v; eta_d] from I_O, c and N1:
+
+        M = [ I_O(eta)   c~        N1(eta) ]
+            [ c~^T       I8 1      I5      ]
+            [ N1^T       I5^T      I9      ]
+    """
+    nm = N1.shape[1]
+    M = np.zeros((6 + nm, 6 + nm))
+    C = skew(c)
+    for a in range(3):
+        for b in range(3):
+            M[a, b] = IO[a, b]
+            M[a, 3 + b] = C[a, b]
+            M[3 + b, a] = C[a, b]
+        M[3 + a, 3 + a] = inv.I8[j]
+        for l in range(nm):
+            M[a, 6 + l] = N1[a, l]
+            M[6 + l, a] = N1[a, l]
+            M[3 + a, 6 + l] = inv.I5[j, a, l]
+            M[6 + l, 3 + a] = inv.I5[j, a, l]
+    for k in range(nm):
+        for l in range(nm):
+            M[6 + k, 6 + l] = inv.I9[j, k, l]
+    return M
 
 
 @njit
 def mass_matrix(inv, j, eta):
-    """M(eta) (6+nm, 6+nm) over [w; v; eta_d] in the body frame (v: velocity of the body origin).
-
-        M = [ I_O(eta)   c~        N1(eta) ]      c = I4 + I5 eta (first moment of mass)
-            [ c~^T       I8 1      I5      ]
-            [ N1^T       I5^T      I9      ]
-    """
-    nm = eta.size
-    c = inv.I4[j].copy()
-    for k in range(nm):
-        c += eta[k] * inv.I5[j, :, k]
-    C = skew(c)
-    n1 = N1(inv, j, eta)
-    M = np.zeros((6 + nm, 6 + nm))
-    M[:3, :3] = rotational_inertia(inv, j, eta)
-    M[:3, 3:6] = C
-    M[3:6, :3] = C.T
-    for a in range(3):
-        M[3 + a, 3 + a] = inv.I8[j]
-    M[:3, 6:] = n1
-    M[6:, :3] = n1.T
-    M[3:6, 6:] = inv.I5[j, :, :nm]
-    M[6:, 3:6] = inv.I5[j, :, :nm].T
-    M[6:, 6:] = inv.I9[j, :nm, :nm]
-    return M
+    """M(eta) (6+nm, 6+nm) over [w; v; eta_d] in the body frame (v: velocity of the body origin)."""
+    z = np.zeros(eta.size)
+    IO, _, _, N1, _, _ = contractions(inv, j, eta, z, np.zeros(3))
+    return mass_matrix_from(inv, j, IO, first_moment(inv, j, eta), N1)
 
 
 @njit
 def mass_matrix_dot(inv, j, eta, eta_d):
     """dM/dt (6+nm, 6+nm) = sum_k eta_d_k dM/deta_k: the blocks I_O', c~', N1' (I8, I5, I9 are constant)."""
     nm = eta.size
-    n2 = N2(inv, j, eta)
+    _, IOd, _, _, N1d, _ = contractions(inv, j, eta, eta_d, np.zeros(3))
     Md = np.zeros((6 + nm, 6 + nm))
-    cd = np.zeros(3)
-    for k in range(nm):
-        cd += eta_d[k] * inv.I5[j, :, k]
-        for a in range(3):
-            for b in range(3):
-                Md[a, b] += eta_d[k] * n2[k, a, b]
-            for l in range(nm):
-                Md[a, 6 + l] += eta_d[k] * inv.I7[j, k, a, l]
-    Cd = skew(cd)
+    Cd = skew(first_moment(inv, j, eta_d) - inv.I4[j])
+    Md[:3, :3] = IOd
     Md[:3, 3:6] = Cd
     Md[3:6, :3] = Cd.T
-    Md[6:, :3] = Md[:3, 6:].T
+    Md[:3, 6:] = N1d
+    Md[6:, :3] = N1d.T
     return Md
 
 
 @njit
-def quadratic_forces(inv, j, eta, v, eta_d):
-    """Centrifugal and Coriolis forces (6+nm,) of the free body, from Lagrange's equations.
+def inertia_and_forces(inv, j, eta, v, eta_d):
+    """M(eta) (6+nm, 6+nm) and the centrifugal and Coriolis forces h (6+nm,) of the free body,
+    from Lagrange's equations, sharing one set of contractions:
 
     Reference rows:  v x* (M_r. [v; eta_d]) + (dM_r./dt) [v; eta_d]      (momentum form)
-    Modal rows:      N1'^T w - dT/deta,  dT/deta_k = 1/2 w^T N2_k w + w . (I5_k x v) + w^T I7_k eta_d
+    Modal rows:      N1'^T w - dT/deta,  dT/deta_k = 1/2 w^T N2_k w + w . (I5_k x u) + w^T I7_k eta_d
     """
     nm = eta.size
     w, u = v[:3], v[3:]
-    vv = np.concatenate((v, eta_d))
-    M = mass_matrix(inv, j, eta)
-    Md = mass_matrix_dot(inv, j, eta, eta_d)
-    n2 = N2(inv, j, eta)
+    IO, IOd, wN2w, N1, N1d, wI7e = contractions(inv, j, eta, eta_d, w)
+    c = first_moment(inv, j, eta)
+    cd = first_moment(inv, j, eta_d) - inv.I4[j]
+    M = mass_matrix_from(inv, j, IO, c, N1)
+    # momentum p = M_r. [v; eta_d] and its rate through M only: pd = (dM_r./dt) [v; eta_d]
+    p = np.zeros(6)
+    pd = np.zeros(6)
+    for a in range(6):
+        s = 0.0
+        for b in range(6 + nm):
+            s += M[a, b] * (v[b] if b < 6 else eta_d[b - 6])
+        p[a] = s
+    for a in range(3):
+        s = 0.0
+        for b in range(3):
+            s += IOd[a, b] * w[b]
+        for l in range(nm):
+            s += N1d[a, l] * eta_d[l]
+        pd[a] = s
+    cdxu = np.cross(cd, u)
+    wxcd = np.cross(w, cd)
+    for a in range(3):
+        pd[a] += cdxu[a]                                # c~' u
+        pd[3 + a] += wxcd[a]                            # c~'^T w = w x c'
     h = np.zeros(6 + nm)
-    h[:6] = cross_force(v, M[:6] @ vv) + Md[:6] @ vv
+    h[:6] = cross_force(v, p) + pd
     wxu = np.cross(w, u)
     for k in range(nm):
-        dT = 0.0
+        dT = 0.5 * wN2w[k] + wI7e[k]
+        n1dw = 0.0
         for a in range(3):
-            dT -= inv.I5[j, a, k] * wxu[a]                 # w . (I5_k x u) = -I5_k . (w x u)
-            for b in range(3):
-                dT += 0.5 * w[a] * n2[k, a, b] * w[b]
-            for l in range(nm):
-                dT += w[a] * inv.I7[j, k, a, l] * eta_d[l]
-        h[6 + k] = Md[6 + k, :3] @ w - dT
-    return h
+            dT -= inv.I5[j, a, k] * wxu[a]              # w . (I5_k x u) = -I5_k . (w x u)
+            n1dw += N1d[a, k] * w[a]
+        h[6 + k] = n1dw - dT
+    return M, h
+
+
+@njit
+def quadratic_forces(inv, j, eta, v, eta_d):
+    """Centrifugal and Coriolis forces (6+nm,) of the free body (see `inertia_and_forces`)."""
+    return inertia_and_forces(inv, j, eta, v, eta_d)[1]

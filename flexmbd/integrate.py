@@ -1,6 +1,8 @@
 """Time integration of the Model's equations: y = [q; v], dy/dt = [qdot(q, v); aba(q, v)].
 
 Methods (the case's `[integrator] method`):
+  dopri5  Dormand-Prince 5(4), variable step, compiled as a whole (`dopri5`): the step loop and
+          every right-hand-side evaluation run without returning to Python
   adams   variable-step, variable-order (1-12) Adams-Moulton predictor-corrector with
           functional iteration (PECE), as in the paper: ODEPACK's VODE through scipy
   rk45, dop853   explicit embedded Runge-Kutta pairs (scipy's solve_ivp), for comparison
@@ -60,24 +62,105 @@ def qdot(M, q, v, out):
     return out
 
 
+@njit
+def rhs(M, D, t, y, nq):
+    """dy/dt (nq+nv,) for y = [q; v] at time t; prescribed joints follow their profiles."""
+    q, v, qdd_p, scale = dynamics.prescribed(M, t, y[:nq], y[nq:])
+    yd = np.empty(y.size)
+    qdot(M, q, v, yd[:nq])
+    yd[nq:] = dynamics.aba(M, D, q, v, np.zeros(v.size), scale, qdd_p)
+    return yd
+
+
 def rhs_function(model: Model):
-    """f(t, y) for y = [q; v], and a counter of its evaluations."""
-    data = make_data(model)
-    tau = np.zeros(model.nv)
-    nq = model.nq
-    dq = np.zeros(nq)
+    """f(t, y) for y = [q; v] (the compiled `rhs` behind a Python call), and a counter of its evaluations."""
+    M, D, nq = model.arrays, make_data(model), model.nq
     count = [0]
 
     def f(t, y):
         count[0] += 1
-        q, v, qdd_p, scale = dynamics.inputs(model, t, y[:nq], y[nq:])
-        qdd = dynamics.aba(model.arrays, data, q, v, tau, scale, qdd_p)
-        if not np.all(np.isfinite(qdd)):
+        yd = rhs(M, D, float(t), y, nq)
+        if not np.all(np.isfinite(yd)):
             raise Stop(f"failed: non-finite acceleration at t = {t:.6g} s")
-        qdot(model.arrays, q, v, dq)
-        return np.concatenate([dq, qdd])
+        return yd
 
     return f, count
+
+
+# ---------------------------------------------------------------------------------------------
+# Dormand-Prince 5(4), compiled: the whole step loop runs without returning to Python
+
+_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
+_A = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [1 / 5, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [3 / 40, 9 / 40, 0.0, 0.0, 0.0, 0.0],
+    [44 / 45, -56 / 15, 32 / 9, 0.0, 0.0, 0.0],
+    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0.0, 0.0],
+    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0.0],
+    [35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84]])
+_E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])   # b5 - b4
+
+OK, NONFINITE, DIVERGING, TOO_SMALL = 0, 1, 2, 3
+
+
+@njit
+def dopri5(M, D, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
+    """Integrate from (t_out[0], y) through the instants t_out, writing the state at each into
+    Y[1:]; steps are cut to land on them. Step size by the error of the embedded 4th-order
+    solution (RMS norm, weights atol + rtol |y|) with Hairer's PI controller (alpha 0.17, beta 0.04).
+
+    Returns (k, h, status, t): the last instant reached, the next step size, a status code
+    (OK, NONFINITE, DIVERGING, TOO_SMALL) and the time it refers to. counts (3,) += accepted
+    steps, rejected steps, evaluations.
+    """
+    n = y.size
+    K = np.empty((7, n))
+    t = t_out[0]
+    K[0] = rhs(M, D, t, y, nq)
+    counts[2] += 1
+    err_old = 1e-4
+    yn = np.empty(n)
+    for k in range(1, t_out.size):
+        while t < t_out[k]:
+            hs = min(h, max_step, t_out[k] - t)
+            if hs < 1e-14 * max(abs(t), 1.0):
+                return k - 1, h, TOO_SMALL, t
+            for s in range(1, 7):
+                ys = y.copy()
+                for r in range(s):
+                    if _A[s, r] != 0.0:
+                        ys += hs * _A[s, r] * K[r]
+                K[s] = rhs(M, D, t + _C[s] * hs, ys, nq)
+            yn[:] = ys                                  # stage 7 is at the 5th-order solution (FSAL)
+            counts[2] += 6
+            err = 0.0
+            for i in range(n):
+                e = 0.0
+                for r in range(7):
+                    e += _E[r] * K[r, i]
+                w = atol + rtol * max(abs(y[i]), abs(yn[i]))
+                err += (hs * e / w) ** 2
+            err = np.sqrt(err / n)
+            if not np.isfinite(err):
+                if not np.all(np.isfinite(yn)):
+                    return k - 1, h, NONFINITE, t
+                err = 1e10
+            if err <= 1.0:
+                t += hs
+                y[:] = yn
+                K[0] = K[6]
+                counts[0] += 1
+                fac = min(max(0.9 * err ** -0.17 * err_old ** 0.04, 0.2), 10.0) if err > 0.0 else 10.0
+                err_old = max(err, 1e-4)
+                h = max(h, hs * fac) if hs < h else hs * fac   # a step cut to land is not a verdict
+                if y.size > nq and np.abs(y[nq:]).max() > DIVERGED:
+                    return k - 1, h, DIVERGING, t
+            else:
+                counts[1] += 1
+                h = hs * max(0.9 * err ** -0.2, 0.2)
+        Y[k] = y
+    return t_out.size - 1, h, OK, t
 
 
 def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e-8, atol: float = 1e-10,
@@ -97,7 +180,10 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
     start = time.perf_counter()
     status, steps, k = "ok", 0, 0
     try:
-        if method == "adams":
+        if method == "dopri5":
+            k, steps, evals, status = _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar)
+            count[0] += evals
+        elif method == "adams":
             k, steps, status = _adams(f, y0, t_out, Y, rtol, atol, max_step, bar)
         elif method == "rk4":
             k, steps = _rk4(f, y0, t_out, Y, dt, bar)
@@ -113,6 +199,39 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
         status = f"failed: diverged (|v| > {DIVERGED:g}) at t = {t_out[k]:.6g} s"
     return Simulation(t=t_out[keep], q=Y[keep, :model.nq], v=Y[keep, model.nq:], status=status,
                       steps=steps, rhs_evals=count[0], wall_s=wall, settings=settings)
+
+
+def warm_up(model: Model) -> None:
+    """Compile (or load from the cache) the right-hand side and the compiled integrator for this
+    model's types, so that no compilation lands inside a timed run."""
+    y0 = np.concatenate([model.q0, model.v0])
+    rhs_function(model)[0](0.0, y0)
+    dopri5(model.arrays, make_data(model), model.nq, y0.copy(), np.zeros(2), np.zeros((2, y0.size)), 1e-6,
+           1e-6, 1e-8, 1e-3, np.zeros(3, dtype=np.int64))
+
+
+def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
+    """Drive the compiled `dopri5` over chunks of output instants (progress and failures between)."""
+    M, D, nq = model.arrays, make_data(model), model.nq
+    f0 = rhs(M, D, 0.0, y0, nq)
+    if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(f0))):
+        return 0, 0, 1, "failed: non-finite state at t = 0 s"
+    w = atol + rtol * np.abs(y0)
+    d0, d1 = np.sqrt(np.mean((y0 / w) ** 2)), np.sqrt(np.mean((f0 / w) ** 2))
+    h = min(0.01 * d0 / d1 if min(d0, d1) > 1e-5 else 1e-6, max_step)      # Hairer's first guess
+    y, counts = y0.copy(), np.zeros(3, dtype=np.int64)
+    k = 0
+    while k < t_out.size - 1:
+        k1 = min(k + chunk, t_out.size - 1)
+        j, h, code, t = dopri5(M, D, nq, y, t_out[k:k1 + 1], Y[k:k1 + 1], h, rtol, atol, max_step, counts)
+        k += j
+        if code != OK:
+            why = {NONFINITE: "non-finite state", DIVERGING: f"diverged (|v| > {DIVERGED:g})",
+                   TOO_SMALL: "step size too small"}[code]
+            return k, int(counts[0]), int(counts[2]), f"failed: {why} at t = {t:.6g} s"
+        if bar:
+            bar.update(t_out[k])
+    return k, int(counts[0]), int(counts[2]), "ok"
 
 
 def _check(y, t):

@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd import flexbody, spatial
+from flexmbd import flexbody, profiles, spatial
 from flexmbd.adapters.common import rotation_rpy
 
 FIXED, REVOLUTE, PRISMATIC, SPHERICAL, FREE = range(5)
@@ -45,6 +45,12 @@ class Arrays(NamedTuple):
     jnt_vadr: np.ndarray      # (nb+1,) first joint velocity in v
     jnt_nv: np.ndarray        # (nb+1,) joint velocity count
     jnt_prescribed: np.ndarray  # (nb+1,) True: motion given by a profile
+    jnt_motion_kind: np.ndarray  # (nb+1,) motion profile code (profiles.MOTION_KINDS), -1: none
+    jnt_motion_par: np.ndarray  # (nb+1, 4) its parameters (profiles.motion_at)
+    jnt_motion_n: np.ndarray  # (nb+1,) breakpoints of a table profile (0 otherwise)
+    jnt_motion_x: np.ndarray  # (nb+1, nt) a table profile's breakpoints, s
+    jnt_motion_c: np.ndarray  # (nb+1, 4, nt) its cubic pieces' coefficients
+    jnt_q0: np.ndarray        # (nb+1,) start value of a 1-DOF joint's coordinate
     body_inertia: np.ndarray  # (nb+1, 6, 6) spatial inertia of rigid bodies at the body origin
     body_madr: np.ndarray     # (nb+1,) first modal coordinate in q (equal to its index in v)
     body_nm: np.ndarray       # (nb+1,) number of modes (0: rigid)
@@ -57,6 +63,8 @@ class Arrays(NamedTuple):
     load_Phi: np.ndarray      # (nl, 6, nm) mode block of the loaded node (zeros on rigid bodies)
     load_force: np.ndarray    # (nl, 3) force at unit scale
     load_global: np.ndarray   # (nl,) True: force given in the global frame
+    load_kind: np.ndarray     # (nl,) load profile code (profiles.LOAD_KINDS)
+    load_par: np.ndarray      # (nl, 4) its parameters (profiles.load_at)
     gravity: np.ndarray       # (3,) global frame, m/s^2
 
 
@@ -176,6 +184,7 @@ def from_case(case, bodies: dict | None = None) -> Model:
             v0.extend([0.0] * k)
             nq, nv = nq + k, nv + k
 
+    A.update(motion_arrays(motion, A["jnt_qadr"], A["jnt_nv"], q0))
     loads = point_loads(case, index, bodies, nm)
     arrays = Arrays(**A, inv=flexbody.stack(invs, nm), **loads[0],
                     gravity=np.asarray(case["gravity"], dtype=float))
@@ -198,17 +207,38 @@ def attach(A: dict, i: int, j: dict, pbody: dict | None, fb: flexbody.FlexBody |
         A["jnt_Phi"][i, :, :fb.n_modes] = fb.Phi[p]
 
 
+def motion_arrays(motion: list, qadr, nv, q0: list) -> dict:
+    """The jnt_motion_* arrays and jnt_q0 from the joints' motion profiles (None: free joint)."""
+    codes = [profiles.encode_motion(p) if p is not None else None for p in motion]
+    nt = max([c[2].size for c in codes if c is not None] + [2])
+    n = len(motion)
+    M = dict(jnt_motion_kind=np.full(n, -1), jnt_motion_par=np.zeros((n, 4)),
+             jnt_motion_n=np.zeros(n, dtype=np.int64), jnt_motion_x=np.zeros((n, nt)),
+             jnt_motion_c=np.zeros((n, 4, nt)), jnt_q0=np.zeros(n))
+    for i, c in enumerate(codes):
+        if nv[i] == 1:
+            M["jnt_q0"][i] = q0[qadr[i]]
+        if c is not None:
+            kind, par, tx, tc = c
+            M["jnt_motion_kind"][i], M["jnt_motion_par"][i] = kind, par
+            M["jnt_motion_n"][i] = tx.size
+            M["jnt_motion_x"][i, :tx.size], M["jnt_motion_c"][i, :, :tc.shape[1]] = tx, tc
+    return M
+
+
 def point_loads(case, index: dict, bodies: dict, nm: int):
     """Load arrays (see Arrays.load_*) and their time profiles."""
     loads = list(case["loads"].values())
     nl = len(loads)
     L = dict(load_body=np.zeros(nl, dtype=np.int64), load_point=np.zeros((nl, 3)),
              load_Phi=np.zeros((nl, 6, nm)), load_force=np.zeros((nl, 3)),
-             load_global=np.zeros(nl, dtype=bool))
+             load_global=np.zeros(nl, dtype=bool), load_kind=np.zeros(nl, dtype=np.int64),
+             load_par=np.zeros((nl, 4)))
     for k, ld in enumerate(loads):
         L["load_body"][k] = index[ld["body"]]
         L["load_force"][k] = ld["force"]
         L["load_global"][k] = ld["frame"] == "global"
+        L["load_kind"][k], L["load_par"][k] = profiles.encode_load(ld["profile"])
         body = case["bodies"][ld["body"]]
         if body["type"] == "rigid":
             L["load_point"][k] = ld["at"]

@@ -33,8 +33,7 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
         print("flexmbd: compiling the solver's kernels once for this source version (about a minute)",
               file=sys.stderr, flush=True)
     t0 = time.perf_counter()
-    rhs, _ = integrate.rhs_function(model)
-    rhs(0.0, np.concatenate([model.q0, model.v0]))
+    integrate.warm_up(model)
     compile_s = time.perf_counter() - t0
 
     ig = case["integrator"]

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from flexmbd.dense import mm
 from flexmbd.jit import njit
 
 
@@ -34,7 +35,7 @@ def expm_so3(theta) -> np.ndarray:
     """exp(theta~) (3, 3), Rodrigues' formula with series for small |theta|."""
     a, b = _ab(theta)
     T = skew(theta)
-    return np.eye(3) + a * T + b * (T @ T)
+    return np.eye(3) + a * T + b * mm(T, T)
 
 
 @njit
@@ -55,7 +56,7 @@ def jac_left_so3(theta) -> np.ndarray:
     """
     a, b = _cd(theta)
     T = skew(theta)
-    return np.eye(3) + a * T + b * (T @ T)
+    return np.eye(3) + a * T + b * mm(T, T)
 
 
 @njit
@@ -113,7 +114,7 @@ def plux(E, r) -> np.ndarray:
     X = np.zeros((6, 6))
     X[:3, :3] = E
     X[3:, 3:] = E
-    X[3:, :3] = -E @ skew(r)
+    X[3:, :3] = -mm(E, skew(r))
     return X
 
 

@@ -1,5 +1,7 @@
 """Integration: energy conservation, the rigid limit against Pinocchio, failures kept as results."""
 
+import dataclasses
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -69,6 +71,33 @@ def test_fixed_step_rk4_agrees_with_adams():
     b = solvers.run(cases.load("cantilever_step", ["integrator.method=rk4", "integrator.dt=2e-5"]), "flexmbd", 0.1)
     x, y = a.channels["tip_deflection"], b.channels["tip_deflection"]
     assert np.abs(x - y).max() < 1e-6 * np.abs(x).max()
+
+
+@pytest.mark.parametrize("name", ["cantilever_step", "pendulum"])
+def test_compiled_dopri5_agrees_with_adams_and_converges(name):
+    """The compiled Dormand-Prince loop against VODE's Adams method at tight tolerance, and its
+    own error shrinking with the tolerance."""
+    ref = solvers.run(cases.load(name, ["integrator.rtol=1e-11", "integrator.atol=1e-13"]), "flexmbd", 0.2)
+    ch = "tip_deflection"
+    err = []
+    for rtol in (1e-4, 1e-6, 1e-9):
+        r = solvers.run(cases.load(name, ["integrator.method=dopri5", f"integrator.rtol={rtol}",
+                                          f"integrator.atol={rtol * 1e-2}"]), "flexmbd", 0.2)
+        assert r.ok and r.settings["method"] == "dopri5" and r.rhs_evals > 6 * r.steps > 0
+        err.append(np.abs(r.channels[ch] - ref.channels[ch]).max() / np.abs(ref.channels[ch]).max())
+    assert err[2] < 1e-7 and err[2] < err[1] < err[0], err
+
+
+def test_compiled_dopri5_stops_on_a_non_finite_or_diverging_state():
+    model = from_case(cases.load("pendulum"))
+    v0 = model.v0.copy()
+    v0[-1] = np.inf                                  # the last modal velocity
+    sim = integrate.simulate(dataclasses.replace(model, v0=v0), 0.1, method="dopri5", progress=False)
+    assert sim.status == "failed: non-finite state at t = 0 s"
+    assert len(sim.t) == 1
+    v0[-1] = 2 * integrate.DIVERGED                  # caught inside the compiled loop
+    sim = integrate.simulate(dataclasses.replace(model, v0=v0), 0.1, method="dopri5", progress=False)
+    assert sim.status.startswith("failed: diverged (|v| > 1e+08) at t = "), sim.status
 
 
 def test_prescribed_spin_up_follows_its_profile():

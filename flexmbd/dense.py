@@ -1,0 +1,148 @@
+"""Small dense linear algebra as plain compiled loops.
+
+The recursion works on matrices of size 6 to 6+nm (nm ~ 12). For these numba's `@` and
+`np.linalg` go through BLAS/LAPACK, whose call overhead and result allocation cost more than the
+arithmetic; these loops do not. Each returns a new array; the `_into` forms write into `out`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from flexmbd.jit import njit
+
+
+@njit
+def mm(A, B):
+    """A B: (m, k) (k, n) -> (m, n)."""
+    m, k = A.shape
+    n = B.shape[1]
+    C = np.zeros((m, n))
+    for i in range(m):
+        for l in range(k):
+            a = A[i, l]
+            if a != 0.0:
+                for j in range(n):
+                    C[i, j] += a * B[l, j]
+    return C
+
+
+@njit
+def mtm(A, B):
+    """A^T B: (k, m) (k, n) -> (m, n)."""
+    k, m = A.shape
+    n = B.shape[1]
+    C = np.zeros((m, n))
+    for l in range(k):
+        for i in range(m):
+            a = A[l, i]
+            if a != 0.0:
+                for j in range(n):
+                    C[i, j] += a * B[l, j]
+    return C
+
+
+@njit
+def mv(A, x):
+    """A x: (m, k) (k,) -> (m,)."""
+    m, k = A.shape
+    y = np.zeros(m)
+    for i in range(m):
+        s = 0.0
+        for l in range(k):
+            s += A[i, l] * x[l]
+        y[i] = s
+    return y
+
+
+@njit
+def mtv(A, x):
+    """A^T x: (k, m) (k,) -> (m,)."""
+    k, m = A.shape
+    y = np.zeros(m)
+    for l in range(k):
+        xl = x[l]
+        if xl != 0.0:
+            for i in range(m):
+                y[i] += A[l, i] * xl
+    return y
+
+
+@njit
+def congruence_add_into(G, I, out):
+    """out += G^T I G for I (6, 6) symmetric and G (6, n): the projection of an articulated
+    inertia onto the parent's coordinates."""
+    n = G.shape[1]
+    IG = mm(I, G)
+    for i in range(n):
+        for j in range(i, n):
+            s = 0.0
+            for l in range(6):
+                s += G[l, i] * IG[l, j]
+            out[i, j] += s
+            if j != i:
+                out[j, i] += s
+
+
+@njit
+def cholesky(A):
+    """Lower-triangular L (n, n) with L L^T = A, A symmetric positive definite."""
+    n = A.shape[0]
+    L = np.zeros((n, n))
+    for j in range(n):
+        s = A[j, j]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if s <= 0.0:
+            raise ValueError("matrix is not positive definite")
+        d = np.sqrt(s)
+        L[j, j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s / d
+    return L
+
+
+@njit
+def chol_solve(L, B):
+    """Solve (L L^T) X = B for X (n, k), L lower triangular (n, n)."""
+    n, k = B.shape
+    Y = np.zeros((n, k))
+    for j in range(k):
+        for r in range(n):
+            s = B[r, j]
+            for c in range(r):
+                s -= L[r, c] * Y[c, j]
+            Y[r, j] = s / L[r, r]
+        for r in range(n - 1, -1, -1):
+            s = Y[r, j]
+            for c in range(r + 1, n):
+                s -= L[c, r] * Y[c, j]
+            Y[r, j] = s / L[r, r]
+    return Y
+
+
+@njit
+def chol_solve_vec(L, b):
+    """Solve (L L^T) x = b for x (n,)."""
+    n = b.size
+    y = np.zeros(n)
+    for r in range(n):
+        s = b[r]
+        for c in range(r):
+            s -= L[r, c] * y[c]
+        y[r] = s / L[r, r]
+    for r in range(n - 1, -1, -1):
+        s = y[r]
+        for c in range(r + 1, n):
+            s -= L[c, r] * y[c]
+        y[r] = s / L[r, r]
+    return y
+
+
+@njit
+def inv_spd(A):
+    """A^-1 (n, n) of a symmetric positive definite A, through its Cholesky factor."""
+    return chol_solve(cholesky(A), np.eye(A.shape[0]))
