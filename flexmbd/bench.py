@@ -1,6 +1,7 @@
 """`flexmbd bench`: timing measured against peers in the same process, on the same machine.
 
-    work_precision    flexmbd (Adams tolerances) and exudyn-ffrf (time steps) on each paper case:
+    work_precision    flexmbd (dopri5 and Adams tolerances) and exudyn-ffrf (time steps of its
+                      generalized-alpha and Fox-Goodwin schemes) on each paper case:
                       error = RMS of the deflection channels' difference from a reference run
                       (flexmbd at rtol 1e-12), over the reference's maximum magnitude (worst channel)
     matched_accuracy  for error targets 1e-3 and 1e-4: the fastest setting of each that meets it
@@ -125,29 +126,33 @@ def deflection_error(case, ref, r) -> float:
     return float(max(errs)) if errs else np.nan
 
 
-def work_precision(names, rtols, dts, progress=None) -> tuple[list[dict], dict]:
+def work_precision(names, flexmbd_settings, exudyn_settings, progress=None) -> tuple[list[dict], dict]:
+    """Rows {case, solver, scheme, setting, error, wall_s}: flexmbd over (method, rtol) pairs,
+    exudyn-ffrf over (solver, dt) pairs; and, per case and Exudyn scheme, whether its error falls
+    steadily as the step shrinks."""
     rows, converges = [], {}
     for name in names:
         ref = solvers.run(cases.load(name, ["integrator.rtol=1e-12", "integrator.atol=1e-14"]), "flexmbd")
-        for rtol in rtols:
-            case = cases.load(name, [f"integrator.rtol={rtol}", f"integrator.atol={rtol * 1e-2}"])
+        for method, rtol in flexmbd_settings:
+            case = cases.load(name, [f"integrator.method={method}", f"integrator.rtol={rtol}",
+                                     f"integrator.atol={rtol * 1e-2}"])
             r = solvers.run(case, "flexmbd")
-            rows.append({"case": name, "solver": "flexmbd", "setting": f"rtol={rtol:g}",
+            rows.append({"case": name, "solver": "flexmbd", "scheme": method, "setting": f"rtol={rtol:g}",
                          "error": deflection_error(case, ref, r), "wall_s": r.wall_s})
             if progress:
                 progress(rows[-1])
-        errs = []
-        for dt in dts:
-            case = cases.load(name, [f"solvers.exudyn-ffrf.dt={dt}"])
+        for scheme, dt in exudyn_settings:
+            case = cases.load(name, [f"solvers.exudyn-ffrf.dt={dt}", f'solvers.exudyn-ffrf.solver="{scheme}"'])
             r = solvers.run(case, "exudyn-ffrf")
-            rows.append({"case": name, "solver": "exudyn-ffrf", "setting": f"dt={dt:g}",
+            rows.append({"case": name, "solver": "exudyn-ffrf", "scheme": scheme, "setting": f"dt={dt:g}",
                          "error": deflection_error(case, ref, r), "wall_s": r.wall_s})
-            errs.append(rows[-1]["error"])
             if progress:
                 progress(rows[-1])
-        fin = [e for e in errs if np.isfinite(e)]
-        converges[name] = {"errors": errs, "decreasing": bool(len(fin) > 1 and all(np.diff(fin) < 0)),
-                           "smallest": min(fin) if fin else np.nan}
+        for scheme in dict(exudyn_settings):
+            errs = [r["error"] for r in rows if r["case"] == name and r["scheme"] == scheme]
+            fin = [e for e in errs if np.isfinite(e)]
+            converges[f"{name} / {scheme}"] = {"errors": errs, "decreasing": bool(len(fin) > 1 and all(np.diff(fin) < 0)),
+                                               "smallest": min(fin) if fin else np.nan}
     return rows, converges
 
 
@@ -157,12 +162,13 @@ def matched_accuracy(rows: list[dict], targets=(1e-3, 1e-4)) -> list[dict]:
         for target in targets:
             best = {}
             for s in ("flexmbd", "exudyn-ffrf"):
-                ok = [r["wall_s"] for r in rows if r["case"] == name and r["solver"] == s
-                      and np.isfinite(r["error"]) and r["error"] <= target]
-                best[s] = min(ok) if ok else np.nan
-            out.append({"case": name, "error_target": target, "flexmbd_wall_s": best["flexmbd"],
-                        "exudyn_ffrf_wall_s": best["exudyn-ffrf"],
-                        "ratio": best["flexmbd"] / best["exudyn-ffrf"]})
+                ok = [(r["wall_s"], f"{r['scheme']} {r['setting']}") for r in rows if r["case"] == name
+                      and r["solver"] == s and np.isfinite(r["error"]) and r["error"] <= target]
+                best[s] = min(ok) if ok else (np.nan, "")
+            out.append({"case": name, "error_target": target, "flexmbd_wall_s": best["flexmbd"][0],
+                        "exudyn_ffrf_wall_s": best["exudyn-ffrf"][0],
+                        "ratio": best["flexmbd"][0] / best["exudyn-ffrf"][0],
+                        "flexmbd_setting": best["flexmbd"][1], "exudyn_ffrf_setting": best["exudyn-ffrf"][1]})
     return out
 
 
@@ -177,9 +183,15 @@ def run(quick: bool = False, with_work_precision: bool = True, progress=None) ->
     out["flexible_chain"], out["flexible_chain_exponent"] = flexible_chain((1, 4, 8) if quick else (1, 2, 4, 8, 16, 32, 64))
     if with_work_precision:
         names = ["cantilever_step"] if quick else ["cantilever_step", "pendulum", "double_pendulum"]
-        rtols = (1e-6, 1e-8) if quick else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
-        dts = (1e-4, 5e-5) if quick else (2e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5, 6.25e-6)
-        out["work_precision"], out["exudyn_convergence"] = work_precision(names, rtols, dts, progress)
+        if quick:
+            ours = [("dopri5", 1e-4), ("dopri5", 1e-6), ("adams", 1e-6)]
+            theirs = [("generalized-alpha", 1e-4), ("fox-goodwin", 2e-4), ("fox-goodwin", 1e-4)]
+        else:
+            ours = ([("dopri5", r) for r in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)]
+                    + [("adams", r) for r in (1e-5, 1e-7, 1e-9)])
+            theirs = ([("generalized-alpha", dt) for dt in (2e-4, 1e-4, 5e-5, 2.5e-5)]
+                      + [("fox-goodwin", dt) for dt in (4e-4, 2e-4, 1e-4, 5e-5, 2.5e-5)])
+        out["work_precision"], out["exudyn_convergence"] = work_precision(names, ours, theirs, progress)
         out["matched_accuracy"] = matched_accuracy(out["work_precision"])
     return out
 
@@ -193,11 +205,12 @@ def plots(result: dict, folder: Path) -> list[str]:
     names = []
     for name in sorted({r["case"] for r in result.get("work_precision", [])}):
         fig, ax = plt.subplots(figsize=(7, 4.5))
-        for s, mk in (("flexmbd", "o-"), ("exudyn-ffrf", "s--")):
+        curves = sorted({(r["solver"], r["scheme"]) for r in result["work_precision"] if r["case"] == name})
+        for (s, scheme), mk in zip(curves, ("o-", "^-", "s--", "D--", "v--")):
             pts = sorted((r["wall_s"], r["error"]) for r in result["work_precision"]
-                         if r["case"] == name and r["solver"] == s and np.isfinite(r["error"]))
+                         if r["case"] == name and (r["solver"], r["scheme"]) == (s, scheme) and np.isfinite(r["error"]))
             if pts:
-                ax.loglog(*zip(*pts), mk, label=s)
+                ax.loglog(*zip(*pts), mk if s == "flexmbd" else mk.replace("-", "--", 1), label=f"{s} ({scheme})")
         ax.set_xlabel("wall time, solve only [s]")
         ax.set_ylabel("deflection error / max |reference|")
         ax.set_title(name)

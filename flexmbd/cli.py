@@ -181,7 +181,7 @@ def cmd_bench(args) -> int:
     from flexmbd import bench
 
     def show(row):
-        sys.stderr.write(f"bench: {row['case']} / {row['solver']} {row['setting']}: error {row['error']:.3g}, "
+        sys.stderr.write(f"bench: {row['case']} / {row['solver']} {row['scheme']} {row['setting']}: error {row['error']:.3g}, "
                          f"{row['wall_s']:.2f} s\n")
 
     result = bench.run(quick=args.quick, with_work_precision=not args.no_work_precision, progress=show)
@@ -199,7 +199,8 @@ def cmd_bench(args) -> int:
     print(f"flexible chain exponent (n >= 4): {result['flexible_chain_exponent']:.2f}")
     for r in result.get("matched_accuracy", []):
         print(f"{r['case']:16s} error {r['error_target']:.0e}: flexmbd {r['flexmbd_wall_s']:.2f} s, "
-              f"exudyn-ffrf {r['exudyn_ffrf_wall_s']:.2f} s, ratio {r['ratio']:.2f}")
+              f"exudyn-ffrf {r['exudyn_ffrf_wall_s']:.2f} s, ratio {r['ratio']:.2f} "
+              f"({r['flexmbd_setting'] or '-'} / {r['exudyn_ffrf_setting'] or '-'})")
     print(f"plots: {Path(args.out) / 'index.html'}")
     return 0
 

@@ -269,36 +269,42 @@ def contractions(inv, j, eta, eta_d, w):
         wI7e_k     = w^T I7_k eta_d                       (nm,)
     """
     nm = eta.size
-    P = np.zeros((nm, 3, 3))
-    for k in range(nm):
-        for l in range(nm):
-            e = eta[l]
-            for a in range(3):
-                for b in range(3):
-                    P[k, a, b] += e * inv.I3[j, k, l, a, b]
-    IO = inv.I1[j].copy()
-    IOd = np.zeros((3, 3))
-    wN2w = np.zeros(nm)
+    P = np.empty((nm, 3, 3))
     for k in range(nm):
         for a in range(3):
             for b in range(3):
-                n2 = inv.I2[j, k, a, b] + P[k, a, b] + P[k, b, a]
-                IO[a, b] += eta[k] * (inv.I2[j, k, a, b] + P[k, a, b])
-                IOd[a, b] += eta_d[k] * n2
-                wN2w[k] += w[a] * n2 * w[b]
+                s = 0.0
+                for l in range(nm):
+                    s += eta[l] * inv.I3[j, k, l, a, b]
+                P[k, a, b] = s
+    IO = np.empty((3, 3))
+    IOd = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            s, sd = inv.I1[j, a, b], 0.0
+            for k in range(nm):
+                s += eta[k] * (inv.I2[j, k, a, b] + P[k, a, b])
+                sd += eta_d[k] * (inv.I2[j, k, a, b] + P[k, a, b] + P[k, b, a])
+            IO[a, b], IOd[a, b] = s, sd
+    wN2w = np.empty(nm)
+    wI7e = np.empty(nm)
+    for k in range(nm):
+        s, s7 = 0.0, 0.0
+        for a in range(3):
+            for b in range(3):
+                s += w[a] * (inv.I2[j, k, a, b] + P[k, a, b] + P[k, b, a]) * w[b]
+            for l in range(nm):
+                s7 += w[a] * inv.I7[j, k, a, l] * eta_d[l]
+        wN2w[k], wI7e[k] = s, s7
     N1 = np.empty((3, nm))
+    N1d = np.empty((3, nm))
     for a in range(3):
         for l in range(nm):
-            N1[a, l] = inv.I6[j, a, l] + inv.I10[j, a, l]
-    N1d = np.zeros((3, nm))
-    wI7e = np.zeros(nm)
-    for k in range(nm):
-        for a in range(3):
-            for l in range(nm):
-                x = inv.I7[j, k, a, l]
-                N1[a, l] += eta[k] * x
-                N1d[a, l] += eta_d[k] * x
-                wI7e[k] += w[a] * x * eta_d[l]
+            s, sd = inv.I6[j, a, l] + inv.I10[j, a, l], 0.0
+            for k in range(nm):
+                s += eta[k] * inv.I7[j, k, a, l]
+                sd += eta_d[k] * inv.I7[j, k, a, l]
+            N1[a, l], N1d[a, l] = s, sd
     return IO, IOd, wN2w, N1, N1d, wI7e
 
 

@@ -22,11 +22,12 @@ def test_rigid_and_flexible_chain_rows():
 
 
 def test_matched_accuracy_picks_the_fastest_setting_that_meets_the_target():
-    rows = [{"case": "c", "solver": "flexmbd", "error": 5e-4, "wall_s": 2.0},
-            {"case": "c", "solver": "flexmbd", "error": 5e-5, "wall_s": 3.0},
-            {"case": "c", "solver": "flexmbd", "error": 2e-3, "wall_s": 1.0},
-            {"case": "c", "solver": "exudyn-ffrf", "error": 8e-4, "wall_s": 4.0},
-            {"case": "c", "solver": "exudyn-ffrf", "error": np.nan, "wall_s": 0.1}]
+    row = lambda solver, scheme, setting, error, wall: {"case": "c", "solver": solver, "scheme": scheme,
+                                                         "setting": setting, "error": error, "wall_s": wall}
+    rows = [row("flexmbd", "dopri5", "rtol=1e-4", 5e-4, 2.0), row("flexmbd", "adams", "rtol=1e-6", 5e-5, 3.0),
+            row("flexmbd", "dopri5", "rtol=1e-3", 2e-3, 1.0), row("exudyn-ffrf", "fox-goodwin", "dt=1e-4", 8e-4, 4.0),
+            row("exudyn-ffrf", "fox-goodwin", "dt=1e-3", np.nan, 0.1)]
     out = bench.matched_accuracy(rows)
-    assert out[0] == {"case": "c", "error_target": 1e-3, "flexmbd_wall_s": 2.0, "exudyn_ffrf_wall_s": 4.0, "ratio": 0.5}
+    assert out[0] == {"case": "c", "error_target": 1e-3, "flexmbd_wall_s": 2.0, "exudyn_ffrf_wall_s": 4.0, "ratio": 0.5,
+                      "flexmbd_setting": "dopri5 rtol=1e-4", "exudyn_ffrf_setting": "fox-goodwin dt=1e-4"}
     assert out[1]["flexmbd_wall_s"] == 3.0 and np.isnan(out[1]["exudyn_ffrf_wall_s"])
