@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from flexmbd import cases, dynamics, metrics, solvers
-from flexmbd.model import from_case, make_data
+from flexmbd.model import bind, from_case, make_data
 
 BEAM = {"type": "beam", "material": "steel", "length": 1.5, "elements": 30,
         "section": {"shape": "rectangle", "b": 0.01, "h": 0.015}, "modes": {"count": 12}}
@@ -65,12 +65,13 @@ def median_us(f, calls: int = 2000, repeats: int = 7) -> float:
 
 
 def evaluation(model):
-    """A zero-argument call of one flexmbd forward-dynamics evaluation at a fixed random state."""
+    """A zero-argument call of one flexmbd forward-dynamics evaluation at a fixed random state:
+    `dynamics.forward_bound` on the model bound to a Data, as a user calls it from Python."""
     rng = np.random.default_rng(0)
-    data = make_data(model)
+    bound = bind(model, make_data(model))
     q, v = rng.normal(size=model.nq) * 0.3, rng.normal(size=model.nv) * 0.3
-    tau, scale, qdd = np.zeros(model.nv), np.zeros(0), np.zeros(model.nv)
-    return lambda: dynamics.aba(model.arrays, data, q, v, tau, scale, qdd), (q, v, tau)
+    tau = np.zeros(model.nv)
+    return lambda: dynamics.forward_bound(bound, 0.0, q, v, tau), (q, v, tau)
 
 
 def rigid_chain(ns=(1, 2, 8, 32, 64)) -> list[dict]:
@@ -103,7 +104,8 @@ def compile_seconds() -> dict:
     """First compilation (empty cache, subprocess) and a cached start (same cache, second subprocess)."""
     code = ("import time; t=time.perf_counter(); from flexmbd import bench, dynamics; "
             "from flexmbd.model import from_case; m=from_case(bench.chain_case(2, True)); "
-            "bench.evaluation(m)[0](); print(time.perf_counter()-t)")
+            "f=bench.evaluation(m)[0]; f(); from flexmbd import integrate; integrate.warm_up(m); "
+            "print(time.perf_counter()-t)")
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "XDG_CACHE_HOME": cache}
         cold = float(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,

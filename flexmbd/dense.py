@@ -12,7 +12,7 @@ import numpy as np
 from flexmbd.jit import njit
 
 
-@njit
+@njit(inline="always")
 def mm(A, B):
     """A B: (m, k) (k, n) -> (m, n)."""
     m, k = A.shape
@@ -21,13 +21,12 @@ def mm(A, B):
     for i in range(m):
         for l in range(k):
             a = A[i, l]
-            if a != 0.0:
-                for j in range(n):
-                    C[i, j] += a * B[l, j]
+            for j in range(n):
+                C[i, j] += a * B[l, j]
     return C
 
 
-@njit
+@njit(inline="always")
 def mtm(A, B):
     """A^T B: (k, m) (k, n) -> (m, n)."""
     k, m = A.shape
@@ -36,13 +35,12 @@ def mtm(A, B):
     for l in range(k):
         for i in range(m):
             a = A[l, i]
-            if a != 0.0:
-                for j in range(n):
-                    C[i, j] += a * B[l, j]
+            for j in range(n):
+                C[i, j] += a * B[l, j]
     return C
 
 
-@njit
+@njit(inline="always")
 def mv(A, x):
     """A x: (m, k) (k,) -> (m,)."""
     m, k = A.shape
@@ -55,20 +53,65 @@ def mv(A, x):
     return y
 
 
-@njit
+@njit(inline="always")
 def mtv(A, x):
     """A^T x: (k, m) (k,) -> (m,)."""
     k, m = A.shape
     y = np.zeros(m)
     for l in range(k):
         xl = x[l]
-        if xl != 0.0:
-            for i in range(m):
-                y[i] += A[l, i] * xl
+        for i in range(m):
+            y[i] += A[l, i] * xl
     return y
 
 
-@njit
+@njit(inline="always")
+def mm_into(A, B, out):
+    """out = A B: (m, k) (k, n) -> out (m, n); out must not overlap A or B."""
+    m, k = A.shape
+    n = B.shape[1]
+    for i in range(m):
+        for j in range(n):
+            s = 0.0
+            for l in range(k):
+                s += A[i, l] * B[l, j]
+            out[i, j] = s
+
+
+@njit(inline="always")
+def mv_into(A, x, out):
+    """out = A x: (m, k) (k,) -> out (m,)."""
+    m, k = A.shape
+    for i in range(m):
+        s = 0.0
+        for l in range(k):
+            s += A[i, l] * x[l]
+        out[i] = s
+
+
+@njit(inline="always")
+def mv_add_into(A, x, out):
+    """out += A x."""
+    m, k = A.shape
+    for i in range(m):
+        s = 0.0
+        for l in range(k):
+            s += A[i, l] * x[l]
+        out[i] += s
+
+
+@njit(inline="always")
+def mtv_add_into(A, x, out):
+    """out += A^T x: (k, m) (k,) -> out (m,)."""
+    k, m = A.shape
+    for i in range(m):
+        s = 0.0
+        for l in range(k):
+            s += A[l, i] * x[l]
+        out[i] += s
+
+
+@njit(inline="always")
 def congruence_add_into(G, I, out):
     """out += G^T I G for I (6, 6) symmetric and G (6, n): the projection of an articulated
     inertia onto the parent's coordinates."""
@@ -140,6 +183,33 @@ def chol_solve_vec(L, b):
             s -= L[c, r] * y[c]
         y[r] = s / L[r, r]
     return y
+
+
+@njit
+def forward_subst(L, B):
+    """L^-1 B (n, k) for lower-triangular L (n, n) and B (n, k)."""
+    n, k = B.shape
+    Y = np.empty((n, k))
+    for j in range(k):
+        for r in range(n):
+            s = B[r, j]
+            for c in range(r):
+                s -= L[r, c] * Y[c, j]
+            Y[r, j] = s / L[r, r]
+    return Y
+
+
+@njit
+def back_subst_vec(L, y):
+    """L^-T y (n,) for lower-triangular L (n, n)."""
+    n = y.size
+    x = np.empty(n)
+    for r in range(n - 1, -1, -1):
+        s = y[r]
+        for c in range(r + 1, n):
+            s -= L[c, r] * x[c]
+        x[r] = s / L[r, r]
+    return x
 
 
 @njit

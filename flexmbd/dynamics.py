@@ -17,35 +17,50 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.profiles import load_at, motion_at
-from flexmbd.dense import chol_solve, chol_solve_vec, cholesky, congruence_add_into, inv_spd, mm, mtm, mtv, mv
-from flexmbd.flexbody import inertia_and_forces, mass_matrix
+from flexmbd.dense import (back_subst_vec, cholesky, congruence_add_into, forward_subst, inv_spd, mm, mm_into, mtm,
+                           mtv, mtv_add_into, mv, mv_add_into, mv_into)
+from flexmbd.flexbody import inertia_and_forces_into, mass_matrix
 from flexmbd.jit import njit
 from flexmbd.model import FREE, PRISMATIC, REVOLUTE, SPHERICAL, Data, Model
-from flexmbd.spatial import (cross_force, cross_motion, expm_so3, inertia_parts, jac_left_so3, jac_left_so3_dot,
-                             plux, plux_parts, quat_to_rot, rot_axis, xlt, xrot)
+from flexmbd.profiles import load_at, motion_at
+from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, expm_so3, inertia_parts, jac_left_so3,
+                             jac_left_so3_dot, plux, plux_parts, quat_to_rot, xlt, xmul_into, xrot)
 
 
 # ---------------------------------------------------------------------------------------------
 # kinematics of one joint and of one node
 
 
-@njit
-def jcalc(jtype, axis, q, k):
-    """Joint transform XJ (6, 6), triad -> body, and motion subspace S (6, 6; first nv columns)."""
-    S = np.zeros((6, 6))
-    if jtype == REVOLUTE:
-        S[:3, 0] = axis
-        return xrot(rot_axis(axis, q[k]).T), S
-    if jtype == PRISMATIC:
+@njit(inline="always")
+def jcalc(jtype, axis, q, k, XJ, S):
+    """Joint transform XJ (6, 6), triad -> body, and motion subspace S (6, 6; first nv columns),
+    written into XJ and S."""
+    XJ[:] = 0.0
+    S[:] = 0.0
+    if jtype == REVOLUTE:                               # E = exp(q axis~)^T
+        c, s = np.cos(q[k]), np.sin(q[k])
+        x, y, z = axis[0], axis[1], axis[2]
+        XJ[0, 0], XJ[0, 1], XJ[0, 2] = c + (1 - c) * x * x, (1 - c) * x * y + s * z, (1 - c) * x * z - s * y
+        XJ[1, 0], XJ[1, 1], XJ[1, 2] = (1 - c) * y * x - s * z, c + (1 - c) * y * y, (1 - c) * y * z + s * x
+        XJ[2, 0], XJ[2, 1], XJ[2, 2] = (1 - c) * z * x + s * y, (1 - c) * z * y - s * x, c + (1 - c) * z * z
+        for a in range(3):
+            for b in range(3):
+                XJ[3 + a, 3 + b] = XJ[a, b]
+            S[a, 0] = axis[a]
+    elif jtype == PRISMATIC:
+        XJ[:] = xlt(axis * q[k])
         S[3:, 0] = axis
-        return xlt(axis * q[k]), S
-    if jtype == SPHERICAL:
-        S[:3, :3] = np.eye(3)
-        return xrot(quat_to_rot(q[k:k + 4]).T), S
-    if jtype == FREE:
-        return plux(quat_to_rot(q[k:k + 4]).T, q[k + 4:k + 7]), np.eye(6)
-    return np.eye(6), S
+    elif jtype == SPHERICAL:
+        XJ[:] = xrot(quat_to_rot(q[k:k + 4]).T)
+        for a in range(3):
+            S[a, a] = 1.0
+    elif jtype == FREE:
+        XJ[:] = plux(quat_to_rot(q[k:k + 4]).T, q[k + 4:k + 7])
+        for a in range(6):
+            S[a, a] = 1.0
+    else:
+        for a in range(6):
+            XJ[a, a] = 1.0
 
 
 @njit
@@ -76,35 +91,35 @@ def node_kinematics(Phi, x0, eta, eta_d):
 # pass 1
 
 
-@njit
+@njit(inline="always")
 def forward_kinematics(M, D, q, v):
-    """Fill Xup, X0, S, U, v, c from (q, v)."""
+    """Fill XJ, S, vJ, Xup, X0, U, v, c from (q, v)."""
     for i in range(1, M.parent.size):
         lam = M.parent[i]
-        XJ, S = jcalc(M.jnt_type[i], M.jnt_axis[i], q, M.jnt_qadr[i])
         kv, nvj = M.jnt_vadr[i], M.jnt_nv[i]
-        vJ = mv(S[:, :nvj], v[kv:kv + nvj])
-        XJT = mm(XJ, M.jnt_Xtriad[i])
-        D.U[i] = 0.0
+        jcalc(M.jnt_type[i], M.jnt_axis[i], q, M.jnt_qadr[i], D.XJ[i], D.S[i])
+        mv_into(D.S[i, :, :nvj], v[kv:kv + nvj], D.vJ[i])
         if M.jnt_node[i] >= 0:                          # triad on a node of a flexible parent
+            XJT = mm(D.XJ[i], M.jnt_Xtriad[i])
             a, nm = M.body_madr[lam], M.body_nm[lam]
             eta_d = v[a:a + nm]
             Xn, Sn, cn = node_kinematics(M.jnt_Phi[i, :, :nm], M.jnt_x0[i], q[a:a + nm], eta_d)
             vn_rel = mv(Sn, eta_d)
             vn = mv(Xn, D.v[lam]) + vn_rel
-            D.Xup[i] = mm(XJT, Xn)
-            D.U[i, :, :nm] = mm(XJT, Sn)
-            D.v[i] = mv(XJT, vn) + vJ
-            D.c[i] = mv(XJT, cn + cross_motion(vn, vn_rel)) + cross_motion(D.v[i], vJ)
+            mm_into(XJT, Xn, D.Xup[i])
+            mm_into(XJT, Sn, D.U[i, :, :nm])
+            D.v[i] = mv(XJT, vn) + D.vJ[i]
+            D.c[i] = mv(XJT, cn + cross_motion(vn, vn_rel)) + cross_motion(D.v[i], D.vJ[i])
         else:
-            D.Xup[i] = XJT
-            D.v[i] = mv(XJT, D.v[lam]) + vJ
-            D.c[i] = cross_motion(D.v[i], vJ)
-        D.S[i] = S
-        D.X0[i] = mm(D.Xup[i], D.X0[lam])
+            xmul_into(D.XJ[i], M.jnt_Xtriad[i], D.Xup[i])
+            mv_into(D.Xup[i], D.v[lam], D.v[i])
+            for r in range(6):
+                D.v[i, r] += D.vJ[i, r]
+            cross_motion_into(D.v[i], D.vJ[i], D.c[i])
+        xmul_into(D.Xup[i], D.X0[lam], D.X0[i])
 
 
-@njit
+@njit(inline="always")
 def external_forces(M, D, q, load_scale):
     """Generalized external forces (nb+1, 6+nm) from the point loads, body frame; after pass 1.
 
@@ -126,22 +141,24 @@ def external_forces(M, D, q, load_scale):
     return F
 
 
-@njit
+@njit(inline="always")
 def body_forces(M, D, q, v, F):
-    """MA_i, pA_i <- each body's own inertia and its velocity-product, elastic and external forces."""
+    """MA_i, pA_i <- each body's own inertia and its velocity-product, elastic and external forces
+    (the leading 6+nm_i block; the rest of the padded row is never read)."""
     for i in range(1, M.parent.size):
         a, nm = M.body_madr[i], M.body_nm[i]
-        D.MA[i] = 0.0
-        D.pA[i] = 0.0
+        MA, pA = D.MA[i, :6 + nm, :6 + nm], D.pA[i, :6 + nm]
         if nm == 0:
-            I = M.body_inertia[i]
-            D.MA[i, :6, :6] = I
-            D.pA[i, :6] = cross_force(D.v[i], mv(I, D.v[i])) - F[i, :6]
+            MA[:] = M.body_inertia[i]
+            mv_into(MA, D.v[i], D.Iv[i])
+            cross_force_into(D.v[i], D.Iv[i], pA)
         else:
             eta, eta_d = q[a:a + nm], v[a:a + nm]
-            D.MA[i, :6 + nm, :6 + nm], h = inertia_and_forces(M.inv, i, eta, D.v[i], eta_d)
-            h[6:] += mv(M.flex_K[i, :nm, :nm], eta) + mv(M.flex_C[i, :nm, :nm], eta_d)
-            D.pA[i, :6 + nm] = h - F[i, :6 + nm]
+            inertia_and_forces_into(M.inv, i, eta, D.v[i], eta_d, MA, pA)
+            mv_add_into(M.flex_K[i, :nm, :nm], eta, pA[6:])
+            mv_add_into(M.flex_C[i, :nm, :nm], eta_d, pA[6:])
+        for r in range(6 + nm):
+            pA[r] -= F[i, r]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -163,66 +180,99 @@ def aba(M, D, q, v, tau, load_scale, qdd_prescribed):
     for i in range(nb, 0, -1):
         nm = M.body_nm[i]
         MA, pA = D.MA[i, :6 + nm, :6 + nm], D.pA[i, :6 + nm]
+        IA, pa = D.Ia[i], D.pa[i]
+        for r in range(6):
+            pa[r] = pA[r]
+            for k in range(6):
+                IA[r, k] = MA[r, k]
         if nm > 0:                                      # eliminate the body's own modes
-            B = MA[:6, 6:]
-            L = cholesky(MA[6:, 6:])
-            D.DiBt[i, :nm] = chol_solve(L, B.T)
-            D.Dip[i, :nm] = chol_solve_vec(L, pA[6:])
-            IA = MA[:6, :6] - mm(B, D.DiBt[i, :nm])
-            pa = pA[:6] - mv(B, D.Dip[i, :nm])
-        else:
-            IA, pa = MA[:6, :6].copy(), pA[:6].copy()
-        S, c = D.S[i, :, :M.jnt_nv[i]], D.c[i]
-        kv = M.jnt_vadr[i]
+            L = cholesky(MA[6:, 6:])                    # D = L L^T
+            W = forward_subst(L, MA[6:, :6])            # L^-1 B^T
+            y = forward_subst(L, pA[6:].reshape(nm, 1))[:, 0]
+            D.Lm[i, :nm, :nm] = L
+            D.W[i, :nm] = W
+            D.y[i, :nm] = y
+            IA -= mtm(W, W)                             # A - B D^-1 B^T
+            pa -= mtv(W, y)                             # p_r - B D^-1 p_m
+        c, kv, nvj = D.c[i], M.jnt_vadr[i], M.jnt_nv[i]
         if M.jnt_prescribed[i]:
-            Ia, pa_up = IA, pa + mv(IA, c + mv(S, qdd_prescribed[kv:kv + S.shape[1]]))
-        elif S.shape[1] > 0:
-            Uj = mm(IA, S)
-            dinv = inv_spd(mtm(S, Uj))
-            u = tau[kv:kv + S.shape[1]] - mtv(S, pa)
-            D.Uj[i, :, :S.shape[1]] = Uj
-            D.dinv[i, :S.shape[1], :S.shape[1]] = dinv
-            D.u[i, :S.shape[1]] = u
-            Ia = IA - mm(Uj, mm(dinv, Uj.T))
-            pa_up = pa + mv(Ia, c) + mv(Uj, mv(dinv, u))
+            mv_add_into(IA, c + mv(D.S[i, :, :nvj], qdd_prescribed[kv:kv + nvj]), pa)
+        elif nvj == 1:                                  # the same, with scalar d and u
+            S, Uj = D.S[i, :, 0], D.Uj[i, :, 0]
+            d, u = 0.0, tau[kv]
+            for r in range(6):
+                s = 0.0
+                for k in range(6):
+                    s += IA[r, k] * S[k]
+                Uj[r] = s
+                d += S[r] * s
+                u -= S[r] * pa[r]
+            D.dinv[i, 0, 0], D.u[i, 0] = 1.0 / d, u
+            for r in range(6):
+                for k in range(6):
+                    IA[r, k] -= Uj[r] * Uj[k] / d
+            mv_add_into(IA, c, pa)
+            for r in range(6):
+                pa[r] += Uj[r] * u / d
+        elif nvj > 1:
+            S = D.S[i, :, :nvj]
+            Uj, dinv, u = D.Uj[i, :, :nvj], D.dinv[i, :nvj, :nvj], D.u[i, :nvj]
+            mm_into(IA, S, Uj)
+            dinv[:] = inv_spd(mtm(S, Uj))
+            u[:] = tau[kv:kv + nvj] - mtv(S, pa)
+            IA -= mm(Uj, mm(dinv, Uj.T))                # Ia = IA - U d^-1 U^T
+            mv_add_into(IA, c, pa)                      # pa + Ia c + U d^-1 u
+            mv_add_into(Uj, mv(dinv, u), pa)
         else:
-            Ia, pa_up = IA, pa + mv(IA, c)
+            mv_add_into(IA, c, pa)
 
+        # project into the parent: G = [Xup, U] onto (a_lam, eta_dd_lam)
         lam = M.parent[i]
         if lam == 0:
             continue
-        n = 6 + M.body_nm[lam] if M.jnt_node[i] >= 0 else 6
-        G = np.zeros((6, n))
-        G[:, :6] = D.Xup[i]
-        G[:, 6:] = D.U[i, :, :n - 6]
-        congruence_add_into(G, Ia, D.MA[lam, :n, :n])
-        D.pA[lam, :n] += mtv(G, pa_up)
+        if M.jnt_node[i] >= 0:
+            n = 6 + M.body_nm[lam]
+            G = np.empty((6, n))
+            G[:, :6] = D.Xup[i]
+            G[:, 6:] = D.U[i, :, :n - 6]
+        else:
+            n, G = 6, D.Xup[i]
+        congruence_add_into(G, IA, D.MA[lam, :n, :n])
+        mtv_add_into(G, pa, D.pA[lam, :n])
 
     # pass 3: root to leaves
     D.a[0, :3] = 0.0
     D.a[0, 3:] = -M.gravity
     for i in range(1, nb + 1):
-        lam = M.parent[i]
-        a = mv(D.Xup[i], D.a[lam]) + D.c[i]
+        lam, a = M.parent[i], D.a[i]
+        mv_into(D.Xup[i], D.a[lam], a)
+        for r in range(6):
+            a[r] += D.c[i, r]
         if M.jnt_node[i] >= 0:
             ma, nml = M.body_madr[lam], M.body_nm[lam]
-            a += mv(D.U[i, :, :nml], D.qdd[ma:ma + nml])
+            mv_add_into(D.U[i, :, :nml], D.qdd[ma:ma + nml], a)
         kv, nvj = M.jnt_vadr[i], M.jnt_nv[i]
         if M.jnt_prescribed[i]:
             D.qdd[kv:kv + nvj] = qdd_prescribed[kv:kv + nvj]
-        elif nvj > 0:
+        elif nvj == 1:
+            s = D.u[i, 0]
+            for r in range(6):
+                s -= D.Uj[i, r, 0] * a[r]
+            D.qdd[kv] = D.dinv[i, 0, 0] * s
+        elif nvj > 1:
             D.qdd[kv:kv + nvj] = mv(D.dinv[i, :nvj, :nvj], D.u[i, :nvj] - mtv(D.Uj[i, :, :nvj], a))
-        a += mv(D.S[i, :, :nvj], D.qdd[kv:kv + nvj])
-        D.a[i] = a
+        mv_add_into(D.S[i, :, :nvj], D.qdd[kv:kv + nvj], a)
         nm = M.body_nm[i]
-        if nm > 0:
+        if nm > 0:                                      # eta_dd = -D^-1 (B^T a + p_m) = -L^-T (W a + y)
             ma = M.body_madr[i]
-            D.qdd[ma:ma + nm] = -(mv(D.DiBt[i, :nm], a) + D.Dip[i, :nm])
+            D.qdd[ma:ma + nm] = -back_subst_vec(D.Lm[i, :nm, :nm], mv(D.W[i, :nm], a) + D.y[i, :nm])
 
         # joint reaction: the reference rows of MA_i [a_i; eta_dd_i] + pA_i = [f_i; 0]
-        D.f[i] = mv(D.MA[i, :6, :6], a) + D.pA[i, :6]
+        mv_into(D.MA[i, :6, :6], a, D.f[i])
+        for r in range(6):
+            D.f[i, r] += D.pA[i, r]
         if nm > 0:
-            D.f[i] += mv(D.MA[i, :6, 6:6 + nm], D.qdd[M.body_madr[i]:M.body_madr[i] + nm])
+            mv_add_into(D.MA[i, :6, 6:6 + nm], D.qdd[M.body_madr[i]:M.body_madr[i] + nm], D.f[i])
     return D.qdd.copy()
 
 
@@ -273,7 +323,7 @@ def potential_energy(M, D, q):
 # Python-level entry points
 
 
-@njit
+@njit(inline="always")
 def prescribed(M, t, q, v):
     """q, v (copies) with the prescribed joints set from their profiles at time t, those joints'
     accelerations (nv,), and the point loads' profile factors (nl,)."""
@@ -297,6 +347,12 @@ def forward(M, D, t, q, v, tau):
     """Generalized accelerations (nv,) at time t: profiles applied, then `aba`."""
     q, v, qdd_p, scale = prescribed(M, t, q, v)
     return aba(M, D, q, v, tau, scale, qdd_p)
+
+
+@njit
+def forward_bound(b, t, q, v, tau):
+    """`forward` for a `model.Bound` b of (M, D): the cheap call from Python."""
+    return forward(b.M, b.D, t, q, v, tau)
 
 
 def inputs(model: Model, t: float, q, v):

@@ -26,9 +26,8 @@ from typing import NamedTuple
 import numpy as np
 
 from flexmbd.fe import assembly, modes, section, stress
-from flexmbd.dense import mv
 from flexmbd.jit import njit
-from flexmbd.spatial import cross_force, skew
+from flexmbd.spatial import cross_force_into, skew
 
 
 @dataclass(frozen=True)
@@ -254,7 +253,7 @@ def _skew_rows(a: np.ndarray) -> np.ndarray:
 # the body-level terms, rebuilt from the invariants each evaluation (compiled; no node loops)
 
 
-@njit
+@njit(inline="always")
 def contractions(inv, j, eta, eta_d, w):
     """The O(nm^2) contractions of I3 and I7 that the mass matrix, its rate and the quadratic
     forces share, for body j at modal state (eta, eta_d) and angular velocity w (3,).
@@ -308,7 +307,7 @@ def contractions(inv, j, eta, eta_d, w):
     return IO, IOd, wN2w, N1, N1d, wI7e
 
 
-@njit
+@njit(inline="always")
 def first_moment(inv, j, eta):
     """c = I4 + I5 eta (3,): the body's mass times its centre of mass, body frame."""
     c = inv.I4[j].copy()
@@ -318,23 +317,22 @@ def first_moment(inv, j, eta):
     return c
 
 
-@njit
-def mass_matrix_from(inv, j, IO, c, N1):
-    """Assemble M (6+nm, 6+nm) over [w; v; eta_d] from I_O, c and N1:
+@njit(inline="always")
+def mass_matrix_into(inv, j, IO, c, N1, M):
+    """Assemble M (6+nm, 6+nm) over [w; v; eta_d] from I_O, c and N1, into M:
 
         M = [ I_O(eta)   c~        N1(eta) ]
             [ c~^T       I8 1      I5      ]
             [ N1^T       I5^T      I9      ]
     """
     nm = N1.shape[1]
-    M = np.zeros((6 + nm, 6 + nm))
     C = skew(c)
     for a in range(3):
         for b in range(3):
             M[a, b] = IO[a, b]
             M[a, 3 + b] = C[a, b]
             M[3 + b, a] = C[a, b]
-        M[3 + a, 3 + a] = inv.I8[j]
+            M[3 + a, 3 + b] = inv.I8[j] if a == b else 0.0
         for l in range(nm):
             M[a, 6 + l] = N1[a, l]
             M[6 + l, a] = N1[a, l]
@@ -343,7 +341,6 @@ def mass_matrix_from(inv, j, IO, c, N1):
     for k in range(nm):
         for l in range(nm):
             M[6 + k, 6 + l] = inv.I9[j, k, l]
-    return M
 
 
 @njit
@@ -351,7 +348,9 @@ def mass_matrix(inv, j, eta):
     """M(eta) (6+nm, 6+nm) over [w; v; eta_d] in the body frame (v: velocity of the body origin)."""
     z = np.zeros(eta.size)
     IO, _, _, N1, _, _ = contractions(inv, j, eta, z, np.zeros(3))
-    return mass_matrix_from(inv, j, IO, first_moment(inv, j, eta), N1)
+    M = np.empty((6 + eta.size, 6 + eta.size))
+    mass_matrix_into(inv, j, IO, first_moment(inv, j, eta), N1, M)
+    return M
 
 
 @njit
@@ -370,9 +369,9 @@ def mass_matrix_dot(inv, j, eta, eta_d):
 
 
 @njit
-def inertia_and_forces(inv, j, eta, v, eta_d):
+def inertia_and_forces_into(inv, j, eta, v, eta_d, M, h):
     """M(eta) (6+nm, 6+nm) and the centrifugal and Coriolis forces h (6+nm,) of the free body,
-    from Lagrange's equations, sharing one set of contractions:
+    from Lagrange's equations, sharing one set of contractions; written into M and h.
 
     Reference rows:  v x* (M_r. [v; eta_d]) + (dM_r./dt) [v; eta_d]      (momentum form)
     Modal rows:      N1'^T w - dT/deta,  dT/deta_k = 1/2 w^T N2_k w + w . (I5_k x u) + w^T I7_k eta_d
@@ -382,14 +381,16 @@ def inertia_and_forces(inv, j, eta, v, eta_d):
     IO, IOd, wN2w, N1, N1d, wI7e = contractions(inv, j, eta, eta_d, w)
     c = first_moment(inv, j, eta)
     cd = first_moment(inv, j, eta_d) - inv.I4[j]
-    M = mass_matrix_from(inv, j, IO, c, N1)
+    mass_matrix_into(inv, j, IO, c, N1, M)
     # momentum p = M_r. [v; eta_d] and its rate through M only: pd = (dM_r./dt) [v; eta_d]
-    p = np.zeros(6)
-    pd = np.zeros(6)
+    p = np.empty(6)
+    pd = np.empty(6)
     for a in range(6):
         s = 0.0
-        for b in range(6 + nm):
-            s += M[a, b] * (v[b] if b < 6 else eta_d[b - 6])
+        for b in range(6):
+            s += M[a, b] * v[b]
+        for l in range(nm):
+            s += M[a, 6 + l] * eta_d[l]
         p[a] = s
     for a in range(3):
         s = 0.0
@@ -398,13 +399,15 @@ def inertia_and_forces(inv, j, eta, v, eta_d):
         for l in range(nm):
             s += N1d[a, l] * eta_d[l]
         pd[a] = s
-    cdxu = np.cross(cd, u)
-    wxcd = np.cross(w, cd)
-    for a in range(3):
-        pd[a] += cdxu[a]                                # c~' u
-        pd[3 + a] += wxcd[a]                            # c~'^T w = w x c'
-    h = np.zeros(6 + nm)
-    h[:6] = cross_force(v, p) + pd
+    pd[0] += cd[1] * u[2] - cd[2] * u[1]                # c~' u = c' x u
+    pd[1] += cd[2] * u[0] - cd[0] * u[2]
+    pd[2] += cd[0] * u[1] - cd[1] * u[0]
+    pd[3] = w[1] * cd[2] - w[2] * cd[1]                 # c~'^T w = w x c'
+    pd[4] = w[2] * cd[0] - w[0] * cd[2]
+    pd[5] = w[0] * cd[1] - w[1] * cd[0]
+    cross_force_into(v, p, h)
+    for a in range(6):
+        h[a] += pd[a]
     wxu = np.cross(w, u)
     for k in range(nm):
         dT = 0.5 * wN2w[k] + wI7e[k]
@@ -413,10 +416,12 @@ def inertia_and_forces(inv, j, eta, v, eta_d):
             dT -= inv.I5[j, a, k] * wxu[a]              # w . (I5_k x u) = -I5_k . (w x u)
             n1dw += N1d[a, k] * w[a]
         h[6 + k] = n1dw - dT
-    return M, h
 
 
 @njit
 def quadratic_forces(inv, j, eta, v, eta_d):
-    """Centrifugal and Coriolis forces (6+nm,) of the free body (see `inertia_and_forces`)."""
-    return inertia_and_forces(inv, j, eta, v, eta_d)[1]
+    """Centrifugal and Coriolis forces (6+nm,) of the free body (see `inertia_and_forces_into`)."""
+    nm = eta.size
+    M, h = np.empty((6 + nm, 6 + nm)), np.empty(6 + nm)
+    inertia_and_forces_into(inv, j, eta, v, eta_d, M, h)
+    return h

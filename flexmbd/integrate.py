@@ -44,7 +44,7 @@ class Simulation:
     settings: dict = field(default_factory=dict)
 
 
-@njit
+@njit(inline="always")
 def qdot(M, q, v, out):
     """dq/dt (nq,) into `out`: v for 1-DOF joints and modes, quaternion rates for spherical and
     free joints (angular velocity in the body frame), R v for the free joint's position."""

@@ -110,3 +110,15 @@ def test_flexible_reactions_project_to_joint_forces():
         k = model.jnt_vadr[i]
         # S^T f = tau is a cancellation of forces of size |f| (elastic forces reach 1e6 N here)
         assert abs(data.S[i, :, 0] @ data.f[i] - tau[k]) <= 1e-12 * np.abs(data.f[i]).max()
+
+
+def test_bound_call_is_the_same_evaluation():
+    """`forward_bound` on `bind(model, data)` is `forward_dynamics`, and shares data's arrays."""
+    from flexmbd import bench
+    m = M.from_case(bench.chain_case(3, flexible=True))
+    rng = np.random.default_rng(3)
+    q, v, tau = rng.normal(size=m.nq) * 0.1, rng.normal(size=m.nv), rng.normal(size=m.nv)
+    data = M.make_data(m)
+    a = dynamics.forward_bound(M.bind(m, data), 0.3, q, v, tau)
+    assert np.array_equal(a, dynamics.forward_dynamics(m, M.make_data(m), q, v, tau, t=0.3))
+    assert np.array_equal(data.qdd, a) and np.abs(data.f[1:]).max() > 0
