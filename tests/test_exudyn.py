@@ -163,3 +163,15 @@ def test_beam_pendulum_channels_short():
     assert np.abs(ref.channels["joint_angle"] - r.channels["joint_angle"]).max() < 2e-3
     assert r.channels["energy"][0] == pytest.approx(0.0, abs=1e-12)
     assert np.abs(r.channels["energy"]).max() < 1e-3 * 12.9   # 0.1 % of the kinetic energy at the bottom
+
+
+def test_exploded_run_is_failed_not_ok():
+    """A finite but blown-up history (a deflection beyond the beam) is a failure with its time."""
+    from flexmbd.adapters import exudyn_common as xc
+    case = cases.load("pendulum")
+    t = np.linspace(0.0, 1.0, 11)
+    tip = np.where(t < 0.55, 0.01, 2.0)                      # the beam is 1.5 m long
+    ch = {"joint_angle": np.zeros(11), "tip_deflection": tip}
+    assert xc.channel_failure(case, ch, t) == "failed: diverged (tip_deflection beyond the beam's length, 1.5 m) at t = 0.6 s"
+    assert xc.channel_failure(case, {**ch, "tip_deflection": 0.01 + 0 * t}, t) == ""
+    assert xc.channel_failure(case, {**ch, "joint_angle": np.full(11, np.nan)}, t).startswith("failed: non-finite")

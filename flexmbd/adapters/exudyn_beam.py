@@ -357,7 +357,5 @@ def run(case, t_end, settings):
     X = {name: {k: ({i: xc.sensor_series(mbs, s, t) for i, s in v.items()}) for k, v in Sb.items()}
          for name, Sb in S.items()}
     r.t, r.channels = t, channels(case, beams, X, t)
-    bad = [k for k, v in r.channels.items() if not np.all(np.isfinite(v))]
-    if bad:
-        r.status = f"failed: non-finite values in {', '.join(bad)}"
+    r.status = xc.channel_failure(case, r.channels, t) or r.status
     return r

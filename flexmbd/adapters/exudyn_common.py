@@ -133,6 +133,22 @@ def error_string(mbs) -> str:
     return " ".join(str(msg).split())
 
 
+def channel_failure(case, channels: dict, t: np.ndarray) -> str:
+    """'' for plausible channels, else why the run failed: non-finite values, or a deflection
+    larger than its beam's length (a run that blew up while Exudyn's Newton still converged,
+    as an implicit scheme past its stability limit does), with the first instant it shows."""
+    bad = [k for k, v in channels.items() if not np.all(np.isfinite(v))]
+    if bad:
+        return f"failed: non-finite values in {', '.join(bad)}"
+    for k, ch in case["channels"].items():
+        if ch["kind"] == "deflection" and k in channels:
+            length = case["bodies"][ch["body"]]["length"]
+            over = np.flatnonzero(np.abs(channels[k]) > length)
+            if over.size:
+                return f"failed: diverged ({k} beyond the beam's length, {length:g} m) at t = {t[over[0]]:.6g} s"
+    return ""
+
+
 def sensor_series(mbs, sensor, t_out: np.ndarray) -> np.ndarray:
     """A sensor's stored values resampled on the output grid t_out (n,): (n, k)."""
     d = np.asarray(mbs.GetSensorStoredData(sensor))

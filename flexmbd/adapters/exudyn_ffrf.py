@@ -606,7 +606,5 @@ def run(case, t_end, settings):
         return r
     X = read_sensors(mbs, S, t)
     r.t, r.channels = t, channels(case, fbs, X, t)
-    bad = [k for k, v in r.channels.items() if not np.all(np.isfinite(v))]
-    if bad:
-        r.status = f"failed: non-finite values in {', '.join(bad)}"
+    r.status = xc.channel_failure(case, r.channels, t) or r.status
     return r
