@@ -30,8 +30,8 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
 
     # compile (or load from the cache) before the clock starts
     if not jit.is_cached():
-        print("flexmbd: compiling the solver's kernels once for this source version (about a minute)",
-              file=sys.stderr, flush=True)
+        print("flexmbd: compiling the solver's kernels once for this source version "
+              "(a few minutes; cached afterwards)", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
     integrate.warm_up(model)
     compile_s = time.perf_counter() - t0
