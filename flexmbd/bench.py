@@ -1,6 +1,6 @@
 """`flexmbd bench`: timing measured against peers in the same process, on the same machine.
 
-    work_precision    flexmbd (dopri5 and Adams tolerances) and exudyn-ffrf (time steps of its
+    work_precision    flexmbd (dopri5 and Adams tolerances, fox-goodwin steps) and exudyn-ffrf (time steps of its
                       generalized-alpha and Fox-Goodwin schemes) on each paper case:
                       error = RMS of the deflection channels' difference from a reference run
                       (flexmbd at rtol 1e-12), over the reference's maximum magnitude (worst channel)
@@ -135,11 +135,14 @@ def work_precision(names, flexmbd_settings, exudyn_settings, progress=None) -> t
     rows, converges = [], {}
     for name in names:
         ref = solvers.run(cases.load(name, ["integrator.rtol=1e-12", "integrator.atol=1e-14"]), "flexmbd")
-        for method, rtol in flexmbd_settings:
-            case = cases.load(name, [f"integrator.method={method}", f"integrator.rtol={rtol}",
-                                     f"integrator.atol={rtol * 1e-2}"])
+        for method, value in flexmbd_settings:
+            if method == "fox-goodwin":                 # fixed step dt, Newton tolerance 1e-6
+                setting, over = f"dt={value:g}", [f"integrator.dt={value}", "integrator.rtol=1e-6"]
+            else:
+                setting, over = f"rtol={value:g}", [f"integrator.rtol={value}", f"integrator.atol={value * 1e-2}"]
+            case = cases.load(name, [f"integrator.method={method}"] + over)
             r = solvers.run(case, "flexmbd")
-            rows.append({"case": name, "solver": "flexmbd", "scheme": method, "setting": f"rtol={rtol:g}",
+            rows.append({"case": name, "solver": "flexmbd", "scheme": method, "setting": setting,
                          "error": deflection_error(case, ref, r), "wall_s": r.wall_s})
             if progress:
                 progress(rows[-1])
@@ -190,6 +193,7 @@ def run(quick: bool = False, with_work_precision: bool = True, progress=None) ->
             theirs = [("generalized-alpha", 1e-4), ("fox-goodwin", 2e-4), ("fox-goodwin", 1e-4)]
         else:
             ours = ([("dopri5", r) for r in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)]
+                    + [("fox-goodwin", dt) for dt in (5e-4, 2e-4, 1e-4, 5e-5, 2.5e-5)]
                     + [("adams", r) for r in (1e-5, 1e-7, 1e-9)])
             theirs = ([("generalized-alpha", dt) for dt in (2e-4, 1e-4, 5e-5, 2.5e-5)]
                       + [("fox-goodwin", dt) for dt in (4e-4, 2e-4, 1e-4, 5e-5, 2.5e-5)])
