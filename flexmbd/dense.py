@@ -13,59 +13,6 @@ from flexmbd.jit import njit
 
 
 @njit(inline="always")
-def mm(A, B):
-    """A B: (m, k) (k, n) -> (m, n)."""
-    m, k = A.shape
-    n = B.shape[1]
-    C = np.zeros((m, n))
-    for i in range(m):
-        for l in range(k):
-            a = A[i, l]
-            for j in range(n):
-                C[i, j] += a * B[l, j]
-    return C
-
-
-@njit(inline="always")
-def mtm(A, B):
-    """A^T B: (k, m) (k, n) -> (m, n)."""
-    k, m = A.shape
-    n = B.shape[1]
-    C = np.zeros((m, n))
-    for l in range(k):
-        for i in range(m):
-            a = A[l, i]
-            for j in range(n):
-                C[i, j] += a * B[l, j]
-    return C
-
-
-@njit(inline="always")
-def mv(A, x):
-    """A x: (m, k) (k,) -> (m,)."""
-    m, k = A.shape
-    y = np.zeros(m)
-    for i in range(m):
-        s = 0.0
-        for l in range(k):
-            s += A[i, l] * x[l]
-        y[i] = s
-    return y
-
-
-@njit(inline="always")
-def mtv(A, x):
-    """A^T x: (k, m) (k,) -> (m,)."""
-    k, m = A.shape
-    y = np.zeros(m)
-    for l in range(k):
-        xl = x[l]
-        for i in range(m):
-            y[i] += A[l, i] * xl
-    return y
-
-
-@njit(inline="always")
 def mm_into(A, B, out):
     """out = A B: (m, k) (k, n) -> out (m, n); out must not overlap A or B."""
     m, k = A.shape
@@ -101,14 +48,37 @@ def mv_add_into(A, x, out):
 
 
 @njit(inline="always")
+def mm(A, B):
+    """A B: (m, k) (k, n) -> (m, n)."""
+    C = np.empty((A.shape[0], B.shape[1]))
+    mm_into(A, B, C)
+    return C
+
+
+@njit(inline="always")
+def mtm(A, B):
+    """A^T B: (k, m) (k, n) -> (m, n)."""
+    return mm(A.T, B)
+
+
+@njit(inline="always")
+def mv(A, x):
+    """A x: (m, k) (k,) -> (m,)."""
+    y = np.empty(A.shape[0])
+    mv_into(A, x, y)
+    return y
+
+
+@njit(inline="always")
+def mtv(A, x):
+    """A^T x: (k, m) (k,) -> (m,)."""
+    return mv(A.T, x)
+
+
+@njit(inline="always")
 def mtv_add_into(A, x, out):
     """out += A^T x: (k, m) (k,) -> out (m,)."""
-    k, m = A.shape
-    for i in range(m):
-        s = 0.0
-        for l in range(k):
-            s += A[l, i] * x[l]
-        out[i] += s
+    mv_add_into(A.T, x, out)
 
 
 @njit(inline="always")
@@ -165,24 +135,6 @@ def chol_solve(L, B):
                 s -= L[c, r] * Y[c, j]
             Y[r, j] = s / L[r, r]
     return Y
-
-
-@njit
-def chol_solve_vec(L, b):
-    """Solve (L L^T) x = b for x (n,)."""
-    n = b.size
-    y = np.zeros(n)
-    for r in range(n):
-        s = b[r]
-        for c in range(r):
-            s -= L[r, c] * y[c]
-        y[r] = s / L[r, r]
-    for r in range(n - 1, -1, -1):
-        s = y[r]
-        for c in range(r + 1, n):
-            s -= L[c, r] * y[c]
-        y[r] = s / L[r, r]
-    return y
 
 
 @njit

@@ -320,31 +320,21 @@ def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50):
     y, counts = y0.copy(), np.zeros(3, dtype=np.int64)
     Jinv = np.ascontiguousarray(newmark_matrix(M, D, nq, 0.0, y0, dt, 1.0 / 12.0, 0.5))
     counts[2] += y0.size + 2
-    k = 0
-    while k < t_out.size - 1:
-        k1 = min(k + chunk, t_out.size - 1)
-        j, code, t = fox_goodwin(M, D, nq, y, acc, t_out[k:k1 + 1], Y[k:k1 + 1], dt, rtol, atol, Jinv, counts)
-        k += j
-        if code != OK:
-            why = {NONFINITE: "non-finite state", DIVERGING: f"diverged (|v| > {DIVERGED:g})",
-                   NEWTON: "Newton did not converge with a fresh iteration matrix"}[code]
-            return k, int(counts[0]), int(counts[2]), f"failed: {why} at t = {t:.6g} s"
-        if bar:
-            bar.update(t_out[k])
-    return k, int(counts[0]), int(counts[2]), "ok"
+    return _in_chunks(lambda k, k1: fox_goodwin(M, D, nq, y, acc, t_out[k:k1 + 1], Y[k:k1 + 1], dt, rtol, atol,
+                                                Jinv, counts), t_out, counts, bar, chunk)
 
 
 def warm_up(model: Model) -> None:
     """Compile (or load from the cache) the right-hand side and the compiled integrator for this
     model's types, so that no compilation lands inside a timed run."""
+    M, D, nq = model.arrays, make_data(model), model.nq
     y0 = np.concatenate([model.q0, model.v0])
     rhs_function(model)[0](0.0, y0)
-    dopri5(model.arrays, make_data(model), model.nq, y0.copy(), np.zeros(2), np.zeros((2, y0.size)), 1e-6,
-           1e-6, 1e-8, 1e-3, np.zeros(3, dtype=np.int64))
+    t, Y, counts = np.zeros(2), np.zeros((2, y0.size)), np.zeros(3, dtype=np.int64)
+    dopri5(M, D, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts)
     if model.nq == model.nv:
-        newmark_matrix(model.arrays, make_data(model), model.nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
-        fox_goodwin(model.arrays, make_data(model), model.nq, y0.copy(), np.zeros(model.nv), np.zeros(2),
-                    np.zeros((2, y0.size)), 1e-4, 1e-6, 1e-8, np.eye(model.nv), np.zeros(3, dtype=np.int64))
+        newmark_matrix(M, D, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
+        fox_goodwin(M, D, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
 
 
 def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
@@ -357,15 +347,31 @@ def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
     d0, d1 = np.sqrt(np.mean((y0 / w) ** 2)), np.sqrt(np.mean((f0 / w) ** 2))
     h = min(0.01 * d0 / d1 if min(d0, d1) > 1e-5 else 1e-6, max_step)      # Hairer's first guess
     y, counts = y0.copy(), np.zeros(3, dtype=np.int64)
+    step = [h]
+
+    def advance(k, k1):
+        j, step[0], code, t = dopri5(M, D, nq, y, t_out[k:k1 + 1], Y[k:k1 + 1], step[0], rtol, atol, max_step,
+                                     counts)
+        return j, code, t
+
+    return _in_chunks(advance, t_out, counts, bar, chunk)
+
+
+WHY = {NONFINITE: "non-finite state", DIVERGING: f"diverged (|v| > {DIVERGED:g})", TOO_SMALL: "step size too small",
+       NEWTON: "Newton did not converge with a fresh iteration matrix"}
+
+
+def _in_chunks(advance, t_out, counts, bar, chunk):
+    """Run a compiled integrator, `advance(k, k1) -> (instants done, status code, t)` over
+    t_out[k:k1+1], chunk by chunk, with progress and failures in between: (k, steps, evaluations,
+    status)."""
     k = 0
     while k < t_out.size - 1:
         k1 = min(k + chunk, t_out.size - 1)
-        j, h, code, t = dopri5(M, D, nq, y, t_out[k:k1 + 1], Y[k:k1 + 1], h, rtol, atol, max_step, counts)
+        j, code, t = advance(k, k1)
         k += j
         if code != OK:
-            why = {NONFINITE: "non-finite state", DIVERGING: f"diverged (|v| > {DIVERGED:g})",
-                   TOO_SMALL: "step size too small"}[code]
-            return k, int(counts[0]), int(counts[2]), f"failed: {why} at t = {t:.6g} s"
+            return k, int(counts[0]), int(counts[2]), f"failed: {WHY[code]} at t = {t:.6g} s"
         if bar:
             bar.update(t_out[k])
     return k, int(counts[0]), int(counts[2]), "ok"

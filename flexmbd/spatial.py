@@ -25,12 +25,6 @@ def skew(a) -> np.ndarray:
 
 
 @njit
-def rot_axis(axis, angle: float) -> np.ndarray:
-    """Rotation matrix R (3, 3) of `angle` about unit `axis` (R maps rotated-frame coords to base coords)."""
-    return expm_so3(axis * angle)
-
-
-@njit
 def expm_so3(theta) -> np.ndarray:
     """exp(theta~) (3, 3), Rodrigues' formula with series for small |theta|."""
     a, b = _ab(theta)
