@@ -66,12 +66,12 @@ def median_us(f, calls: int = 2000, repeats: int = 7) -> float:
 
 def evaluation(model):
     """A zero-argument call of one flexmbd forward-dynamics evaluation at a fixed random state:
-    `dynamics.forward_bound` on the model bound to a Data, as a user calls it from Python."""
+    `dynamics.forward` on the model bound to a Data, as a user calls it from Python."""
     rng = np.random.default_rng(0)
     bound = bind(model, make_data(model))
     q, v = rng.normal(size=model.nq) * 0.3, rng.normal(size=model.nv) * 0.3
     tau = np.zeros(model.nv)
-    return lambda: dynamics.forward_bound(bound, 0.0, q, v, tau), (q, v, tau)
+    return lambda: dynamics.forward(bound, 0.0, q, v, tau), (q, v, tau)
 
 
 def rigid_chain(ns=(1, 2, 8, 32, 64)) -> list[dict]:

@@ -82,11 +82,11 @@ def mtv_add_into(A, x, out):
 
 
 @njit(inline="always")
-def congruence_add_into(G, I, out):
+def congruence_add_into(G, I, out, IG):
     """out += G^T I G for I (6, 6) symmetric and G (6, n): the projection of an articulated
-    inertia onto the parent's coordinates."""
+    inertia onto the parent's coordinates. IG (6, n): workspace."""
     n = G.shape[1]
-    IG = mm(I, G)
+    mm_into(I, G, IG)
     for i in range(n):
         for j in range(i, n):
             s = 0.0

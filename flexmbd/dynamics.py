@@ -1,4 +1,4 @@
-"""The recursive algorithms, compiled, as free functions of (model arrays M, data D, ...).
+"""The recursive algorithms, compiled, as free functions of the Model's arrays M and a Data D.
 
 docs/formulation.md §4-§5. Forward dynamics is the articulated-body algorithm extended to modal
 flexible bodies:
@@ -10,18 +10,22 @@ flexible bodies:
   pass 3 (root -> leaves): joint accelerations, spatial accelerations, modal accelerations.
 Gravity enters as a fictitious base acceleration a_0 = [0; -g].
 
-`M` is `Model.arrays`, `D` a `Data`; the Python-level entry points at the bottom take the Model.
+The compiled entry points take a `model.Bound` b, the Model's arrays M = b.M and a Data D = b.D
+as one object: numba passes it as a single pointer where the pair would cross every call as some
+600 scalars, and `aba` runs about 40 % faster per body for it (docs/performance.md). The passes
+inlined into `aba` take (M, D). The Python-level entry points at the bottom take the Model.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numba.core import types
 
 from flexmbd.dense import (back_subst_vec, cholesky, congruence_add_into, forward_subst, inv_spd, mm, mm_into, mtm,
                            mtv, mtv_add_into, mv, mv_add_into, mv_into)
 from flexmbd.flexbody import inertia_and_forces_into, mass_matrix
 from flexmbd.jit import njit
-from flexmbd.model import FREE, PRISMATIC, REVOLUTE, SPHERICAL, Data, Model
+from flexmbd.model import BOUND_T, FREE, PRISMATIC, REVOLUTE, SPHERICAL, Data, Model, bind
 from flexmbd.profiles import load_at, motion_at
 from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, expm_so3, inertia_parts, jac_left_so3,
                              jac_left_so3_dot, plux, plux_parts, quat_to_rot, xlt, xmul_into, xrot)
@@ -120,31 +124,31 @@ def forward_kinematics(M, D, q, v):
 
 
 @njit(inline="always")
-def external_forces(M, D, q, load_scale):
-    """Generalized external forces (nb+1, 6+nm) from the point loads, body frame; after pass 1.
+def external_forces(M, D, q):
+    """D.F (nb+1, 6+nm) <- generalized external forces of the point loads at their factors D.scale,
+    body frame; after pass 1.
 
     A force f at the deformed point r = x0 + Phi_t eta: [r x f; f; Phi_t^T f].
     """
-    nm_max = M.jnt_Phi.shape[2]
-    F = np.zeros((M.parent.size, 6 + nm_max))
+    F = D.F
+    F[:] = 0.0
     for k in range(M.load_body.size):
         i = M.load_body[k]
         a, nm = M.body_madr[i], M.body_nm[i]
         Pt = M.load_Phi[k, 3:, :nm]
-        f = M.load_force[k] * load_scale[k]
+        f = M.load_force[k] * D.scale[k]
         if M.load_global[k]:
             f = mv(D.X0[i, :3, :3], f)
         r = M.load_point[k] + mv(Pt, q[a:a + nm])
         F[i, :3] += np.cross(r, f)
         F[i, 3:6] += f
         F[i, 6:6 + nm] += mtv(Pt, f)
-    return F
 
 
 @njit(inline="always")
-def body_forces(M, D, q, v, F):
-    """MA_i, pA_i <- each body's own inertia and its velocity-product, elastic and external forces
-    (the leading 6+nm_i block; the rest of the padded row is never read)."""
+def body_forces(M, D, q, v):
+    """MA_i, pA_i <- each body's own inertia and its velocity-product, elastic and external (D.F)
+    forces (the leading 6+nm_i block; the rest of the padded row is never read)."""
     for i in range(1, M.parent.size):
         a, nm = M.body_madr[i], M.body_nm[i]
         MA, pA = D.MA[i, :6 + nm, :6 + nm], D.pA[i, :6 + nm]
@@ -158,7 +162,7 @@ def body_forces(M, D, q, v, F):
             mv_add_into(M.flex_K[i, :nm, :nm], eta, pA[6:])
             mv_add_into(M.flex_C[i, :nm, :nm], eta_d, pA[6:])
         for r in range(6 + nm):
-            pA[r] -= F[i, r]
+            pA[r] -= D.F[i, r]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -166,15 +170,19 @@ def body_forces(M, D, q, v, F):
 
 
 @njit
-def aba(M, D, q, v, tau, load_scale, qdd_prescribed):
-    """Generalized accelerations (nv,) — joint and modal — by the articulated-body algorithm.
+def aba(b, q, v, tau):
+    """Generalized accelerations (nv,) — joint and modal — by the articulated-body algorithm:
+    the workspace's D.qdd itself (copy it to keep it).
 
-    tau (nv,): joint forces (modal entries ignored); load_scale (nl,): profile factor of each
-    point load; qdd_prescribed (nv,): accelerations of joints with jnt_prescribed set.
+    b: a `model.Bound` (arrays M, workspace D); tau (nv,): joint forces (modal entries ignored).
+    Set by `prescribed` first: D.scale (nl,), the point loads' profile factors, and D.qdd_p (nv,),
+    the accelerations of joints with jnt_prescribed set.
     """
+    M, D = b.M, b.D
     nb = M.parent.size - 1
     forward_kinematics(M, D, q, v)
-    body_forces(M, D, q, v, external_forces(M, D, q, load_scale))
+    external_forces(M, D, q)
+    body_forces(M, D, q, v)
 
     # pass 2: leaves to root
     for i in range(nb, 0, -1):
@@ -196,7 +204,7 @@ def aba(M, D, q, v, tau, load_scale, qdd_prescribed):
             pa -= mtv(W, y)                             # p_r - B D^-1 p_m
         c, kv, nvj = D.c[i], M.jnt_vadr[i], M.jnt_nv[i]
         if M.jnt_prescribed[i]:
-            mv_add_into(IA, c + mv(D.S[i, :, :nvj], qdd_prescribed[kv:kv + nvj]), pa)
+            mv_add_into(IA, c + mv(D.S[i, :, :nvj], D.qdd_p[kv:kv + nvj]), pa)
         elif nvj == 1:                                  # the same, with scalar d and u
             S, Uj = D.S[i, :, 0], D.Uj[i, :, 0]
             d, u = 0.0, tau[kv]
@@ -207,13 +215,14 @@ def aba(M, D, q, v, tau, load_scale, qdd_prescribed):
                 Uj[r] = s
                 d += S[r] * s
                 u -= S[r] * pa[r]
-            D.dinv[i, 0, 0], D.u[i, 0] = 1.0 / d, u
+            dinv = 1.0 / d
+            D.dinv[i, 0, 0], D.u[i, 0] = dinv, u
             for r in range(6):
                 for k in range(6):
-                    IA[r, k] -= Uj[r] * Uj[k] / d
+                    IA[r, k] -= Uj[r] * Uj[k] * dinv
             mv_add_into(IA, c, pa)
             for r in range(6):
-                pa[r] += Uj[r] * u / d
+                pa[r] += Uj[r] * u * dinv
         elif nvj > 1:
             S = D.S[i, :, :nvj]
             Uj, dinv, u = D.Uj[i, :, :nvj], D.dinv[i, :nvj, :nvj], D.u[i, :nvj]
@@ -237,7 +246,7 @@ def aba(M, D, q, v, tau, load_scale, qdd_prescribed):
             G[:, 6:] = D.U[i, :, :n - 6]
         else:
             n, G = 6, D.Xup[i]
-        congruence_add_into(G, IA, D.MA[lam, :n, :n])
+        congruence_add_into(G, IA, D.MA[lam, :n, :n], D.IG[:, :n])
         mtv_add_into(G, pa, D.pA[lam, :n])
 
     # pass 3: root to leaves
@@ -253,7 +262,7 @@ def aba(M, D, q, v, tau, load_scale, qdd_prescribed):
             mv_add_into(D.U[i, :, :nml], D.qdd[ma:ma + nml], a)
         kv, nvj = M.jnt_vadr[i], M.jnt_nv[i]
         if M.jnt_prescribed[i]:
-            D.qdd[kv:kv + nvj] = qdd_prescribed[kv:kv + nvj]
+            D.qdd[kv:kv + nvj] = D.qdd_p[kv:kv + nvj]
         elif nvj == 1:
             s = D.u[i, 0]
             for r in range(6):
@@ -273,7 +282,7 @@ def aba(M, D, q, v, tau, load_scale, qdd_prescribed):
             D.f[i, r] += D.pA[i, r]
         if nm > 0:
             mv_add_into(D.MA[i, :6, 6:6 + nm], D.qdd[M.body_madr[i]:M.body_madr[i] + nm], D.f[i])
-    return D.qdd.copy()
+    return D.qdd
 
 
 # ---------------------------------------------------------------------------------------------
@@ -324,46 +333,50 @@ def potential_energy(M, D, q):
 
 
 @njit(inline="always")
-def prescribed(M, t, q, v):
-    """q, v (copies) with the prescribed joints set from their profiles at time t, those joints'
-    accelerations (nv,), and the point loads' profile factors (nl,)."""
-    q, v = q.copy(), v.copy()
-    qdd = np.zeros(v.size)
+def prescribed(M, D, t, q, v):
+    """The profiles at time t: q, v with the prescribed joints set (copies if there are any, the
+    arrays given otherwise), those joints' accelerations into D.qdd_p (nv,), and the point loads'
+    factors into D.scale (nl,)."""
+    copied = False
     for i in range(1, M.parent.size):
         kind = M.jnt_motion_kind[i]
         if kind >= 0:
+            if not copied:
+                q, v, copied = q.copy(), v.copy(), True
             n = M.jnt_motion_n[i]
             k, kv = M.jnt_qadr[i], M.jnt_vadr[i]
-            q[k], v[kv], qdd[kv] = motion_at(kind, M.jnt_motion_par[i], M.jnt_motion_x[i, :n],
-                                             M.jnt_motion_c[i, :, :max(n - 1, 1)], t, M.jnt_q0[i])
-    scale = np.empty(M.load_kind.size)
-    for k in range(scale.size):
-        scale[k] = load_at(M.load_kind[k], M.load_par[k], t)
-    return q, v, qdd, scale
+            q[k], v[kv], D.qdd_p[kv] = motion_at(kind, M.jnt_motion_par[i], M.jnt_motion_x[i, :n],
+                                                 M.jnt_motion_c[i, :, :max(n - 1, 1)], t, M.jnt_q0[i])
+    for k in range(D.scale.size):
+        D.scale[k] = load_at(M.load_kind[k], M.load_par[k], t)
+    return q, v
+
+
+ABA_SIGNATURE = (BOUND_T, *[types.Array(types.float64, 1, "C")] * 3)
+
+
+def load_aba() -> None:
+    """Load (or compile) `aba` for a Bound before any compiled caller of it is loaded.
+
+    Every compiled caller (forward, integrate.rhs, ...) carries its own copy of `aba` in its
+    cached machine code, and the copy that arrives first is the one every later call runs. The
+    copies that come with a caller measured 30-60 % slower than `aba`'s own compilation
+    (docs/performance.md), so `model.bind` loads `aba` itself first."""
+    aba.compile(ABA_SIGNATURE)
 
 
 @njit
-def forward(M, D, t, q, v, tau):
-    """Generalized accelerations (nv,) at time t: profiles applied, then `aba`."""
-    q, v, qdd_p, scale = prescribed(M, t, q, v)
-    return aba(M, D, q, v, tau, scale, qdd_p)
-
-
-@njit
-def forward_bound(b, t, q, v, tau):
-    """`forward` for a `model.Bound` b of (M, D): the cheap call from Python."""
-    return forward(b.M, b.D, t, q, v, tau)
-
-
-def inputs(model: Model, t: float, q, v):
-    """q, v with prescribed joints set from their profiles, qdd of those joints (nv,), load factors (nl,)."""
-    return prescribed(model.arrays, float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float))
+def forward(b, t, q, v, tau):
+    """Generalized accelerations (nv,) at time t for a `model.Bound` b: profiles applied, then
+    `aba`. The cheap call from Python: q, v, tau C-contiguous float arrays, t a float."""
+    q, v = prescribed(b.M, b.D, t, q, v)
+    return aba(b, q, v, tau).copy()
 
 
 def forward_dynamics(model: Model, data: Data, q, v, tau=None, t: float = 0.0) -> np.ndarray:
     """Generalized accelerations (nv,) at time t (profiles of loads and prescribed joints applied)."""
     tau = np.zeros(model.nv) if tau is None else np.asarray(tau, dtype=float)
-    return forward(model.arrays, data, float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), tau)
+    return forward(bind(model, data), float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), tau)
 
 
 def energy(model: Model, data: Data, q, v) -> tuple[float, float]:

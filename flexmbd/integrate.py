@@ -27,7 +27,7 @@ from scipy.integrate import ode, solve_ivp
 from flexmbd import dynamics
 from flexmbd.dense import mv
 from flexmbd.jit import njit
-from flexmbd.model import FREE, SPHERICAL, Model, make_data
+from flexmbd.model import FREE, SPHERICAL, Model, bind, make_data
 from flexmbd.spatial import quat_rate, quat_to_rot
 
 DIVERGED = 1e8          # |v| beyond this (rad/s, m/s, modal units) counts as divergence
@@ -68,23 +68,24 @@ def qdot(M, q, v, out):
 
 
 @njit
-def rhs(M, D, t, y, nq):
-    """dy/dt (nq+nv,) for y = [q; v] at time t; prescribed joints follow their profiles."""
-    q, v, qdd_p, scale = dynamics.prescribed(M, t, y[:nq], y[nq:])
+def rhs(b, t, y, nq):
+    """dy/dt (nq+nv,) for y = [q; v] at time t, b a `model.Bound`; prescribed joints follow their
+    profiles."""
+    q, v = dynamics.prescribed(b.M, b.D, t, y[:nq], y[nq:])
     yd = np.empty(y.size)
-    qdot(M, q, v, yd[:nq])
-    yd[nq:] = dynamics.aba(M, D, q, v, np.zeros(v.size), scale, qdd_p)
+    qdot(b.M, q, v, yd[:nq])
+    yd[nq:] = dynamics.aba(b, q, v, np.zeros(v.size))
     return yd
 
 
 def rhs_function(model: Model):
     """f(t, y) for y = [q; v] (the compiled `rhs` behind a Python call), and a counter of its evaluations."""
-    M, D, nq = model.arrays, make_data(model), model.nq
+    b, nq = bind(model, make_data(model)), model.nq
     count = [0]
 
     def f(t, y):
         count[0] += 1
-        yd = rhs(M, D, float(t), y, nq)
+        yd = rhs(b, float(t), y, nq)
         if not np.all(np.isfinite(yd)):
             raise Stop(f"failed: non-finite acceleration at t = {t:.6g} s")
         return yd
@@ -110,7 +111,7 @@ OK, NONFINITE, DIVERGING, TOO_SMALL, NEWTON = 0, 1, 2, 3, 4
 
 
 @njit
-def dopri5(M, D, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
+def dopri5(b, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
     """Integrate from (t_out[0], y) through the instants t_out, writing the state at each into
     Y[1:]; steps are cut to land on them. Step size by the error of the embedded 4th-order
     solution (RMS norm, weights atol + rtol |y|) with Hairer's PI controller (alpha 0.17, beta 0.04).
@@ -122,7 +123,7 @@ def dopri5(M, D, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
     n = y.size
     K = np.empty((7, n))
     t = t_out[0]
-    K[0] = rhs(M, D, t, y, nq)
+    K[0] = rhs(b, t, y, nq)
     counts[2] += 1
     err_old = 1e-4
     yn = np.empty(n)
@@ -136,7 +137,7 @@ def dopri5(M, D, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
                 for r in range(s):
                     if _A[s, r] != 0.0:
                         ys += hs * _A[s, r] * K[r]
-                K[s] = rhs(M, D, t + _C[s] * hs, ys, nq)
+                K[s] = rhs(b, t + _C[s] * hs, ys, nq)
             yn[:] = ys                                  # stage 7 is at the 5th-order solution (FSAL)
             counts[2] += 6
             err = 0.0
@@ -216,17 +217,17 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
 
 
 @njit
-def newmark_matrix(M, D, nq, t, y, h, beta, gamma):
+def newmark_matrix(b, nq, t, y, h, beta, gamma):
     """(I - beta h^2 da/dq - gamma h da/dv)^-1 (nv, nv) at (t, y) by forward differences of the
     accelerations; q and v must be aligned (nq == nv, no quaternion joints)."""
     n = y.size - nq
-    a0 = rhs(M, D, t, y, nq)[nq:]
+    a0 = rhs(b, t, y, nq)[nq:]
     J = np.eye(n)
     for k in range(y.size):
         yp = y.copy()
         d = 1e-7 * max(abs(y[k]), 1.0)
         yp[k] += d
-        col = (rhs(M, D, t, yp, nq)[nq:] - a0) / d
+        col = (rhs(b, t, yp, nq)[nq:] - a0) / d
         w, j = (beta * h * h, k) if k < nq else (gamma * h, k - nq)
         for r in range(n):
             J[r, j] -= w * col[r]
@@ -234,7 +235,7 @@ def newmark_matrix(M, D, nq, t, y, h, beta, gamma):
 
 
 @njit
-def fox_goodwin(M, D, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
+def fox_goodwin(b, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
     """Newmark with beta = 1/12, gamma = 1/2 (phase error (w h)^4/480, no numerical damping,
     stable for w_max h < sqrt(6)) from (t_out[0], y, acc) through the instants t_out, writing
     Y[1:]. Each step solves A - a(t+h, q(A), v(A)) = 0 for the new accelerations A by Newton with
@@ -255,7 +256,7 @@ def fox_goodwin(M, D, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
         hs = (t_out[k] - t) / m
         if abs(hs - h) > 1e-6 * h:                      # a new step: the one that divides this interval
             h = hs
-            Jinv[:] = newmark_matrix(M, D, nq, t, y, h, beta, gamma)
+            Jinv[:] = newmark_matrix(b, nq, t, y, h, beta, gamma)
             counts[1] += 1
             counts[2] += y.size + 1
         for _ in range(m):
@@ -269,7 +270,7 @@ def fox_goodwin(M, D, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
                 for it in range(10):
                     y1[:nq] = qp + beta * h * h * A
                     y1[nq:] = vp + gamma * h * A
-                    r = A - rhs(M, D, t + h, y1, nq)[nq:]
+                    r = A - rhs(b, t + h, y1, nq)[nq:]
                     counts[2] += 1
                     dA = mv(Jinv, r)
                     A -= dA
@@ -291,7 +292,7 @@ def fox_goodwin(M, D, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
                 if done:
                     break
                 eta = 1.0
-                Jinv[:] = newmark_matrix(M, D, nq, t, y, h, beta, gamma)
+                Jinv[:] = newmark_matrix(b, nq, t, y, h, beta, gamma)
                 counts[1] += 1
                 counts[2] += y.size + 1
                 A = acc.copy()
@@ -313,34 +314,34 @@ def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50):
     """Drive the compiled `fox_goodwin` over chunks of output instants."""
     if model.nq != model.nv:
         raise Stop("failed: fox-goodwin needs q and v aligned (no spherical or free joints)")
-    M, D, nq = model.arrays, make_data(model), model.nq
-    acc = np.ascontiguousarray(rhs(M, D, 0.0, y0, nq)[nq:])
+    b, nq = bind(model, make_data(model)), model.nq
+    acc = np.ascontiguousarray(rhs(b, 0.0, y0, nq)[nq:])
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(acc))):
         return 0, 0, 1, "failed: non-finite state at t = 0 s"
     y, counts = y0.copy(), np.zeros(3, dtype=np.int64)
-    Jinv = np.ascontiguousarray(newmark_matrix(M, D, nq, 0.0, y0, dt, 1.0 / 12.0, 0.5))
+    Jinv = np.ascontiguousarray(newmark_matrix(b, nq, 0.0, y0, dt, 1.0 / 12.0, 0.5))
     counts[2] += y0.size + 2
-    return _in_chunks(lambda k, k1: fox_goodwin(M, D, nq, y, acc, t_out[k:k1 + 1], Y[k:k1 + 1], dt, rtol, atol,
+    return _in_chunks(lambda k, k1: fox_goodwin(b, nq, y, acc, t_out[k:k1 + 1], Y[k:k1 + 1], dt, rtol, atol,
                                                 Jinv, counts), t_out, counts, bar, chunk)
 
 
 def warm_up(model: Model) -> None:
     """Compile (or load from the cache) the right-hand side and the compiled integrator for this
     model's types, so that no compilation lands inside a timed run."""
-    M, D, nq = model.arrays, make_data(model), model.nq
+    b, nq = bind(model, make_data(model)), model.nq
     y0 = np.concatenate([model.q0, model.v0])
     rhs_function(model)[0](0.0, y0)
     t, Y, counts = np.zeros(2), np.zeros((2, y0.size)), np.zeros(3, dtype=np.int64)
-    dopri5(M, D, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts)
+    dopri5(b, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts)
     if model.nq == model.nv:
-        newmark_matrix(M, D, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
-        fox_goodwin(M, D, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
+        newmark_matrix(b, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
+        fox_goodwin(b, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
 
 
 def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
     """Drive the compiled `dopri5` over chunks of output instants (progress and failures between)."""
-    M, D, nq = model.arrays, make_data(model), model.nq
-    f0 = rhs(M, D, 0.0, y0, nq)
+    b, nq = bind(model, make_data(model)), model.nq
+    f0 = rhs(b, 0.0, y0, nq)
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(f0))):
         return 0, 0, 1, "failed: non-finite state at t = 0 s"
     w = atol + rtol * np.abs(y0)
@@ -350,7 +351,7 @@ def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
     step = [h]
 
     def advance(k, k1):
-        j, step[0], code, t = dopri5(M, D, nq, y, t_out[k:k1 + 1], Y[k:k1 + 1], step[0], rtol, atol, max_step,
+        j, step[0], code, t = dopri5(b, nq, y, t_out[k:k1 + 1], Y[k:k1 + 1], step[0], rtol, atol, max_step,
                                      counts)
         return j, code, t
 

@@ -42,8 +42,10 @@ numba.config.CACHE_DIR = str(cache_dir())
 
 
 def njit(fn=None, **kw):
-    """numba.njit(cache=True, ...); usable bare (@njit) or with options (@njit(...))."""
-    opts = {"cache": True, **kw}
+    """numba.njit(cache=True, error_model="numpy", ...); usable bare (@njit) or with options
+    (@njit(...)). With numpy's error model a division by zero gives inf or nan, as in numpy, and
+    no division carries a zero test and a raise path; the integrators check the state is finite."""
+    opts = {"cache": True, "error_model": "numpy", **kw}
     if fn is None:
         return lambda f: numba.njit(**opts)(f)
     return numba.njit(**opts)(fn)

@@ -98,6 +98,8 @@ class Model:
 class Data(NamedTuple):
     """Workspace of one evaluation, grouped by the pass that fills it. Frames: body frame."""
 
+    qdd_p: np.ndarray   # (nv,)         accelerations of the prescribed joints        profiles
+    scale: np.ndarray   # (nl,)         profile factors of the point loads
     XJ: np.ndarray      # (nb+1, 6, 6)  joint transform, input triad -> body frame     pass 1
     S: np.ndarray       # (nb+1, 6, 6)  joint motion subspace (first jnt_nv columns)
     vJ: np.ndarray      # (nb+1, 6)     joint velocity S qd
@@ -107,6 +109,7 @@ class Data(NamedTuple):
     v: np.ndarray       # (nb+1, 6)     spatial velocity
     c: np.ndarray       # (nb+1, 6)     velocity-product acceleration
     Iv: np.ndarray      # (nb+1, 6)     rigid body's momentum I v
+    F: np.ndarray       # (nb+1, 6+nm)  generalized external forces of the point loads
     MA: np.ndarray      # (nb+1, 6+nm, 6+nm) articulated inertia over (a_i, eta_dd_i)   pass 2
     pA: np.ndarray      # (nb+1, 6+nm)  articulated bias force
     Lm: np.ndarray      # (nb+1, nm, nm) Cholesky factor L of the modal block D = L L^T
@@ -117,6 +120,7 @@ class Data(NamedTuple):
     Uj: np.ndarray      # (nb+1, 6, 6)  IA S
     dinv: np.ndarray    # (nb+1, 6, 6)  (S^T IA S)^-1
     u: np.ndarray       # (nb+1, 6)     tau - S^T pA
+    IG: np.ndarray      # (6, 6+nm)     IA G, projecting onto the parent (one body at a time)
     a: np.ndarray       # (nb+1, 6)     spatial acceleration, gravity as base acceleration    pass 3
     f: np.ndarray       # (nb+1, 6)     force the joint transmits from the parent onto the body
     qdd: np.ndarray     # (nv,)         joint and modal accelerations
@@ -124,19 +128,19 @@ class Data(NamedTuple):
 
 def make_data(model: Model) -> Data:
     """A zeroed workspace for `model`."""
-    return empty_data(model.nb, model.jnt_Phi.shape[2], model.nv)
+    return empty_data(model.nb, model.jnt_Phi.shape[2], model.nv, model.load_kind.size)
 
 
-def empty_data(nb: int, nm: int, nv: int) -> Data:
+def empty_data(nb: int, nm: int, nv: int, nl: int) -> Data:
     n = nb + 1
     X0 = np.zeros((n, 6, 6))
     X0[0] = np.eye(6)
     z6, z66 = np.zeros((n, 6)), np.zeros((n, 6, 6))
-    return Data(XJ=z66.copy(), S=z66.copy(), vJ=z6.copy(), Xup=z66.copy(), X0=X0, U=np.zeros((n, 6, nm)),
-                v=z6.copy(), c=z6.copy(), Iv=z6.copy(), MA=np.zeros((n, 6 + nm, 6 + nm)), pA=np.zeros((n, 6 + nm)),
-                Lm=np.zeros((n, nm, nm)), W=np.zeros((n, nm, 6)), y=np.zeros((n, nm)), Ia=z66.copy(),
-                pa=z6.copy(), Uj=z66.copy(), dinv=z66.copy(), u=z6.copy(), a=z6.copy(), f=z6.copy(),
-                qdd=np.zeros(nv))
+    return Data(qdd_p=np.zeros(nv), scale=np.ones(nl), XJ=z66.copy(), S=z66.copy(), vJ=z6.copy(), Xup=z66.copy(),
+                X0=X0, U=np.zeros((n, 6, nm)), v=z6.copy(), c=z6.copy(), Iv=z6.copy(), F=np.zeros((n, 6 + nm)),
+                MA=np.zeros((n, 6 + nm, 6 + nm)), pA=np.zeros((n, 6 + nm)), Lm=np.zeros((n, nm, nm)),
+                W=np.zeros((n, nm, 6)), y=np.zeros((n, nm)), Ia=z66.copy(), pa=z6.copy(), Uj=z66.copy(),
+                dinv=z66.copy(), u=z6.copy(), IG=np.zeros((6, 6 + nm)), a=z6.copy(), f=z6.copy(), qdd=np.zeros(nv))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -343,7 +347,7 @@ structref.define_boxing(BoundType, Bound)
 
 def _bound_type() -> BoundType:
     A = Arrays(**empty_arrays(0, 0), inv=flexbody.stack([None], 0), **empty_loads(0, 0), gravity=np.zeros(3))
-    return BoundType([("M", numba.typeof(A)), ("D", numba.typeof(empty_data(0, 0, 0)))])
+    return BoundType([("M", numba.typeof(A)), ("D", numba.typeof(empty_data(0, 0, 0, 0)))])
 
 
 BOUND_T = _bound_type()
@@ -358,5 +362,8 @@ def _bind(M, D):
 
 
 def bind(model: Model, data: Data) -> Bound:
-    """The Model's arrays and `data` as one `Bound` (see `dynamics.forward_bound`)."""
+    """The Model's arrays and `data` as one `Bound` (see `dynamics.forward`). Loads the compiled
+    `dynamics.aba` first, before anything that calls it (`dynamics.load_aba`)."""
+    from flexmbd import dynamics        # dynamics imports this module
+    dynamics.load_aba()
     return _bind(model.arrays, data)

@@ -113,12 +113,12 @@ def test_flexible_reactions_project_to_joint_forces():
 
 
 def test_bound_call_is_the_same_evaluation():
-    """`forward_bound` on `bind(model, data)` is `forward_dynamics`, and shares data's arrays."""
+    """`forward` on `bind(model, data)` is `forward_dynamics`, and shares data's arrays."""
     from flexmbd import bench
     m = M.from_case(bench.chain_case(3, flexible=True))
     rng = np.random.default_rng(3)
     q, v, tau = rng.normal(size=m.nq) * 0.1, rng.normal(size=m.nv), rng.normal(size=m.nv)
     data = M.make_data(m)
-    a = dynamics.forward_bound(M.bind(m, data), 0.3, q, v, tau)
+    a = dynamics.forward(M.bind(m, data), 0.3, q, v, tau)
     assert np.array_equal(a, dynamics.forward_dynamics(m, M.make_data(m), q, v, tau, t=0.3))
     assert np.array_equal(data.qdd, a) and np.abs(data.f[1:]).max() > 0
