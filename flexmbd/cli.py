@@ -181,8 +181,8 @@ def cmd_bench(args) -> int:
     from flexmbd import bench
 
     def show(row):
-        sys.stderr.write(f"bench: {row['case']} / {row['solver']} {row['scheme']} {row['setting']}: error {row['error']:.3g}, "
-                         f"{row['wall_s']:.2f} s\n")
+        sys.stderr.write(f"bench: {row['case']} / {row['solver']} {row['scheme']} {row['setting']}: "
+                         f"error {row['error']:.3g}, {row['wall_s']:.2f} s\n")
 
     result = bench.run(quick=args.quick, with_work_precision=not args.no_work_precision, progress=show)
     bench.plots(result, Path(args.out))
