@@ -10,23 +10,12 @@ Run each variant in a fresh process, with the compile cache warm (after `make te
 """
 
 import sys
-import time
 
 import numpy as np
 
 from flexmbd import bench, dynamics, integrate
+from flexmbd.bench import median_us
 from flexmbd.model import _bind, from_case, make_data
-
-
-def median_us(f, calls=2000, repeats=9):
-    f()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        for _ in range(calls):
-            f()
-        times.append((time.perf_counter() - t0) / calls)
-    return float(np.median(times) * 1e6)
 
 
 def main(first: str) -> None:

@@ -119,25 +119,6 @@ def cholesky(A):
 
 
 @njit
-def chol_solve(L, B):
-    """Solve (L L^T) X = B for X (n, k), L lower triangular (n, n)."""
-    n, k = B.shape
-    Y = np.zeros((n, k))
-    for j in range(k):
-        for r in range(n):
-            s = B[r, j]
-            for c in range(r):
-                s -= L[r, c] * Y[c, j]
-            Y[r, j] = s / L[r, r]
-        for r in range(n - 1, -1, -1):
-            s = Y[r, j]
-            for c in range(r + 1, n):
-                s -= L[c, r] * Y[c, j]
-            Y[r, j] = s / L[r, r]
-    return Y
-
-
-@njit
 def forward_subst(L, B):
     """L^-1 B (n, k) for lower-triangular L (n, n) and B (n, k)."""
     n, k = B.shape
@@ -162,6 +143,15 @@ def back_subst_vec(L, y):
             s -= L[c, r] * x[c]
         x[r] = s / L[r, r]
     return x
+
+
+@njit
+def chol_solve(L, B):
+    """Solve (L L^T) X = B for X (n, k), L lower triangular (n, n): L^-T (L^-1 B) column by column."""
+    Y = forward_subst(L, B)
+    for j in range(Y.shape[1]):
+        Y[:, j] = back_subst_vec(L, Y[:, j])
+    return Y
 
 
 @njit
