@@ -5,7 +5,7 @@
 
 Every compiled caller of `dynamics.aba` carries its own copy of it in its cached machine code, and
 the process runs the copy loaded first. With "forward" the Bound is made without `model.bind`'s
-`load_aba`, so `forward`'s embedded copy arrives first. Prints the median time of one call, us.
+`load_aba`, so the copy embedded in `forward_at` (behind `dynamics.forward`) arrives first. Prints the median time of one call, us.
 Run each variant in a fresh process, with the compile cache warm (after `make test`).
 """
 

@@ -25,7 +25,7 @@ from flexmbd.dense import (back_subst_vec, cholesky, congruence_add_into, forwar
                            mtv, mtv_add_into, mv, mv_add_into, mv_into)
 from flexmbd.flexbody import inertia_and_forces_into, mass_matrix
 from flexmbd.jit import njit
-from flexmbd.model import BOUND_T, FREE, PRISMATIC, REVOLUTE, SPHERICAL, Data, Model, bind
+from flexmbd.model import BOUND_T, FREE, PRISMATIC, REVOLUTE, SPHERICAL, Bound, Data, Model, bind, bound_at
 from flexmbd.profiles import load_at, motion_at
 from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, expm_so3, inertia_parts, jac_left_so3,
                              jac_left_so3_dot, plux, plux_parts, quat_to_rot, xlt, xmul_into, xrot)
@@ -358,7 +358,7 @@ ABA_SIGNATURE = (BOUND_T, *[types.Array(types.float64, 1, "C")] * 3)
 def load_aba() -> None:
     """Load (or compile) `aba` for a Bound before any compiled caller of it is loaded.
 
-    Every compiled caller (forward, integrate.rhs, ...) carries its own copy of `aba` in its
+    Every compiled caller (forward_at, integrate.rhs, ...) carries its own copy of `aba` in its
     cached machine code, and the copy that arrives first is the one every later call runs. The
     copies that come with a caller measured 30-60 % slower than `aba`'s own compilation
     (docs/performance.md), so `model.bind` loads `aba` itself first."""
@@ -366,17 +366,25 @@ def load_aba() -> None:
 
 
 @njit
-def forward(b, t, q, v, tau):
-    """Generalized accelerations (nv,) at time t for a `model.Bound` b: profiles applied, then
-    `aba`. The cheap call from Python: q, v, tau C-contiguous float arrays, t a float."""
+def forward_at(address, t, q, v, tau):
+    """`forward` for the Bound at `address` (`model.Bound.address`)."""
+    b = bound_at(address)
     q, v = prescribed(b.M, b.D, t, q, v)
-    return aba(b, q, v, tau).copy()
+    return aba(b, q, v, tau)
+
+
+def forward(b: Bound, t: float, q, v, tau) -> np.ndarray:
+    """Generalized accelerations (nv,) at time t for a `model.Bound` b: profiles applied, then
+    `aba`. The cheap call from Python: q, v, tau C-contiguous float arrays, t a float. Returns the
+    workspace's D.qdd itself, as Pinocchio's `aba` returns `data.ddq`: copy it to keep it."""
+    return forward_at(b.address, t, q, v, tau)
 
 
 def forward_dynamics(model: Model, data: Data, q, v, tau=None, t: float = 0.0) -> np.ndarray:
-    """Generalized accelerations (nv,) at time t (profiles of loads and prescribed joints applied)."""
+    """Generalized accelerations (nv,) at time t (profiles of loads and prescribed joints applied),
+    a copy of data.qdd."""
     tau = np.zeros(model.nv) if tau is None else np.asarray(tau, dtype=float)
-    return forward(bind(model, data), float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), tau)
+    return forward(bind(model, data), float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), tau).copy()
 
 
 def energy(model: Model, data: Data, q, v) -> tuple[float, float]:

@@ -23,8 +23,9 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba.core import types
+from numba.core import cgutils, types
 from numba.experimental import structref
+from numba.extending import intrinsic
 
 from flexmbd import flexbody, profiles, spatial
 from flexmbd.adapters.common import rotation_rpy
@@ -332,32 +333,92 @@ def initial_q(jtype: int, values) -> list:
 
 
 @structref.register
+class ArraysType(types.StructRef):
+    """numba type of `ArraysRef`."""
+
+
+@structref.register
+class DataType(types.StructRef):
+    """numba type of `DataRef`."""
+
+
+@structref.register
 class BoundType(types.StructRef):
     """numba type of `Bound`."""
 
 
+class ArraysRef(structref.StructRefProxy):
+    """The fields of `Arrays` behind one pointer. Reading one field in compiled code touches that
+    array only, where a NamedTuple read out of a structref takes a reference to every member."""
+
+
+class DataRef(structref.StructRefProxy):
+    """The fields of `Data` behind one pointer (see ArraysRef)."""
+
+
 class Bound(structref.StructRefProxy):
-    """A Model's arrays (field M) and one Data (field D) as a single object for compiled code:
-    numba passes it in about 1 us, where the two NamedTuples (some 70 arrays) take about 17 us.
-    Made by `bind`; the arrays are shared, not copied."""
+    """A Model's arrays (field M, an ArraysRef) and one Data (field D, a DataRef) as a single
+    object for compiled code: numba passes it in about 1.7 us, where the two NamedTuples (some 70
+    arrays) take about 17 us. Made by `bind`; the arrays are shared, not copied.
+
+    `address` (int) is where its data lives. numba's dispatcher types an int in C but a structref
+    in Python (about 0.8 us more), so the cheap call from Python (`dynamics.forward`) passes the
+    address, and the compiled code takes the Bound back with `bound_at`, while the Python object
+    keeps it alive for the call."""
+
+    @classmethod
+    def _numba_box_(cls, ty, mi):
+        b = super()._numba_box_(ty, mi)
+        b.address = _address(b)
+        return b
 
 
+structref.define_proxy(ArraysRef, ArraysType, Arrays._fields)
+structref.define_proxy(DataRef, DataType, Data._fields)
 structref.define_boxing(BoundType, Bound)
 
 
 def _bound_type() -> BoundType:
     A = Arrays(**empty_arrays(0, 0), inv=flexbody.stack([None], 0), **empty_loads(0, 0), gravity=np.zeros(3))
-    return BoundType([("M", numba.typeof(A)), ("D", numba.typeof(empty_data(0, 0, 0, 0)))])
+    D = empty_data(0, 0, 0, 0)
+    return BoundType([("M", ArraysType(list(zip(Arrays._fields, numba.typeof(A).types)))),
+                      ("D", DataType(list(zip(Data._fields, numba.typeof(D).types))))])
 
 
 BOUND_T = _bound_type()
 
 
+@intrinsic
+def address_of(typingctx, b):
+    """The address (intp) of a Bound's data (its meminfo)."""
+    def codegen(context, builder, sig, args):
+        st = cgutils.create_struct_proxy(BOUND_T)(context, builder, value=args[0])
+        return builder.ptrtoint(st.meminfo, context.get_value_type(types.intp))
+    return types.intp(BOUND_T), codegen
+
+
+@intrinsic
+def bound_at(typingctx, address):
+    """The Bound at `address` (`Bound.address`), as a new reference. The caller guarantees that
+    a Bound there is alive for the call."""
+    def codegen(context, builder, sig, args):
+        st = cgutils.create_struct_proxy(BOUND_T)(context, builder)
+        st.meminfo = builder.inttoptr(args[0], st.meminfo.type)
+        context.nrt.incref(builder, BOUND_T, st._getvalue())
+        return st._getvalue()
+    return BOUND_T(types.intp), codegen
+
+
+@njit
+def _address(b):
+    return address_of(b)
+
+
 @njit
 def _bind(M, D):
     b = structref.new(BOUND_T)
-    b.M = M
-    b.D = D
+    b.M = ArraysRef(*M)
+    b.D = DataRef(*D)
     return b
 
 
