@@ -12,20 +12,20 @@ Gravity enters as a fictitious base acceleration a_0 = [0; -g].
 
 The compiled entry points take a `model.Bound` b, the Model's arrays M = b.M and a Data D = b.D
 as one object: numba passes it as a single pointer where the pair would cross every call as some
-600 scalars, and `aba` runs about 40 % faster per body for it (docs/performance.md). The passes
-inlined into `aba` take (M, D). The Python-level entry points at the bottom take the Model.
+600 scalars, and M and D are structrefs, so reading a field takes a reference to that one array
+(docs/performance.md). The passes inlined into `aba` take (M, D), and work on the NamedTuples
+too. The Python-level entry points at the bottom take the Model, or a Bound (`forward`).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba.core import types
 
 from flexmbd.dense import (back_subst_vec, cholesky, congruence_add_into, forward_subst, inv_spd, mm, mm_into, mtm,
                            mtv, mtv_add_into, mv, mv_add_into, mv_into)
 from flexmbd.flexbody import inertia_and_forces_into, mass_matrix
 from flexmbd.jit import njit
-from flexmbd.model import BOUND_T, FREE, PRISMATIC, REVOLUTE, SPHERICAL, Bound, Data, Model, bind, bound_at
+from flexmbd.model import FREE, PRISMATIC, REVOLUTE, SPHERICAL, Bound, Data, Model, bind, bound_at
 from flexmbd.profiles import load_at, motion_at
 from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, expm_so3, inertia_parts, jac_left_so3,
                              jac_left_so3_dot, plux, plux_parts, quat_to_rot, xlt, xmul_into, xrot)
@@ -350,19 +350,6 @@ def prescribed(M, D, t, q, v):
     for k in range(D.scale.size):
         D.scale[k] = load_at(M.load_kind[k], M.load_par[k], t)
     return q, v
-
-
-ABA_SIGNATURE = (BOUND_T, *[types.Array(types.float64, 1, "C")] * 3)
-
-
-def load_aba() -> None:
-    """Load (or compile) `aba` for a Bound before any compiled caller of it is loaded.
-
-    Every compiled caller (forward_at, integrate.rhs, ...) carries its own copy of `aba` in its
-    cached machine code, and the copy that arrives first is the one every later call runs. The
-    copies that come with a caller measured 30-60 % slower than `aba`'s own compilation
-    (docs/performance.md), so `model.bind` loads `aba` itself first."""
-    aba.compile(ABA_SIGNATURE)
 
 
 @njit

@@ -12,8 +12,9 @@ triad of joint i sits on its parent: on a rigid parent (or ground) at the consta
 `jnt_Xtriad[i]` is the constant transform from the deformed node frame, whose undeformed
 position is `jnt_x0[i]` and mode block `jnt_Phi[i]`.
 
-The arrays live in `Model.arrays` (a NamedTuple the compiled algorithms take); the Model shell
-adds what only Python needs (names, motion profiles, the reduced bodies for outputs).
+The arrays live in `Model.arrays` (a NamedTuple); the Model shell adds what only Python needs
+(names, motion profiles, the reduced bodies for outputs). The compiled entry points get the arrays
+and a Data as one `Bound` (end of this file), in which both are structrefs with the same fields.
 """
 
 from __future__ import annotations
@@ -423,8 +424,5 @@ def _bind(M, D):
 
 
 def bind(model: Model, data: Data) -> Bound:
-    """The Model's arrays and `data` as one `Bound` (see `dynamics.forward`). Loads the compiled
-    `dynamics.aba` first, before anything that calls it (`dynamics.load_aba`)."""
-    from flexmbd import dynamics        # dynamics imports this module
-    dynamics.load_aba()
+    """The Model's arrays and `data` as one `Bound` (see `dynamics.forward`)."""
     return _bind(model.arrays, data)

@@ -12,7 +12,7 @@ import numpy as np
 
 from flexmbd import dynamics, flexbody
 from flexmbd.fe.stress import von_mises
-from flexmbd.model import Model, make_data
+from flexmbd.model import Model, bind, make_data
 from flexmbd.spatial import expm_so3
 
 
@@ -43,17 +43,22 @@ def energies(model: Model, Q, V) -> np.ndarray:
     return np.array([dynamics.energy(model, data, q, v) for q, v in zip(Q, V)])
 
 
-def reaction(model: Model, data, t: float, q, v) -> np.ndarray:
-    """Joint forces (nb+1, 6) [moment; force] from parent onto body, body frame, at one state."""
-    dynamics.forward_dynamics(model, data, q, v, t=t)
-    return data.f.copy()
+def reactions(model: Model, t, Q, V) -> np.ndarray:
+    """(n, nb+1, 6): joint forces [moment; force] from parent onto body, body frame, at every
+    state (one forward-dynamics evaluation each)."""
+    data = make_data(model)
+    b, tau = bind(model, data), np.zeros(model.nv)
+    out = np.empty((len(t), model.nb + 1, 6))
+    for k, (tk, q, v) in enumerate(zip(t, Q, V)):
+        dynamics.forward(b, float(tk), np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float), tau)
+        out[k] = data.f
+    return out
 
 
 def channels(case, model: Model, t, Q, V) -> dict:
     """Every channel of the case, (n,) each, from states Q (n, nq), V (n, nv)."""
     out = {}
-    stress_row = {}
-    data = make_data(model)
+    stress_row, f = {}, None
     for name, c in case["channels"].items():
         kind = c["kind"]
         if kind == "joint_angle":
@@ -63,7 +68,8 @@ def channels(case, model: Model, t, Q, V) -> dict:
         elif kind in ("reaction_force", "reaction_moment"):
             i = model.index(case["joints"][c["joint"]]["child"])
             row = "xyz".index(c["component"]) + (3 if kind == "reaction_force" else 0)
-            out[name] = np.array([reaction(model, data, tk, q, v)[i, row] for tk, q, v in zip(t, Q, V)])
+            f = reactions(model, t, Q, V) if f is None else f
+            out[name] = f[:, i, row].copy()
         elif c["body"] not in model.bodies:                  # a beam declared rigid does not deform
             out[name] = np.zeros(len(t))
         else:

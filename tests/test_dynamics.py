@@ -1,8 +1,5 @@
 """The recursion against Pinocchio (rigid trees) and the Lagrangian oracle (flexible trees)."""
 
-import subprocess
-import sys
-
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -126,14 +123,3 @@ def test_bound_call_is_the_same_evaluation():
     a = dynamics.forward(M.bind(m, data), 0.3, q, v, tau)
     assert np.array_equal(a, dynamics.forward_dynamics(m, M.make_data(m), q, v, tau, t=0.3))
     assert a is data.qdd and np.abs(data.f[1:]).max() > 0
-
-
-def test_bind_loads_aba_before_its_callers():
-    """In a fresh process `model.bind` loads `aba` itself before anything that calls it, so that
-    every caller runs that copy (dynamics.load_aba; docs/performance.md)."""
-    code = ("from flexmbd import bench, dynamics, model as M; m = M.from_case(bench.chain_case(2, False)); "
-            "M.bind(m, M.make_data(m)); "
-            "print(dynamics.ABA_SIGNATURE in [tuple(s) for s in dynamics.aba.signatures], "
-            "len(dynamics.forward_at.signatures))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
-    assert out == ["True", "0"]
