@@ -31,3 +31,14 @@ def test_matched_accuracy_picks_the_fastest_setting_that_meets_the_target():
     assert out[0] == {"case": "c", "error_target": 1e-3, "flexmbd_wall_s": 2.0, "exudyn_ffrf_wall_s": 4.0, "ratio": 0.5,
                       "flexmbd_setting": "dopri5 rtol=1e-4", "exudyn_ffrf_setting": "fox-goodwin dt=1e-4"}
     assert out[1]["flexmbd_wall_s"] == 3.0 and np.isnan(out[1]["exudyn_ffrf_wall_s"])
+
+
+def test_convergence_follows_exudyn_rows_only():
+    """flexmbd's own fox-goodwin rows share the scheme name and must not break Exudyn's sequence."""
+    def row(solver, error):
+        return {"case": "c", "solver": solver, "scheme": "fox-goodwin", "error": error}
+    rows = [row("flexmbd", 1e-3), row("flexmbd", 1e-5), row("exudyn-ffrf", np.nan), row("exudyn-ffrf", 1e-3),
+            row("exudyn-ffrf", 1e-4)]
+    c = bench.convergence(rows, "c", "fox-goodwin")
+    assert c["decreasing"] and c["smallest"] == 1e-4 and len(c["errors"]) == 3
+    assert not bench.convergence(rows + [row("exudyn-ffrf", 2e-4)], "c", "fox-goodwin")["decreasing"]
