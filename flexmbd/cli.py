@@ -82,7 +82,7 @@ def cmd_run(args) -> int:
     r = solvers.run(case, args.solver, args.t_end)
     csv, js = results.write(r, Path(args.out))
     if args.json:
-        print(json.dumps(results.sidecar(r), indent=2))
+        print(js.read_text(), end="")
     else:
         print(f"{case.name} / {r.solver}: {r.status}; {r.steps} steps, solve {r.wall_s:.3f} s, "
               f"set-up {r.setup_s:.3f} s -> {js.parent}")

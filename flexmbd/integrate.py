@@ -11,8 +11,9 @@ Methods (the case's `[integrator] method`):
           functional iteration (PECE), as in the paper: ODEPACK's VODE through scipy
   rk45, dop853   explicit embedded Runge-Kutta pairs (scipy's solve_ivp), for comparison
   rk4     classical fixed-step Runge-Kutta, step `dt`
-A state or acceleration that is not finite, or a velocity beyond DIVERGED, ends the run with
-status 'failed: <why> at t = ...'; everything computed up to then is kept.
+A state or acceleration that is not finite, or a velocity beyond DIVERGED (results.DIVERGED_V,
+the divergence rule's bound on a velocity state), ends the run with a failed status at the time
+it happened; every output instant reached before it is kept.
 """
 
 from __future__ import annotations
@@ -24,17 +25,17 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import ode, solve_ivp
 
-from flexmbd import dynamics
+from flexmbd import dynamics, results
 from flexmbd.dense import mv
 from flexmbd.jit import njit
 from flexmbd.model import FREE, SPHERICAL, Model, bind, make_data
 from flexmbd.spatial import quat_rate, quat_to_rot
 
-DIVERGED = 1e8          # |v| beyond this (rad/s, m/s, modal units) counts as divergence
+DIVERGED = results.DIVERGED_V    # |v| beyond this (rad/s, m/s, modal units) counts as divergence
 
 
 class Stop(Exception):
-    """Raised inside the right-hand side to end a run that has failed."""
+    """Raised inside the right-hand side to end a run that has failed; args[0] is its Status."""
 
 
 @dataclass
@@ -42,7 +43,7 @@ class Simulation:
     t: np.ndarray                   # (n,) output instants, s
     q: np.ndarray                   # (n, nq)
     v: np.ndarray                   # (n, nv)
-    status: str = "ok"
+    status: results.Status = field(default_factory=results.Status)
     steps: int = 0
     rhs_evals: int = 0
     wall_s: float = 0.0
@@ -87,7 +88,7 @@ def rhs_function(model: Model):
         count[0] += 1
         yd = rhs(b, float(t), y, nq)
         if not np.all(np.isfinite(yd)):
-            raise Stop(f"failed: non-finite acceleration at t = {t:.6g} s")
+            raise Stop(results.failed("non-finite acceleration", t))
         return yd
 
     return f, count
@@ -186,7 +187,7 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
     Y = np.full((t_out.size, y0.size), np.nan)
     Y[0] = y0
     start = time.perf_counter()
-    status, steps, k = "ok", 0, 0
+    status, steps, k = results.Status(), 0, 0
     try:
         if method == "fox-goodwin":
             k, steps, evals, status = _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar)
@@ -195,19 +196,20 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
             k, steps, evals, status = _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar)
             count[0] += evals
         elif method == "adams":
-            k, steps, status = _adams(f, y0, t_out, Y, rtol, atol, max_step, bar)
+            k, steps, status = _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, model.nq)
         elif method == "rk4":
-            k, steps = _rk4(f, y0, t_out, Y, dt, bar)
+            k, steps = _rk4(f, y0, t_out, Y, dt, bar, model.nq)
         else:
             k, steps, status = _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step)
     except Stop as e:
-        status = str(e)
+        status = e.args[0]
+        k = reached(Y)
     wall = time.perf_counter() - start
     if bar:
         bar.close()
     keep = slice(0, k + 1)
-    if status == "ok" and np.abs(Y[k, model.nq:]).max(initial=0.0) > DIVERGED:
-        status = f"failed: diverged (|v| > {DIVERGED:g}) at t = {t_out[k]:.6g} s"
+    if status.ok and np.abs(Y[k, model.nq:]).max(initial=0.0) > DIVERGED:
+        status = results.failed(f"diverged (|v| > {DIVERGED:g})", t_out[k])
     return Simulation(t=t_out[keep], q=Y[keep, :model.nq], v=Y[keep, model.nq:], status=status,
                       steps=steps, rhs_evals=count[0], wall_s=wall, settings=settings)
 
@@ -313,11 +315,11 @@ def fox_goodwin(b, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
 def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50):
     """Drive the compiled `fox_goodwin` over chunks of output instants."""
     if model.nq != model.nv:
-        raise Stop("failed: fox-goodwin needs q and v aligned (no spherical or free joints)")
+        raise Stop(results.failed("fox-goodwin needs q and v aligned (no spherical or free joints)", 0.0))
     b, nq = bind(model, make_data(model)), model.nq
     acc = np.ascontiguousarray(rhs(b, 0.0, y0, nq)[nq:])
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(acc))):
-        return 0, 0, 1, "failed: non-finite state at t = 0 s"
+        return 0, 0, 1, results.failed("non-finite state", 0.0)
     y, counts = y0.copy(), np.zeros(3, dtype=np.int64)
     Jinv = np.ascontiguousarray(newmark_matrix(b, nq, 0.0, y0, dt, 1.0 / 12.0, 0.5))
     counts[2] += y0.size + 2
@@ -343,7 +345,7 @@ def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
     b, nq = bind(model, make_data(model)), model.nq
     f0 = rhs(b, 0.0, y0, nq)
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(f0))):
-        return 0, 0, 1, "failed: non-finite state at t = 0 s"
+        return 0, 0, 1, results.failed("non-finite state", 0.0)
     w = atol + rtol * np.abs(y0)
     d0, d1 = np.sqrt(np.mean((y0 / w) ** 2)), np.sqrt(np.mean((f0 / w) ** 2))
     h = min(0.01 * d0 / d1 if min(d0, d1) > 1e-5 else 1e-6, max_step)      # Hairer's first guess
@@ -372,20 +374,28 @@ def _in_chunks(advance, t_out, counts, bar, chunk):
         j, code, t = advance(k, k1)
         k += j
         if code != OK:
-            return k, int(counts[0]), int(counts[2]), f"failed: {WHY[code]} at t = {t:.6g} s"
+            return k, int(counts[0]), int(counts[2]), results.failed(WHY[code], t)
         if bar:
             bar.update(t_out[k])
-    return k, int(counts[0]), int(counts[2]), "ok"
+    return k, int(counts[0]), int(counts[2]), results.Status()
 
 
-def _check(y, t):
+def reached(Y) -> int:
+    """The last output instant (row of Y, NaN where not reached) with a finite state."""
+    ok = np.flatnonzero(np.all(np.isfinite(Y), axis=1))
+    return int(ok[-1]) if ok.size else 0
+
+
+def _check(y, t, nq):
+    """Stop a run whose state y = [q; v] is not finite or whose velocities diverge (|v|, as the
+    compiled integrators)."""
     if not np.all(np.isfinite(y)):
-        raise Stop(f"failed: non-finite state at t = {t:.6g} s")
-    if np.abs(y).max() > DIVERGED:
-        raise Stop(f"failed: diverged (|y| > {DIVERGED:g}) at t = {t:.6g} s")
+        raise Stop(results.failed("non-finite state", t))
+    if y.size > nq and np.abs(y[nq:]).max() > DIVERGED:
+        raise Stop(results.failed(f"diverged (|v| > {DIVERGED:g})", t))
 
 
-def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar):
+def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq):
     """VODE, Adams family (method flag MF = 10: functional iteration, no Jacobian)."""
     r = ode(f).set_integrator("vode", method="adams", with_jacobian=False, rtol=rtol, atol=atol,
                               order=12, max_step=max_step, nsteps=10 ** 8)
@@ -395,15 +405,15 @@ def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar):
         y = r.integrate(t_out[k])
         if not r.successful():
             return k - 1, int(r._integrator.iwork[10]), \
-                f"failed: VODE return code {r.get_return_code()} at t = {r.t:.6g} s"
-        _check(y, t_out[k])
+                results.failed(f"VODE return code {r.get_return_code()}", r.t)
+        _check(y, t_out[k], nq)
         Y[k] = y
         if bar:
             bar.update(t_out[k])
-    return k, int(r._integrator.iwork[10]), "ok"
+    return k, int(r._integrator.iwork[10]), results.Status()
 
 
-def _rk4(f, y0, t_out, Y, dt, bar):
+def _rk4(f, y0, t_out, Y, dt, bar, nq):
     """Classical Runge-Kutta with the largest step <= dt that divides each output interval."""
     y, steps = y0.copy(), 0
     k = 0
@@ -419,7 +429,7 @@ def _rk4(f, y0, t_out, Y, dt, bar):
             k4 = f(t + h, y + h * k3)
             y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         steps += m
-        _check(y, t1)
+        _check(y, t1, nq)
         Y[k] = y
         if bar:
             bar.update(t1)
@@ -432,7 +442,7 @@ def _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step):
     k = sol.y.shape[1] - 1
     Y[:k + 1] = sol.y.T
     stages = {"rk45": 6, "dop853": 12}[method]
-    status = "ok" if sol.success else f"failed: {sol.message} at t = {sol.t[-1]:.6g} s"
+    status = results.Status() if sol.success else results.failed(sol.message, sol.t[-1])
     return k, sol.nfev // stages, status
 
 

@@ -23,11 +23,12 @@ _SOURCE = Path(__file__).resolve().parent
 
 
 def source_hash() -> str:
-    """Hash of the files with compiled code (and the constants they import from model.py)."""
+    """Hash of the files with compiled code (and the constants they import from model.py and
+    results.py)."""
     h = hashlib.sha256()
     for p in sorted(_SOURCE.rglob("*.py")):
         text = p.read_bytes()
-        if p.name in ("jit.py", "model.py") or b"from flexmbd.jit import" in text:
+        if p.name in ("jit.py", "model.py", "results.py") or b"from flexmbd.jit import" in text:
             h.update(p.relative_to(_SOURCE).as_posix().encode())
             h.update(text)
     return h.hexdigest()[:16]

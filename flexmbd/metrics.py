@@ -23,6 +23,15 @@ def scale(ref) -> float:
     return m if m > 0 else 1.0
 
 
+def channel_norm(kind: str, ref, kinetic_max: float | None = None) -> float:
+    """What a channel's differences are measured against: the reference's maximum magnitude;
+    for a total energy, which a conservative run keeps near its (arbitrary) start value, the
+    run's largest kinetic energy when it is known (J)."""
+    if kind == "energy" and kinetic_max:
+        return float(kinetic_max)
+    return scale(ref)
+
+
 def rms_diff(ref, y, norm: float | None = None) -> float:
     """RMS of y - ref over the common samples, over `norm` (default max |ref|)."""
     d = y - ref

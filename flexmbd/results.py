@@ -1,18 +1,28 @@
-"""Results of one solver on one case: a CSV table (`t` plus channels) and a JSON sidecar.
+"""Results of one solver on one case: the run status, a CSV table (`t` plus channels) and a
+JSON sidecar.
 
-Both files are written atomically (temporary file in the same folder, then `os.replace`), so an
-interrupted run never leaves a half-written result behind.
+Every solver's run ends in one `Status` (ok / failed with why and when / not applicable /
+unavailable), and one rule (`first_failure`) says when a run has diverged. The CSV and the JSON
+are a pair: both are written to temporary files, then swapped in with SIGINT and SIGTERM
+deferred, and the JSON records the CSV's SHA-256, so a reader sees the old pair or the new one and
+`read` refuses a CSV that does not belong to its JSON.
 """
 
 from __future__ import annotations
 
 import datetime
+import hashlib
+import io
 import json
 import os
 import platform
+import re
+import signal
 import subprocess
 import sys
 import tempfile
+import threading
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -20,18 +30,105 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-DEPENDENCIES = ("numpy", "scipy", "pandas", "matplotlib", "exudyn", "pin", "mujoco")
+from flexmbd.errors import InputError
+
+DEPENDENCIES = ("numpy", "scipy", "pandas", "matplotlib", "numba", "exudyn", "pin", "mujoco")
+
+# ---------------------------------------------------------------------------------------------
+# the run status
+
+KINDS = ("ok", "failed", "not applicable", "unavailable")
+
+
+@dataclass(frozen=True)
+class Status:
+    """What became of a run, the same for every solver: `kind` one of KINDS; `why` says why for
+    every kind but ok; `t` (s) is when a failed run failed, None when that is not known.
+    str() gives the one line shown in tables and stored in sidecars."""
+
+    kind: str = "ok"
+    why: str = ""
+    t: float | None = None
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"status kind {self.kind!r}")
+
+    @property
+    def ok(self) -> bool:
+        return self.kind == "ok"
+
+    def __str__(self) -> str:
+        if self.kind == "ok":
+            return "ok"
+        at = f" at t = {self.t:.6g} s" if self.t is not None else ""
+        return f"{self.kind}: {self.why}{at}"
+
+    @classmethod
+    def parse(cls, text: str) -> "Status":
+        """The Status whose str() is `text`."""
+        kind, _, rest = text.partition(": ")
+        if kind == "ok" and not rest:
+            return cls()
+        if kind not in KINDS[1:]:
+            raise ValueError(f"not a run status: {text!r}")
+        m = re.fullmatch(r"(.*) at t = ([-+0-9.eE]+|nan|inf) s", rest, re.S)
+        return cls(kind, m.group(1), float(m.group(2))) if m else cls(kind, rest)
+
+
+def failed(why: str, t: float | None = None) -> Status:
+    return Status("failed", why, None if t is None else float(t))
+
+
+def not_applicable(why: str) -> Status:
+    return Status("not applicable", why)
+
+
+def unavailable(why: str) -> Status:
+    return Status("unavailable", why)
+
+
+# the divergence rule, one for every solver: see `first_failure`
+DIVERGED_V = 1e8            # |v| of a solver's velocity state (rad/s, m/s, modal units)
+DIVERGED_LENGTHS = 2.0      # a deflection beyond twice its beam's length
+
+
+def first_failure(t, channels: dict, bounds: dict) -> tuple[int, Status] | None:
+    """The first output sample at which a run has failed, and why; None when it has not.
+
+    A run fails where any channel is not finite, or where a channel exceeds its bound in
+    `bounds` (channel -> largest plausible magnitude: a deflection bound is DIVERGED_LENGTHS
+    times its beam's length, which no beam reaches without stretching).
+    t (n,) s; channels: name -> (n,).
+    """
+    first = None
+    for name, y in channels.items():
+        y = np.asarray(y, dtype=float)
+        bad = ~np.isfinite(y)
+        if bounds.get(name) is not None:
+            bad |= np.abs(np.where(bad, 0.0, y)) > bounds[name]
+        hit = np.flatnonzero(bad)
+        if hit.size and (first is None or hit[0] < first[0]):
+            why = (f"non-finite {name}" if not np.isfinite(y[hit[0]]) else
+                   f"diverged ({name} beyond {bounds[name]:g}, {DIVERGED_LENGTHS:g} beam lengths)")
+            first = (int(hit[0]), failed(why, t[hit[0]]))
+    return first
+
+
+# ---------------------------------------------------------------------------------------------
+# one run
 
 
 @dataclass
 class Result:
-    """One run. `t` (n,) s; `channels` name -> (n,) array in SI units; `status` 'ok' or 'failed: why'."""
+    """One run. `t` (n,) s; `channels` name -> (n,) array in SI units; a failed run keeps the
+    samples computed before it failed."""
 
     solver: str
     case: str
     t: np.ndarray = field(default_factory=lambda: np.zeros(0))
     channels: dict = field(default_factory=dict)
-    status: str = "ok"
+    status: Status = field(default_factory=Status)
     solver_version: str = ""
     settings: dict = field(default_factory=dict)
     wall_s: float = 0.0           # solve only
@@ -43,7 +140,12 @@ class Result:
 
     @property
     def ok(self) -> bool:
-        return self.status == "ok"
+        return self.status.ok
+
+    def truncate(self, n: int) -> None:
+        """Keep the first n samples."""
+        self.t = np.asarray(self.t)[:n]
+        self.channels = {k: np.asarray(v)[:n] for k, v in self.channels.items()}
 
     def table(self) -> pd.DataFrame:
         cols = {"t": np.asarray(self.t)}
@@ -77,21 +179,64 @@ def environment() -> dict:
             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")}
 
 
-def sidecar(r: Result) -> dict:
-    """The JSON sidecar of a result."""
+def sidecar(r: Result, csv_sha256: str | None = None) -> dict:
+    """The JSON sidecar of a result; `csv_sha256` is the SHA-256 of its CSV (None: no CSV)."""
     return {"solver": r.solver, "solver_version": r.solver_version, "case": r.case,
-            "case_sha256": r.case_sha256, "status": r.status, "settings": r.settings,
-            "wall_s": r.wall_s, "setup_s": r.setup_s, "steps": r.steps, "rhs_evals": r.rhs_evals,
-            "samples": int(len(r.t)), "channels": list(r.channels), **r.extra, **environment()}
+            "case_sha256": r.case_sha256, "status": str(r.status), "failed_at_s": r.status.t,
+            "settings": r.settings, "wall_s": r.wall_s, "setup_s": r.setup_s, "steps": r.steps,
+            "rhs_evals": r.rhs_evals, "samples": int(len(r.t)), "channels": list(r.channels),
+            "csv_sha256": csv_sha256, **r.extra, **environment()}
 
 
-def _atomic_write(path: Path, text: str) -> None:
+SIDECAR_KEYS = {"solver", "solver_version", "case", "case_sha256", "status", "failed_at_s", "settings", "wall_s",
+                "setup_s", "steps", "rhs_evals", "samples", "channels", "csv_sha256"}
+
+
+def sha256(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+@contextmanager
+def signals_held():
+    """Hold SIGINT and SIGTERM back until the block is done, then deliver the first that came.
+
+    A handler that only records the signal (any thread may receive a process signal, so a
+    thread's signal mask is not enough); outside the main thread, where handlers cannot be
+    set, the block runs as it is."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got = []
+    old = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    for s in old:
+        signal.signal(s, lambda signum, frame: got.append(signum))
+    try:
+        yield
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        if got:
+            signal.raise_signal(got[0])
+
+
+def _temporary(path: Path, text: str) -> str:
+    """`text` in a new temporary file beside `path` (mode 644); its name."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "w") as f:
             f.write(text)
         os.chmod(tmp, 0o644)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return tmp
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    """Replace `path` by a file holding `text`: readers see the old file or the new one."""
+    tmp = _temporary(path, text)
+    try:
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -99,28 +244,51 @@ def _atomic_write(path: Path, text: str) -> None:
 
 
 def write(r: Result, out_dir: Path) -> tuple[Path, Path]:
-    """Write `out_dir/CASE/SOLVER.csv` and `.json`; return both paths. A run without samples
-    (unavailable, or failed before the first output) writes the sidecar only."""
+    """Write `out_dir/CASE/SOLVER.csv` and `.json` as a pair; return both paths. A run without
+    samples (unavailable, or failed before the first output) has no CSV."""
     base = Path(out_dir) / r.case
     csv, js = base / f"{r.solver}.csv", base / f"{r.solver}.json"
-    if len(r.t):
-        _atomic_write(csv, r.table().to_csv(index=False, float_format="%.10g"))
-    else:
-        csv.unlink(missing_ok=True)
-    _atomic_write(js, json.dumps(sidecar(r), indent=2) + "\n")
+    table = r.table().to_csv(index=False, float_format="%.10g") if len(r.t) else None
+    meta = json.dumps(sidecar(r, sha256(table) if table is not None else None), indent=2) + "\n"
+    tmps = []
+    try:
+        tmps = [_temporary(csv, table) if table is not None else None, _temporary(js, meta)]
+        with signals_held():
+            if table is not None:
+                os.replace(tmps[0], csv)
+            else:
+                csv.unlink(missing_ok=True)
+            os.replace(tmps[1], js)
+    finally:
+        for tmp in tmps:
+            if tmp is not None:
+                Path(tmp).unlink(missing_ok=True)
     return csv, js
 
 
 def read(out_dir: Path, case: str, solver: str) -> Result:
-    """Read a stored result back."""
+    """Read a stored result back; a CSV that does not belong to its JSON (another run's, or
+    missing where the JSON names one) is an InputError naming it."""
     base = Path(out_dir) / case
-    meta = json.loads((base / f"{solver}.json").read_text())
-    csv = base / f"{solver}.csv"
-    df = pd.read_csv(csv) if csv.exists() else pd.DataFrame({"t": []})
-    known = set(sidecar(Result(solver=solver, case=case)))
+    js, csv = base / f"{solver}.json", base / f"{solver}.csv"
+    meta = json.loads(js.read_text())
+    want = meta.get("csv_sha256")
+    if want is None and meta.get("samples", 0) == 0:
+        df = pd.DataFrame({"t": []})
+    else:
+        if not csv.is_file():
+            raise InputError(f"{csv}: missing (its sidecar {js.name} lists {meta.get('samples')} samples)")
+        text = csv.read_text()
+        if want is not None and sha256(text) != want:
+            raise InputError(f"{csv}: does not belong to {js.name} (written by another run)")
+        df = pd.read_csv(io.StringIO(text))
+    known = SIDECAR_KEYS | {"python", "versions", "git_commit", "machine", "date"}
+    status = Status.parse(meta["status"])
+    if status.kind == "failed" and meta.get("failed_at_s") is not None:
+        status = Status("failed", status.why, float(meta["failed_at_s"]))
     return Result(solver=solver, case=case, t=df["t"].to_numpy(),
                   channels={c: df[c].to_numpy() for c in df.columns if c != "t"},
-                  status=meta["status"], solver_version=meta.get("solver_version", ""),
+                  status=status, solver_version=meta.get("solver_version", ""),
                   settings=meta.get("settings", {}), wall_s=meta.get("wall_s", 0.0),
                   setup_s=meta.get("setup_s", 0.0), steps=meta.get("steps", 0),
                   rhs_evals=meta.get("rhs_evals", 0), case_sha256=meta.get("case_sha256", ""),

@@ -7,6 +7,10 @@ A solver is a module with
     run(case, t_end, settings) -> Result    fills t, channels, steps, rhs_evals, wall_s, setup_s
 Solvers that are not part of this build are listed (so case files may name them) and reported
 as unavailable.
+
+`run` is the one place where a solver's exception becomes a result, and where the divergence
+rule (`results.first_failure`) is applied to every solver's channels: a failed run keeps the
+samples before its failure.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ import importlib
 import time
 import traceback
 
+from flexmbd import results
 from flexmbd.results import Result
 
 # registered name -> module (None: not part of this build)
@@ -61,19 +66,33 @@ def unavailable_reason(name: str) -> str:
 
 def status_for(case, name: str) -> str:
     """'' when `name` can run `case`, else 'unavailable: ...' or 'not applicable: ...'."""
+    st = _precondition(case, name)
+    return str(st) if st else ""
+
+
+def _precondition(case, name: str) -> results.Status | None:
+    """None when `name` can run `case`, else the unavailable / not applicable status."""
     why = unavailable_reason(name)
     if why:
-        return why
+        return results.unavailable(why.removeprefix("unavailable: "))
     why = module(name).applies(case)
-    return f"not applicable: {why}" if why else ""
+    return results.not_applicable(why) if why else None
+
+
+def channel_bounds(case) -> dict:
+    """Channel -> largest plausible magnitude (the divergence rule): a deflection,
+    DIVERGED_LENGTHS times its beam's length; other channels need only be finite."""
+    return {name: results.DIVERGED_LENGTHS * case["bodies"][c["body"]]["length"]
+            for name, c in case["channels"].items() if c["kind"] == "deflection"}
 
 
 def run(case, name: str, t_end: float | None = None) -> Result:
-    """Run one solver on one case. Failures inside the solver become a `failed: ...` result."""
+    """Run one solver on one case. A failure inside the solver becomes a failed result, and a
+    run whose channels break the divergence rule is cut at the first bad sample and failed."""
     t_end = case["duration"] if t_end is None else t_end
-    why = status_for(case, name)
-    if why:
-        return Result(solver=name, case=case.name, status=why, case_sha256=case.sha256)
+    pre = _precondition(case, name)
+    if pre is not None:
+        return Result(solver=name, case=case.name, status=pre, case_sha256=case.sha256)
     mod = module(name)
     settings = case["solvers"].get(name, {})
     start = time.perf_counter()
@@ -82,8 +101,12 @@ def run(case, name: str, t_end: float | None = None) -> Result:
     except Exception as e:                              # an external code's failure is a result
         where = traceback.extract_tb(e.__traceback__)[-1]
         r = Result(solver=name, case=case.name,
-                   status=f"failed: {type(e).__name__}: {e} ({where.name}, line {where.lineno})")
+                   status=results.failed(f"{type(e).__name__}: {e} ({where.name}, line {where.lineno})"))
         r.wall_s = time.perf_counter() - start
+    cut = results.first_failure(r.t, r.channels, channel_bounds(case)) if len(r.t) else None
+    if cut is not None and (r.ok or r.status.t is None or cut[1].t <= r.status.t):
+        r.truncate(cut[0])
+        r.status = cut[1]
     r.solver, r.case, r.case_sha256 = name, case.name, case.sha256
     r.solver_version = r.solver_version or mod.version()
     return r

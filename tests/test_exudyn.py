@@ -87,15 +87,16 @@ def test_broken_run_is_a_failed_result_and_others_untouched(tmp_path):
     before = solvers.run(good, "analytic", 0.1)
     bad = cases.load("pendulum", ["solvers.exudyn-ffrf.dt=0.2"])
     r = solvers.run(bad, "exudyn-ffrf", 1.0)
-    assert r.status.startswith("failed: Exudyn"), r.status
-    assert len(r.t) == 0 and r.wall_s > 0
+    assert str(r.status).startswith("failed: Exudyn"), r.status
+    assert r.status.t is not None and r.status.t < 1.0 and r.wall_s > 0
+    assert len(r.t) and r.t[-1] == r.status.t and np.all(np.isfinite(r.channels["tip_deflection"]))
     csv, js = results.write(r, tmp_path)
-    assert not csv.exists() and json.loads(js.read_text())["status"] == r.status
+    assert json.loads(js.read_text())["status"] == str(r.status)
     after = solvers.run(good, "analytic", 0.1)
     assert after.ok
     np.testing.assert_array_equal(before.channels["tip_deflection"], after.channels["tip_deflection"])
     rb = solvers.run(cases.load("pendulum", ["solvers.exudyn-beam.dt=0.2"]), "exudyn-beam", 1.0)
-    assert rb.status.startswith("failed: Exudyn"), rb.status
+    assert str(rb.status).startswith("failed: Exudyn"), rb.status
 
 
 def test_missing_exudyn_is_unavailable():
@@ -165,13 +166,3 @@ def test_beam_pendulum_channels_short():
     assert np.abs(r.channels["energy"]).max() < 1e-3 * 12.9   # 0.1 % of the kinetic energy at the bottom
 
 
-def test_exploded_run_is_failed_not_ok():
-    """A finite but blown-up history (a deflection beyond the beam) is a failure with its time."""
-    from flexmbd.adapters import exudyn_common as xc
-    case = cases.load("pendulum")
-    t = np.linspace(0.0, 1.0, 11)
-    tip = np.where(t < 0.55, 0.01, 2.0)                      # the beam is 1.5 m long
-    ch = {"joint_angle": np.zeros(11), "tip_deflection": tip}
-    assert xc.channel_failure(case, ch, t) == "failed: diverged (tip_deflection beyond the beam's length, 1.5 m) at t = 0.6 s"
-    assert xc.channel_failure(case, {**ch, "tip_deflection": 0.01 + 0 * t}, t) == ""
-    assert xc.channel_failure(case, {**ch, "joint_angle": np.full(11, np.nan)}, t).startswith("failed: non-finite")

@@ -241,7 +241,7 @@ def test_missing_engine_is_unavailable(monkeypatch):
 def test_engine_error_is_a_failed_result(monkeypatch):
     monkeypatch.setattr(mujoco_rod, "mjcf", lambda *a: ("<mujoco><worldbody><body/></mujoco>", 0.0))
     r = solvers.run(cases.load("cantilever_step"), "mujoco-rod", 0.01)
-    assert r.status.startswith("failed: ") and "XML" in r.status
+    assert r.status.kind == "failed" and "XML" in r.status.why
 
 
 # ---------------------------------------------------------------------------------------------

@@ -105,6 +105,25 @@ def test_regress_flags_a_perturbed_baseline_and_passes_the_real_one(tmp_path, ca
     assert "moved: cantilever_step / analytic" not in err
 
 
+def test_regress_measures_a_conserved_energy_against_the_kinetic_energy(tmp_path):
+    """A conserved total energy is round-off around zero: regress normalises it as the accuracy
+    table does (by the run's largest kinetic energy), not by its own maximum."""
+    from flexmbd.results import Result
+    case = cases.load("pendulum")
+    t = np.linspace(0.0, 1.0, 101)
+    rng = np.random.default_rng(0)
+    base = Result(solver="flexmbd", case="pendulum", t=t, channels={"energy": 1e-10 * rng.standard_normal(101)},
+                  extra={"kinetic_max_J": 12.9})
+    fresh = Result(solver="flexmbd", case="pendulum", t=t, channels={"energy": 1e-10 * rng.standard_normal(101)})
+    regress.write(tmp_path, case, base)
+    stored = regress.read(tmp_path, "pendulum", "flexmbd")
+    assert float(stored.attrs["kinetic_max_J"]) == 12.9
+    [row] = regress.compare(case, fresh, stored)
+    assert row["rms"] < 1e-10 and not row["moved"]
+    drifted = Result(solver="flexmbd", case="pendulum", t=t, channels={"energy": 0.02 * 12.9 * t})
+    assert regress.compare(case, drifted, stored)[0]["moved"]
+
+
 def test_baselines_carry_provenance():
     for c, s in regress.listing(regress.BASELINES):
         head = [l for l in (regress.BASELINES / c / f"{s}.csv").read_text().splitlines()[:8] if l.startswith("#")]

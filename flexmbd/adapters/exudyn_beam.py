@@ -349,11 +349,13 @@ def run(case, t_end, settings):
                extra={"newton_iterations": newton,
                       "dofs": int(sum(3 * len(b["nodes"]) for b in beams.values()))})
     first = S[next(iter(S))]["r"][0]
-    n_ok = xc.completed(mbs, first, t) if status == "ok" else 0
-    if status == "ok" and n_ok < t.size:
-        r.status = f"failed: Exudyn stopped at t = {t[max(n_ok - 1, 0)]:.6g} s of {t_end:g} s"
-    if not r.ok:
+    n = xc.reached(r, t, xc.completed(mbs, first, t), t_end)
+    if n == 0:
         return r
+    X = {name: {k: ({i: xc.sensor_series(mbs, s, t[:n]) for i, s in v.items()}) for k, v in Sb.items()}
+         for name, Sb in S.items()}
+    r.t, r.channels = t[:n], channels(case, beams, X, t[:n])
+    return r
     X = {name: {k: ({i: xc.sensor_series(mbs, s, t) for i, s in v.items()}) for k, v in Sb.items()}
          for name, Sb in S.items()}
     r.t, r.channels = t, channels(case, beams, X, t)

@@ -19,6 +19,7 @@ import numpy as np
 import exudyn as exu                     # ImportError here: the adapters are 'unavailable'
 import exudyn.itemInterface as eii       # noqa: F401  (used by the adapters)
 
+from flexmbd import results
 from flexmbd.adapters import common
 from flexmbd.outputs import chord_frame  # noqa: F401  (the adapters measure chords the same way)
 from flexmbd.spatial import expm_so3
@@ -101,19 +102,19 @@ def simulation_settings(case, t_end: float, dt: float, solver: dict):
 def solve(mbs, settings, solver_type: str):
     """Run Exudyn's implicit solver; (status, wall_s, steps, newton_iterations).
 
-    status is 'ok' or 'failed: <Exudyn's message>'; never raises for a solver failure.
+    status is ok or failed with Exudyn's message; never raises for a solver failure.
     """
     t0 = time.perf_counter()
-    status = "ok"
+    status = results.Status()
     try:
         with quiet():
             ok = mbs.SolveDynamic(settings, solverType=IMPLICIT[solver_type], showHints=False,
                                   showCausingItems=False)
         if not ok:
-            status = "failed: Exudyn SolveDynamic returned False"
+            status = results.failed("Exudyn SolveDynamic returned False")
     except Exception as e:                               # exu.SolverError, ExudynError, ...
         msg = error_string(mbs) or f"{type(e).__name__}: {e}"
-        status = f"failed: Exudyn: {msg}"
+        status = results.failed(f"Exudyn: {msg}")
     wall_s = time.perf_counter() - t0
     it = mbs.sys["dynamicSolver"].it if "dynamicSolver" in mbs.sys else None
     steps = max(int(it.currentStepIndex) - 1, 0) if it is not None else 0   # index counts from 1
@@ -133,20 +134,13 @@ def error_string(mbs) -> str:
     return " ".join(str(msg).split())
 
 
-def channel_failure(case, channels: dict, t: np.ndarray) -> str:
-    """'' for plausible channels, else why the run failed: non-finite values, or a deflection
-    larger than its beam's length (a run that blew up while Exudyn's Newton still converged,
-    as an implicit scheme past its stability limit does), with the first instant it shows."""
-    bad = [k for k, v in channels.items() if not np.all(np.isfinite(v))]
-    if bad:
-        return f"failed: non-finite values in {', '.join(bad)}"
-    for k, ch in case["channels"].items():
-        if ch["kind"] == "deflection" and k in channels:
-            length = case["bodies"][ch["body"]]["length"]
-            over = np.flatnonzero(np.abs(channels[k]) > length)
-            if over.size:
-                return f"failed: diverged ({k} beyond the beam's length, {length:g} m) at t = {t[over[0]]:.6g} s"
-    return ""
+def reached(r, t: np.ndarray, n_ok: int, t_end: float) -> int:
+    """Set r.status for a run that reached n_ok of the output instants t: a run that stopped
+    early fails at the last instant it reached. Returns n_ok."""
+    if n_ok < t.size:
+        at = t[max(n_ok - 1, 0)]
+        r.status = results.failed(r.status.why if not r.ok else f"Exudyn stopped before {t_end:g} s", at)
+    return n_ok
 
 
 def sensor_series(mbs, sensor, t_out: np.ndarray) -> np.ndarray:

@@ -599,12 +599,9 @@ def run(case, t_end, settings):
                steps=steps, rhs_evals=newton, settings=recorded, solver_version=version(),
                extra={"newton_iterations": newton})
     first = next(iter(S.values()))["p"]
-    n_ok = xc.completed(mbs, first, t) if status == "ok" else 0
-    if status == "ok" and n_ok < t.size:
-        r.status = f"failed: Exudyn stopped at t = {t[max(n_ok - 1, 0)]:.6g} s of {t_end:g} s"
-    if not r.ok:
+    n = xc.reached(r, t, xc.completed(mbs, first, t), t_end)
+    if n == 0:
         return r
-    X = read_sensors(mbs, S, t)
-    r.t, r.channels = t, channels(case, fbs, X, t)
-    r.status = xc.channel_failure(case, r.channels, t) or r.status
+    X = read_sensors(mbs, S, t[:n])
+    r.t, r.channels = t[:n], channels(case, fbs, X, t[:n])
     return r

@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 import mujoco
-from flexmbd import cases, profiles
+from flexmbd import cases, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, quat_to_rot, rot_to_quat
 from flexmbd.spatial import inertia_parts, plux_parts
@@ -175,7 +175,7 @@ def run(case, t_end, settings):
 
     t_out = common.sample_times(case, t_end)
     P, E = np.zeros((t_out.size, m.nq)), np.zeros(t_out.size)
-    status, k = "ok", 0
+    status, k = results.Status(), 0
     t1 = time.perf_counter()
     mujoco.mj_forward(m, d)
     P[0], E[0] = d.qpos, d.energy.sum()
@@ -184,7 +184,7 @@ def run(case, t_end, settings):
             apply_loads(model, m, d)
             mujoco.mj_step(m, d)
         if not np.all(np.isfinite(d.qpos)):
-            status = f"failed: non-finite state at t = {d.time:.6g} s"
+            status = results.failed("non-finite state", d.time)
             break
         mujoco.mj_forward(m, d)                                 # energy of the current state
         P[k], E[k] = d.qpos, d.energy.sum()

@@ -42,7 +42,7 @@ import time
 import numpy as np
 
 import mujoco
-from flexmbd import profiles
+from flexmbd import profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, rot_to_quat
 
@@ -249,7 +249,7 @@ def run(case, t_end, settings):
     setup_s = time.perf_counter() - t0
 
     t_out = common.sample_times(case, t_end)
-    rows, status = [], "ok"
+    rows, status = [], results.Status()
     t1 = time.perf_counter()
     mujoco.mj_forward(m, d)
     rows.append(sample(case, m, d, ne, s, l))
@@ -258,7 +258,7 @@ def run(case, t_end, settings):
             apply_loads(case, m, d, ne, s)
             mujoco.mj_step(m, d)
         if not np.all(np.isfinite(d.qpos)):
-            status = f"failed: non-finite state at t = {d.time:.6g} s"
+            status = results.failed("non-finite state", d.time)
             break
         mujoco.mj_fwdPosition(m, d)                             # kinematics and inertia of the new state
         rows.append(sample(case, m, d, ne, s, l))

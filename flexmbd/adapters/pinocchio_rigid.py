@@ -20,7 +20,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.integrate import DOP853, RK45, Radau
 
-from flexmbd import cases, profiles
+from flexmbd import cases, profiles, results
 from flexmbd.adapters import common, pinocchio_model
 from flexmbd.model import from_case
 
@@ -153,21 +153,21 @@ def integrate(eng: Rigid, y0, t_out, method: str, rtol: float, atol: float):
     Y = np.full((t_out.size, y0.size), np.nan)
     Y[0] = y0
     if y0.size == 0 or eng.nv == 0:                             # nothing moves (all joints fixed)
-        return np.tile(y0, (t_out.size, 1)), 0, "ok"
+        return np.tile(y0, (t_out.size, 1)), 0, results.Status()
     sol = METHODS[method](eng.rhs, 0.0, y0, t_out[-1], rtol=rtol, atol=atol)
     k, steps = 1, 0
     while sol.status == "running":
         msg = sol.step()
         if sol.status == "failed":
-            return Y[:k], steps, f"failed: {method}: {msg} at t = {sol.t:.6g} s"
+            return Y[:k], steps, results.failed(f"{method}: {msg}", sol.t)
         steps += 1
         dense = sol.dense_output()
         while k < t_out.size and t_out[k] <= sol.t + 1e-12:
             Y[k] = dense(t_out[k])
             k += 1
         if not np.all(np.isfinite(sol.y)):
-            return Y[:k], steps, f"failed: non-finite state at t = {sol.t:.6g} s"
-    return Y, steps, "ok"
+            return Y[:k], steps, results.failed("non-finite state", sol.t)
+    return Y, steps, results.Status()
 
 
 def channels(case, model, eng: Rigid, t, Q, V) -> dict:

@@ -46,8 +46,7 @@ def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
                 continue
             y = metrics.on_grid(ref.t, r.t, r.channels[ch])
             x = ref.channels[ch]
-            # a conserved total energy sits near zero: measure it against the largest kinetic energy
-            k = ref.extra.get("kinetic_max_J") if case["channels"][ch]["kind"] == "energy" else None
+            k = metrics.channel_norm(case["channels"][ch]["kind"], x, ref.extra.get("kinetic_max_J"))
             row = {"case": case.name, "solver": name, "reference": ref_name, "channel": ch,
                    "rms": metrics.rms_diff(x, y, k), "max": metrics.max_diff(x, y, k),
                    "peak": metrics.peak_diff(x, y, k),

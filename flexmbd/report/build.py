@@ -53,7 +53,7 @@ def timing_rows(res: dict, t_end: float) -> list[list]:
     rows = []
     for s, r in res.items():
         sim = r.t[-1] if len(r.t) else t_end
-        rows.append([s, r.status, r.wall_s, r.setup_s, r.extra.get("compile_s", np.nan), r.steps, r.rhs_evals,
+        rows.append([s, str(r.status), r.wall_s, r.setup_s, r.extra.get("compile_s", np.nan), r.steps, r.rhs_evals,
                      metrics.per_simulated_second(r.wall_s, sim)])
     return rows
 
@@ -144,7 +144,7 @@ def case_page(out: Path, case, names) -> dict:
     page.append("</body></html>")
     _atomic_write(d / "index.html", "".join(page) + "\n")
     _atomic_write(d / "index.md", "\n".join(md))
-    summary = [[case.name, s, r.status, accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s] for s, r in res.items()]
+    summary = [[case.name, s, str(r.status), accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s] for s, r in res.items()]
     return {"accuracy": acc, "summary": summary}
 
 

@@ -1,8 +1,10 @@
 """Regression against stored baselines: `references/baselines/CASE/SOLVER.csv`.
 
 A baseline is a result table with a provenance header (lines starting with '#': source, solver
-version, settings, date, units, columns). `compare` measures every channel's RMS difference
-from the baseline over the baseline's maximum magnitude and flags what moved beyond the case's
+version, settings, date, units, columns, and the run's largest kinetic energy where the solver
+reports it). `compare` measures every channel's RMS difference from the baseline with the
+accuracy table's normalisation (`metrics.channel_norm`: the baseline's maximum magnitude, a
+total energy against the largest kinetic energy) and flags what moved beyond the case's
 tolerance for that channel.
 """
 
@@ -38,6 +40,8 @@ def write(base: Path, case, r: Result) -> Path:
             f"date: {env['date']}; git commit: {env['git_commit']}; python {env['python']}",
             f"units: {units}",
             f"columns: {', '.join(['t'] + list(r.channels))}"]
+    if r.extra.get("kinetic_max_J"):
+        head.append(f"kinetic_max_J: {r.extra['kinetic_max_J']!r}")
     text = "".join(f"# {h}\n" for h in head) + r.table().to_csv(index=False, float_format="%.10g")
     path = Path(base) / case.name / f"{r.solver}.csv"
     _atomic_write(path, text)
@@ -45,12 +49,23 @@ def write(base: Path, case, r: Result) -> Path:
 
 
 def read(base: Path, case: str, solver: str) -> pd.DataFrame:
-    return pd.read_csv(Path(base) / case / f"{solver}.csv", comment="#")
+    """The baseline table; its header's fields (`# key: value` lines) in `.attrs`."""
+    path = Path(base) / case / f"{solver}.csv"
+    df = pd.read_csv(path, comment="#")
+    with open(path) as f:
+        for line in f:
+            if not line.startswith("#"):
+                break
+            key, _, value = line[1:].strip().partition(": ")
+            df.attrs[key] = value
+    return df
 
 
 def compare(case, r: Result, baseline: pd.DataFrame) -> list[dict]:
-    """One row per baseline channel: RMS difference over max |baseline|, tolerance, moved?"""
+    """One row per baseline channel: normalised RMS difference, tolerance, moved?"""
     tol = case["report"]["tolerances"]
+    kinetic = float(baseline.attrs["kinetic_max_J"]) if "kinetic_max_J" in baseline.attrs \
+        else r.extra.get("kinetic_max_J")
     t_ref = baseline["t"].to_numpy()
     rows = []
     for ch in baseline.columns:
@@ -59,10 +74,11 @@ def compare(case, r: Result, baseline: pd.DataFrame) -> list[dict]:
         limit = tol.get(ch, DEFAULT_TOLERANCE)
         if not r.ok or ch not in r.channels:
             rows.append({"case": case.name, "solver": r.solver, "channel": ch, "rms": np.nan, "tolerance": limit,
-                         "moved": True, "why": r.status if not r.ok else "channel missing"})
+                         "moved": True, "why": str(r.status) if not r.ok else "channel missing"})
             continue
         y = metrics.on_grid(t_ref, r.t, r.channels[ch])
-        d = metrics.rms_diff(baseline[ch].to_numpy(), y)
+        ref = baseline[ch].to_numpy()
+        d = metrics.rms_diff(ref, y, metrics.channel_norm(case["channels"][ch]["kind"], ref, kinetic))
         short = np.isnan(y).any()
         rows.append({"case": case.name, "solver": r.solver, "channel": ch, "rms": d, "tolerance": limit,
                      "moved": bool(short or not d <= limit), "why": "shorter run" if short else ""})

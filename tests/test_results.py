@@ -1,0 +1,155 @@
+"""Result files and the run status: one status type, one divergence rule, the CSV/JSON pair."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from flexmbd import results
+from flexmbd.errors import InputError
+from flexmbd.results import Result, Status
+
+
+# ---------------------------------------------------------------------------------------------
+# status
+
+
+@pytest.mark.parametrize("status", [Status(), results.failed("diverged (|v| > 1e+08)", 0.125),
+                                    results.failed("Exudyn: no convergence"), results.not_applicable("no motion"),
+                                    results.unavailable("No module named 'exudyn'"),
+                                    results.failed("VODE return code -1 at t = 3 s inside", 2.5)])
+def test_status_reads_back_from_its_line(status):
+    assert Status.parse(str(status)) == status
+
+
+def test_status_line_and_kinds():
+    assert str(results.failed("non-finite state", 0.0)) == "failed: non-finite state at t = 0 s"
+    assert str(results.not_applicable("prescribed motion")) == "not applicable: prescribed motion"
+    assert Status().ok and not results.failed("x").ok
+    with pytest.raises(ValueError):
+        Status("crashed")
+    with pytest.raises(ValueError):
+        Status.parse("fine")
+
+
+# ---------------------------------------------------------------------------------------------
+# the divergence rule
+
+
+def test_first_failure_finds_the_first_bad_sample_of_any_channel():
+    t = np.linspace(0.0, 1.0, 11)
+    tip = np.where(t < 0.55, 0.01, 3.5)                      # beyond 2 x 1.5 m from t = 0.6 s
+    angle = np.where(t < 0.75, 0.0, np.nan)                  # non-finite from t = 0.8 s
+    bounds = {"tip": 3.0}
+    k, st = results.first_failure(t, {"angle": angle, "tip": tip}, bounds)
+    assert k == 6 and st.t == pytest.approx(0.6) and st.kind == "failed"
+    assert "tip beyond 3" in st.why
+    k, st = results.first_failure(t, {"angle": angle, "tip": 0.01 + 0 * t}, bounds)
+    assert k == 8 and st.why == "non-finite angle"
+    assert results.first_failure(t, {"angle": 0 * t, "tip": 2.9 + 0 * t}, bounds) is None
+
+
+def test_solvers_run_cuts_a_diverged_history(monkeypatch):
+    """The rule is applied to every solver in solvers.run: an adapter's blown-up history ends
+    at its first bad sample, with the samples before it kept."""
+    from flexmbd import cases, solvers
+    from flexmbd.adapters import analytic
+
+    def blown_up(case, t_end, settings):
+        t = np.linspace(0.0, t_end, 101)
+        tip = np.where(t < 0.05, 0.01, 10.0)
+        return Result(solver="analytic", case=case.name, t=t, channels={"tip_deflection": tip, "stress_vm": 0 * t})
+
+    monkeypatch.setattr(analytic, "run", blown_up)
+    r = solvers.run(cases.load("cantilever_step"), "analytic", 0.1)
+    assert r.status.kind == "failed" and r.status.t == pytest.approx(0.05)
+    assert len(r.t) == 50 and np.all(r.channels["tip_deflection"] == 0.01)
+
+
+def test_an_exception_in_a_solver_is_a_failed_result(monkeypatch):
+    from flexmbd import cases, solvers
+    from flexmbd.adapters import analytic
+
+    def broken(case, t_end, settings):
+        raise RuntimeError("engine exploded")
+
+    monkeypatch.setattr(analytic, "run", broken)
+    r = solvers.run(cases.load("cantilever_step"), "analytic", 0.1)
+    assert r.status.kind == "failed" and "RuntimeError: engine exploded" in r.status.why
+
+
+# ---------------------------------------------------------------------------------------------
+# the CSV/JSON pair
+
+
+def _result(k: int, n: int = 20) -> Result:
+    return Result(solver="s", case="c", t=np.arange(n) * 0.1, channels={"x": np.full(n, float(k))},
+                  settings={"k": k}, status=results.failed("diverged", 1.5) if k % 2 else Status())
+
+
+def test_pair_round_trip(tmp_path):
+    results.write(_result(3), tmp_path)
+    back = results.read(tmp_path, "c", "s")
+    assert back.status == results.failed("diverged", 1.5) and back.settings == {"k": 3}
+    np.testing.assert_array_equal(back.channels["x"], np.full(20, 3.0))
+    meta = json.loads((tmp_path / "c" / "s.json").read_text())
+    assert meta["csv_sha256"] == results.sha256((tmp_path / "c" / "s.csv").read_text())
+    assert "numba" in meta["versions"]
+
+
+def test_a_csv_of_another_run_is_refused(tmp_path):
+    results.write(_result(1), tmp_path)
+    other = (tmp_path / "c" / "s.csv").read_text()
+    results.write(_result(2), tmp_path)
+    (tmp_path / "c" / "s.csv").write_text(other)
+    with pytest.raises(InputError, match="s.csv: does not belong to s.json"):
+        results.read(tmp_path, "c", "s")
+    (tmp_path / "c" / "s.csv").unlink()
+    with pytest.raises(InputError, match="s.csv: missing"):
+        results.read(tmp_path, "c", "s")
+
+
+def test_a_result_without_samples_has_no_csv(tmp_path):
+    results.write(_result(2), tmp_path)
+    results.write(Result(solver="s", case="c", status=results.not_applicable("no")), tmp_path)
+    assert not (tmp_path / "c" / "s.csv").exists()
+    assert results.read(tmp_path, "c", "s").status == results.not_applicable("no")
+
+
+WRITER = """
+import sys
+import numpy as np
+from flexmbd import results
+k = 0
+print("ready", flush=True)
+while True:
+    k += 1
+    n = 50 + k % 7
+    results.write(results.Result(solver="s", case="c", t=np.arange(n) * 0.1,
+                                 channels={"x": np.full(n, float(k))}, settings={"k": k}), sys.argv[1])
+"""
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupted_writer_leaves_a_matching_pair(tmp_path, sig):
+    """A process that keeps rewriting one result is stopped by a real signal at random moments;
+    every time, the CSV on disk belongs to the JSON beside it."""
+    rng = np.random.default_rng(int(sig))
+    for trial in range(6):
+        out = tmp_path / f"trial{trial}"
+        p = subprocess.Popen([sys.executable, "-c", WRITER, str(out)], stdout=subprocess.PIPE,
+                             stderr=subprocess.DEVNULL, text=True)
+        assert p.stdout.readline().strip() == "ready"
+        time.sleep(0.2 + 0.3 * rng.random())
+        os.kill(p.pid, sig)
+        p.wait(timeout=20)
+        meta = json.loads((out / "c" / "s.json").read_text())
+        back = results.read(out, "c", "s")
+        k = meta["settings"]["k"]
+        assert len(back.t) == meta["samples"] == 50 + k % 7
+        assert np.all(back.channels["x"] == k), (trial, k, back.channels["x"][:3])
