@@ -4,6 +4,9 @@ Every key a case may hold is declared once, in the schema below (`cases/README.m
 the same keys with units). Loading fills defaults, checks types, signs and ranges, resolves
 references between sections, and rejects unknown keys with a "did you mean" hint. Any failure
 raises `InputError` with one line: ``FILE: dotted.key: what was expected``.
+
+Solver names and the `[solvers.NAME]` tables are checked by the solver registry
+(`solvers.check`), where the solvers are known: loading a case imports no solver.
 """
 
 from __future__ import annotations
@@ -232,6 +235,17 @@ def validate(raw: dict, where: str) -> dict:
     return data
 
 
+def check_table(raw, schema: dict, where: str, prefix: str) -> dict:
+    """A table checked against a schema (see above), defaults filled; `prefix` is its dotted key
+    with a trailing dot. For schemas declared outside this module (solver settings)."""
+    return _check_table(raw, schema, where, prefix)
+
+
+def hint(word: str, choices) -> str:
+    """' (did you mean ...?)' for the closest of `choices`, or ''."""
+    return _hint(word, choices)
+
+
 def _hint(word: str, choices) -> str:
     close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
     return f" (did you mean '{close[0]}'?)" if close else ""
@@ -323,17 +337,24 @@ def _check_value(v, kind, where: str, key: str):
             return _check_value(v, "vec3", where, key)
         return _check_value(v, "float0+", where, key)
     if kind == "solver":
-        return _check_solver(v, where, key)
+        if not isinstance(v, str):
+            _fail(where, key, f"expected a solver name, got {v!r}")
+        return v
     if kind == "solvers":
-        if not isinstance(v, list):
+        if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
             _fail(where, key, f"expected a list of solver names, got {v!r}")
-        return [_check_solver(s, where, key) for s in v]
+        return list(v)
     if kind == "tolerances":
         if not isinstance(v, dict):
             _fail(where, key, "expected a table channel = relative tolerance")
         return {ch: _check_value(t, "float+", where, f"{key}.{ch}") for ch, t in v.items()}
     if kind == "solver_settings":
-        return _check_solver_settings(v, where, key)
+        if not isinstance(v, dict):
+            _fail(where, key, "expected a table of solver names")
+        for name, settings in v.items():
+            if not isinstance(settings, dict):
+                _fail(where, f"{key}.{name}", "expected a table of settings")
+        return copy.deepcopy(v)
     raise AssertionError(f"schema kind {kind!r}")
 
 
@@ -345,24 +366,6 @@ def _check_body(v, where, key):
     if schema is None:
         _fail(where, key + ".type", f"expected beam or rigid, got {kind!r}{_hint(str(kind), ['beam', 'rigid'])}")
     return _check_table(v, schema, where, key + ".")
-
-
-def _check_solver(name, where, key):
-    from flexmbd.solvers import NAMES
-    if name not in NAMES:
-        _fail(where, key, f"unknown solver {name!r}{_hint(str(name), NAMES)} (known: {', '.join(NAMES)})")
-    return name
-
-
-def _check_solver_settings(v, where, key):
-    from flexmbd.solvers import settings_schema
-    if not isinstance(v, dict):
-        _fail(where, key, "expected a table of solver names")
-    out = {}
-    for name, settings in v.items():
-        _check_solver(name, where, f"{key}.{name}")
-        out[name] = _check_table(settings, settings_schema(name), where, f"{key}.{name}.")
-    return out
 
 
 # ---------------------------------------------------------------------------------------------

@@ -12,8 +12,15 @@ from flexmbd import cases, solvers
 from flexmbd.errors import InputError
 
 
+def _case(name: str, overrides=()) -> cases.Case:
+    """A case loaded and its solver tables checked: bad input stops here, before any work."""
+    case = cases.load(name, overrides)
+    solvers.check(case)
+    return case
+
+
 def _load(args) -> cases.Case:
-    return cases.load(args.case, getattr(args, "set", None) or [])
+    return _case(args.case, getattr(args, "set", None) or [])
 
 
 def _positive(text: str) -> float:
@@ -33,7 +40,7 @@ def _positive(text: str) -> float:
 def cmd_list(args) -> int:
     rows = []
     for name in cases.available():
-        c = cases.load(name)
+        c = _case(name)
         rows.append({"case": name, "title": c["title"], "bodies": list(c["bodies"]),
                      "solvers": {s: solvers.status_for(c, s) or "ok" for s in solvers.NAMES}})
     if args.json:
@@ -73,9 +80,7 @@ def cmd_modes(args) -> int:
 def cmd_run(args) -> int:
     from flexmbd import results
     case = _load(args)
-    if args.solver not in solvers.NAMES:
-        raise InputError(f"--solver: unknown solver {args.solver!r}{cases._hint(args.solver, solvers.NAMES)} "
-                         f"(known: {', '.join(solvers.NAMES)})")
+    solvers.check_name(args.solver, "--solver")
     why = solvers.status_for(case, args.solver)
     if why:
         raise InputError(f"{case.path}: solver {args.solver}: {why}")
@@ -92,9 +97,7 @@ def cmd_run(args) -> int:
 def _solver_list(text: str | None, flag: str) -> list:
     chosen = text.split(",") if text else list(solvers.NAMES)
     for name in chosen:
-        if name not in solvers.NAMES:
-            raise InputError(f"{flag}: unknown solver {name!r}{cases._hint(name, solvers.NAMES)} "
-                             f"(known: {', '.join(solvers.NAMES)})")
+        solvers.check_name(name, flag)
     return chosen
 
 
@@ -113,7 +116,7 @@ def cmd_report(args) -> int:
     out = Path(args.out)
     names = args.cases.split(",") if args.cases else cases.available()
     chosen = _solver_list(args.solvers, "--solvers")
-    loaded = [cases.load(n) for n in names]
+    loaded = [_case(n) for n in names]
     jobs = [(c, s) for c in loaded for s in chosen if not c["report"]["solvers"] or s in c["report"]["solvers"]]
     if not args.no_run:
         run_all(jobs, out)
@@ -141,7 +144,7 @@ def cmd_regress(args) -> int:
     if args.update and (args.cases or args.solvers):          # create baselines too, not only rewrite
         names = args.cases.split(",") if args.cases else cases.available()
         pairs = [(c, s) for c in names for s in _solver_list(args.solvers, "--solvers")
-                 if not solvers.status_for(cases.load(c), s)]
+                 if not solvers.status_for(_case(c), s)]
     if args.cases:
         pairs = [p for p in pairs if p[0] in args.cases.split(",")]
     if args.solvers:
@@ -152,7 +155,7 @@ def cmd_regress(args) -> int:
     t0 = time.perf_counter()
     for k, (case_name, solver) in enumerate(pairs, 1):
         progress(k, len(pairs), f"{case_name} / {solver}", time.perf_counter() - t0)
-        case = cases.load(case_name)
+        case = _case(case_name)
         if args.results:
             r = results.read(Path(args.results), case_name, solver)
         else:

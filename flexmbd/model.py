@@ -29,7 +29,6 @@ from numba.experimental import structref
 from numba.extending import intrinsic
 
 from flexmbd import flexbody, profiles, spatial
-from flexmbd.adapters.common import rotation_rpy
 from flexmbd.jit import njit
 
 FIXED, REVOLUTE, PRISMATIC, SPHERICAL, FREE = range(5)
@@ -234,7 +233,7 @@ def empty_loads(nl: int, nm: int) -> dict:
 
 def attach(A: dict, i: int, j: dict, pbody: dict | None, fb: flexbody.FlexBody | None) -> None:
     """Input triad of joint i: on ground or a rigid body at a point; on a beam at its snapped node."""
-    R = rotation_rpy(j["rpy"])
+    R = spatial.rotation_rpy(j["rpy"])
     if pbody is None or pbody["type"] == "rigid":
         A["jnt_Xtriad"][i] = spatial.plux(R.T, np.asarray(j["at"], dtype=float))
     elif pbody["rigid"]:          # a beam declared rigid: the snapped node's undeformed position

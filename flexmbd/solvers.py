@@ -19,7 +19,8 @@ import importlib
 import time
 import traceback
 
-from flexmbd import results
+from flexmbd import cases, results
+from flexmbd.errors import InputError
 from flexmbd.results import Result
 
 # registered name -> module (None: not part of this build)
@@ -50,6 +51,37 @@ def module(name: str):
 def settings_schema(name: str) -> dict:
     mod = module(name)
     return getattr(mod, "SETTINGS", {}) if mod else {}
+
+
+def check_name(name, key: str, where: str = "") -> str:
+    """A registered solver name, else InputError naming where (file) and key it was given at."""
+    if name not in NAMES:
+        raise InputError(f"{where + ': ' if where else ''}{key}: unknown solver {name!r}{cases.hint(str(name), NAMES)} "
+                         f"(known: {', '.join(NAMES)})")
+    return name
+
+
+def settings(case, name: str) -> dict:
+    """The case's `[solvers.NAME]` table checked against the solver's SETTINGS, defaults filled
+    (as given when the solver is not available here: its run says so)."""
+    where = str(case.path)
+    check_name(name, f"solvers.{name}", where)
+    raw = case["solvers"].get(name, {})
+    if unavailable_reason(name):
+        return dict(raw)
+    return cases.check_table(raw, settings_schema(name), where, f"solvers.{name}.")
+
+
+def check(case) -> None:
+    """Check every solver name and `[solvers.NAME]` table of a case before any work starts
+    (InputError: one line naming the file and key). Imports only the solvers it names."""
+    where, rep = str(case.path), case["report"]
+    if rep["reference"] is not None:
+        check_name(rep["reference"], "report.reference", where)
+    for name in rep["solvers"] or []:
+        check_name(name, "report.solvers", where)
+    for name in case["solvers"]:
+        settings(case, name)
 
 
 def unavailable_reason(name: str) -> str:
@@ -94,10 +126,10 @@ def run(case, name: str, t_end: float | None = None) -> Result:
     if pre is not None:
         return Result(solver=name, case=case.name, status=pre, case_sha256=case.sha256)
     mod = module(name)
-    settings = case["solvers"].get(name, {})
+    chosen = settings(case, name)
     start = time.perf_counter()
     try:
-        r = mod.run(case, t_end, settings)
+        r = mod.run(case, t_end, chosen)
     except Exception as e:                              # an external code's failure is a result
         where = traceback.extract_tb(e.__traceback__)[-1]
         r = Result(solver=name, case=case.name,

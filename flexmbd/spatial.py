@@ -259,3 +259,13 @@ def quat_rate(q, w) -> np.ndarray:
                            qw * wx + qy * wz - qz * wy,
                            qw * wy - qx * wz + qz * wx,
                            qw * wz + qx * wy - qy * wx])
+
+
+def rotation_rpy(rpy) -> np.ndarray:
+    """Rotation matrix R = Rz(yaw) Ry(pitch) Rx(roll), (3, 3): maps triad axes to parent axes."""
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    Rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    Ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    Rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from flexmbd.spatial import rotation_rpy
+
 
 def clamped_beam(case) -> tuple[str, str]:
     """(beam name, '') when the case is one beam clamped to ground at its root, else ('', why)."""
@@ -16,16 +18,6 @@ def clamped_beam(case) -> tuple[str, str]:
     if joint["type"] != "fixed" or joint["parent"] != "ground":
         return "", f"joint {jname!r} is not a fixed joint to ground (fixed-base cases only)"
     return name, ""
-
-
-def rotation_rpy(rpy) -> np.ndarray:
-    """Rotation matrix R = Rz(yaw) Ry(pitch) Rx(roll), (3, 3): maps triad axes to parent axes."""
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    Rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
-    Ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-    Rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
-    return Rz @ Ry @ Rx
 
 
 def body_force(case, load: dict) -> np.ndarray:

@@ -41,6 +41,7 @@ from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
 from flexmbd.fe.stress import von_mises
+from flexmbd.spatial import rotation_rpy
 
 from exudyn.FEM import ObjectFFRFreducedOrderInterface
 from exudyn.rigidBodyUtilities import GetRigidBodyNode
@@ -236,7 +237,7 @@ def initial_states(case, order: list, fbs: dict) -> dict:
     for name in order:
         j = by_child[name]
         Rp, pp, vp, wp = out[j["parent"]]
-        Rt = Rp @ common.rotation_rpy(j["rpy"])
+        Rt = Rp @ rotation_rpy(j["rpy"])
         pt = pp + Rp @ triad_point(case, j, fbs)
         vt = vp + np.cross(wp, pt - pp)
         Rq, tq = joint_offset(j)
@@ -294,7 +295,7 @@ def add_joint(mbs, items, case, fbs, jname: str, j: dict) -> None:
                                                  visualization=eii.VObjectJointGeneric(show=False)))
         return
     # parent side: the input triad turned onto the axis (z of the joint frame is the axis)
-    Rt = common.rotation_rpy(j["rpy"])
+    Rt = rotation_rpy(j["rpy"])
     m0 = body_marker_rigid(mbs, items, j["parent"], case, fbs, triad_point(case, j, fbs), Rt @ A)
 
     # child side: the same joint frame at q0, in the child frame (coincident when driven)
@@ -491,7 +492,7 @@ def joint_angle(case, fbs, X, j: dict) -> np.ndarray:
             p = fb.node_at(j["at"] if not isinstance(j["at"], list) else j["at"][0])
             rot = X[j["parent"]]["eta"] @ fb.Phi[p, :3, :].T
             Rp = np.array([R @ xc.rotvec(w) for R, w in zip(Rp, rot)])
-    Rin = Rp @ common.rotation_rpy(j["rpy"]) @ A
+    Rin = Rp @ rotation_rpy(j["rpy"]) @ A
     Rrel = np.einsum("nji,njk->nik", Rin, Rc @ A)
     q = xc.angle_z(Rrel)
     q0 = list(j["q0"])[0]

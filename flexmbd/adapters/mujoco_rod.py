@@ -45,6 +45,7 @@ import mujoco
 from flexmbd import profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, rot_to_quat
+from flexmbd.spatial import rotation_rpy
 
 SETTINGS = {
     "edges": ("int+", 40),                  # rod edges per beam
@@ -101,7 +102,7 @@ def mjcf(case, ne: int, dt: float, tc: float, integrator: str) -> str:
     A = ey * ez
     m_seg = mat["rho"] * A * l                              # the segment [0, l] held by the root
     r = np.asarray(j["at"] if isinstance(j["at"], list) else [0.0, 0.0, 0.0], dtype=float)
-    R = common.rotation_rpy(j["rpy"])
+    R = rotation_rpy(j["rpy"])
     axis = np.asarray(j["axis"], dtype=float)
     hinge = f'<joint name="pivot" type="hinge" axis="{fmt(axis)}"/>' if j["type"] == "revolute" else ""
     pts = " ".join(fmt(xk, 0.0, 0.0) for xk in x)
