@@ -7,15 +7,30 @@ need of it is kept here as plain arrays, in the body frame (beam along +x from t
     m       (N,)          lumped translational node masses m_p, kg
     J       (N, 3, 3)     lumped rotary inertias J_p at the nodes, kg m^2
     Phi     (N, 6, nm)    mode block per node, rows [rot x,y,z; trans x,y,z] (spatial order)
-    freq_hz (nm,)         natural frequencies of the retained set, Hz
+    freq_hz (nm,)         natural frequencies of the reduced body, eig(Km, I9), Hz
     labels  (nm,)         'bending xy 1', 'torsion 1', ...
     Km, Cm  (nm, nm)      modal stiffness Phi^T K Phi and modal damping 2 zeta omega (diagonal)
     stress_x (ns,)        stress points along the beam, m
     S_sigma, S_tau (ns, nm)  modal normal / torsional-shear stress coefficients, Pa per unit q
 
-Modes are computed with the mass matrix the case chooses (lumped by default, as in the paper);
-the node masses m_p, J_p are always the lumped ones, which is what the floating-frame invariants
-are summed from.
+The node masses m_p, J_p are always the lumped ones: the floating-frame invariants are node sums,
+and their modal mass I9 = sum Phi_r^T J_p Phi_r + m_p Phi_t^T Phi_t is Phi^T M_lumped Phi. The
+case's FE mass matrix (lumped by default, as in the paper) chooses the retained modes; with
+mass = "consistent" it chooses their span, within which they are re-orthonormalized in the lumped
+mass (`in_node_masses`). With either mass I9 = 1 and Km is diagonal, and freq_hz (and the damping
+Cm built from it) are the frequencies of the reduced body itself: with consistent mass these are
+Ritz values of the lumped-mass beam, at or above its own frequencies.
+
+Reference node. A body's parent joint acts on its frame origin, the root node (node 0, x = 0),
+so the frame has to stay on that material point. Clamped-free modes hold node 0 (the frame is the
+one tangent to the beam there) and hinged-hinged modes its position (the frame's x axis is the
+chord through both hinges). Free-free and Craig-Bampton modes move node 0 like any other node, so
+each loses its rigid-body motion of node 0 (`reference_node`): node 0's block of Phi is zero and
+the frame is the one tangent to the beam at node 0, the paper's choice of the flexible body
+reference frame. Free-free: the `count` lowest modes are held, and with the rigid-body motion the
+frame carries they span what the free-free set spans. Craig-Bampton: the lowest `count` of the
+held basis are kept; with an interface at node 0 the held basis is the Craig-Bampton basis of the
+beam clamped there (node 0's constraint modes are rigid-body motions, which the frame carries).
 """
 
 from __future__ import annotations
@@ -87,20 +102,62 @@ def fe_model(body: dict, material: dict):
     return nodes, elements, sec, K, M, M_lumped
 
 
-def mode_set(body: dict, K, M, n_nodes: int):
-    """The retained, mass-orthonormal mode set (6N, nm) and its frequencies (Hz)."""
+def mode_set(body: dict, K, M, M_lumped, nodes: np.ndarray):
+    """The reduced body's modes (6N, nm), orthonormal in the lumped mass, and their frequencies (Hz).
+
+    The case's mass matrix M chooses the modes: the lowest `count` elastic modes of the boundary
+    conditions, free-free and Craig-Bampton ones made to hold the reference node first
+    (`reference_node`). Unless they already are (lumped M, clamped-free or hinged-hinged), the
+    retained modes are then re-orthonormalized within their span in the lumped mass (`in_node_masses`).
+    """
     m = body["modes"]
-    if m["boundary"] == "craig-bampton":
-        L, n_el = body["length"], body["elements"]
-        nodes = sorted({int(round(x / L * n_el)) for x in m["interfaces"]})
-        iface = np.array([6 * p + k for p in nodes for k in range(6)])
-        n_normal = max(m["count"] - iface.size, 0)
-        Phi = modes.craig_bampton(K, M, np.array([], dtype=int), iface, n_normal + 6)
-        freq, Phi = modes.orthonormalize(K, M, Phi)
-        elastic = freq > 1e-6 * freq.max()       # the floating frame carries the rigid-body motion
-        return freq[elastic][: m["count"]], Phi[:, elastic][:, : m["count"]]
-    fixed = modes.boundary_dofs(m["boundary"], n_nodes)
-    return modes.normal_modes(K, M, fixed, m["count"])
+    if m["boundary"] in ("clamped-free", "hinged-hinged"):
+        freq, Phi = modes.normal_modes(K, M, modes.boundary_dofs(m["boundary"], nodes.shape[0]), m["count"])
+        if M is M_lumped:
+            return freq, Phi
+    else:
+        Phi = reference_node(K, M, nodes, floating_modes(body, K, M))[:, : m["count"]]
+    return in_node_masses(K, M_lumped, Phi)
+
+
+def floating_modes(body: dict, K, M) -> np.ndarray:
+    """Elastic modes (6N, k), M-orthonormal, of a free-free or Craig-Bampton beam (node 0 moves in them):
+    the lowest `count` free-free modes, or every elastic direction of the Craig-Bampton basis."""
+    m = body["modes"]
+    if m["boundary"] == "free-free":
+        return modes.normal_modes(K, M, [], m["count"])[1]
+    L, n_el = body["length"], body["elements"]
+    held = sorted({int(round(x / L * n_el)) for x in m["interfaces"]})
+    iface = np.array([6 * p + k for p in held for k in range(6)])
+    n_normal = max(m["count"] - iface.size, 0)
+    Phi = modes.craig_bampton(K, M, np.array([], dtype=int), iface, n_normal + 6)
+    freq, Phi = modes.orthonormalize(K, M, Phi)
+    return Phi[:, freq > 1e-6 * freq.max()]       # the floating frame carries the rigid-body motion
+
+
+def reference_node(K, M, nodes: np.ndarray, Phi: np.ndarray) -> np.ndarray:
+    """Modes (6N, k) spanning Phi less its rigid-body motion of node 0, M-orthonormal, K-diagonal,
+    in ascending frequency: node 0's six DOFs are zero in each, so the body frame is the frame
+    tangent to the beam at node 0, the material point the parent joint holds.
+
+    Every mode loses the rigid displacement field with node 0's translation t and rotation theta
+    (t + theta x (x_p - x_0) at node p, theta); K annihilates it, so Phi^T K Phi is unchanged.
+    Modes without a rigid part stay independent: none is lost.
+    """
+    return modes.orthonormalize(K, M, modes.hold_node(Phi, nodes, 0))[1]
+
+
+def in_node_masses(K, M_lumped, Phi: np.ndarray):
+    """Modes (6N, k) spanning Phi, orthonormal in the lumped mass the invariants are summed from
+    (I9 = 1) and K-diagonal, and their frequencies (Hz): those of the reduced body, from Km."""
+    _, Phi = modes.orthonormalize(K, M_lumped, Phi)
+    return np.sqrt(np.clip(np.diag(modal_stiffness(K, Phi)), 0.0, None)) / (2.0 * np.pi), Phi
+
+
+def modal_stiffness(K, Phi_fe: np.ndarray) -> np.ndarray:
+    """Km = Phi^T K Phi (nm, nm), symmetrized."""
+    Km = Phi_fe.T @ (K @ Phi_fe)
+    return 0.5 * (Km + Km.T)
 
 
 def spatial_blocks(Phi_fe: np.ndarray) -> np.ndarray:
@@ -113,7 +170,7 @@ def spatial_blocks(Phi_fe: np.ndarray) -> np.ndarray:
 def build(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
     """Reduce a case beam to a FlexBody. `stress_points`: iterable of (x, fibre or None)."""
     nodes, elements, sec, K, M, M_lumped = fe_model(body, material)
-    freq, Phi_fe = mode_set(body, K, M, nodes.shape[0])
+    freq, Phi_fe = mode_set(body, K, M, M_lumped, nodes)
 
     # lumped node masses and rotary inertias, from the lumped diagonal
     d = M_lumped.diagonal().reshape(-1, 6)
@@ -122,8 +179,7 @@ def build(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
     J[:, [0, 1, 2], [0, 1, 2]] = d[:, 3:6]
 
     # constant modal stiffness and damping
-    Km = Phi_fe.T @ (K @ Phi_fe)
-    Km = 0.5 * (Km + Km.T)
+    Km = modal_stiffness(K, Phi_fe)
     omega = 2.0 * np.pi * np.asarray(freq)
     Cm = np.diag(2.0 * body["damping_ratio"] * omega)
 

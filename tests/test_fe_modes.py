@@ -167,6 +167,23 @@ def test_constraint_modes_are_rigid_for_one_interface_node(ref100):
     assert np.abs(Psi - R.reshape(-1, 6)).max() < 1e-7 * L
 
 
+def test_hold_node_takes_out_the_nodes_rigid_motion(ref100, clamped12):
+    N, K, M = ref100
+    nodes = np.c_[np.linspace(0, L, N), np.zeros(N), np.zeros(N)]
+    p = 30
+    R = modes.rigid_body_fields(nodes, p)
+    assert np.array_equal(R[6 * p:6 * p + 6], np.eye(6))
+    assert np.abs(K @ R).max() < 1e-14 * np.abs(K).max()
+    _, Phi = modes.normal_modes(K, M, [], 4)
+    held = modes.hold_node(Phi + R[:, :4], nodes, p)      # rigid parts come out too
+    assert not np.any(held[6 * p:6 * p + 6])
+    assert np.abs(held - modes.hold_node(Phi, nodes, p)).max() < 1e-12 * np.abs(Phi).max()
+    Kr, Kh = Phi.T @ (K @ Phi), held.T @ (K @ held)
+    assert np.abs(Kh - Kr).max() < 1e-9 * np.abs(Kr).max()          # (K: cond ~ 3e9)
+    # held at the clamped node, clamped modes are unchanged
+    assert np.array_equal(modes.hold_node(clamped12[1], nodes, 0), clamped12[1])
+
+
 def test_constraint_modes_static_condensation(ref100):
     N, K, M = ref100
     iface = np.r_[6 * 50:6 * 51, 6 * (N - 1) + 1]

@@ -12,7 +12,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 __all__ = ["FAMILIES", "boundary_dofs", "free_dofs", "normal_modes", "static_modes",
-           "constraint_modes", "craig_bampton", "orthonormalize", "mode_labels"]
+           "constraint_modes", "craig_bampton", "orthonormalize", "rigid_body_fields", "hold_node",
+           "mode_labels"]
 
 # DOF families of a straight beam (node-local DOF indices); they are uncoupled in K and M
 FAMILIES = {"axial": (0,), "bending xy": (1, 5), "bending xz": (2, 4), "torsion": (3,)}
@@ -320,6 +321,47 @@ def orthonormalize(K, M, Phi, tol=1e-10):
     lam, X = _ritz(K, M, np.asarray(Phi, dtype=float), tol)
     lam, X = _ritz(K, M, X, tol=0.0)
     return _to_hz(lam), _fix_signs(_split_degenerate(lam, X, M))
+
+
+def rigid_body_fields(nodes, p):
+    """The six rigid-body displacement fields of the mesh about node ``p``.
+
+    Column ``k`` of ``[t; theta]`` (translation of node p, then rotation) moves node ``q`` by
+    ``u_q = t + theta x (x_q - x_p)`` and turns it by ``theta``.
+
+    Parameters
+    ----------
+    nodes : (N, 3) ndarray
+        Node positions, m.
+    p : int
+        The node the fields are referred to.
+
+    Returns
+    -------
+    (6N, 6) ndarray
+        Rows in the FE DOF order ``[ux, uy, uz, rx, ry, rz]`` per node.
+    """
+    d = np.asarray(nodes, dtype=float) - nodes[p]
+    R = np.zeros((d.shape[0], 6, 6))
+    R[:, np.arange(6), np.arange(6)] = 1.0
+    R[:, :3, 3:] = np.cross(np.eye(3)[None, :, :], d[:, None, :]).transpose(0, 2, 1)   # e_k x d
+    return R.reshape(-1, 6)
+
+
+def hold_node(Phi, nodes, p):
+    """``Phi`` with the rigid-body motion of node ``p`` taken out of every column.
+
+    Each mode loses the rigid displacement field that has node p's translation and rotation in
+    that mode (:func:`rigid_body_fields`), so node p's six DOFs are exactly zero. K annihilates
+    rigid motion, so ``Phi^T K Phi`` is unchanged; the mass products are not, and the result is
+    not orthonormal (pass it to :func:`orthonormalize`).
+
+    Returns
+    -------
+    (6N, k) ndarray
+    """
+    Phi = np.asarray(Phi, dtype=float)
+    return Phi - rigid_body_fields(nodes, p) @ Phi[6 * p:6 * p + 6]
 
 
 def _is_rigid(Phi, tol):
