@@ -24,7 +24,7 @@ import numpy as np
 from flexmbd.dense import (back_subst_vec, cholesky, congruence_add_into, forward_subst, inv_spd, mm, mm_into, mtm,
                            mtv, mtv_add_into, mv, mv_add_into, mv_into)
 from flexmbd.flexbody import inertia_and_forces_into, mass_matrix
-from flexmbd.jit import njit
+from flexmbd.jit import PURE_PYTHON, njit
 from flexmbd.model import FREE, PRISMATIC, REVOLUTE, SPHERICAL, Bound, Data, Model, bind, bound_at
 from flexmbd.profiles import load_at, motion_at
 from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, expm_so3, inertia_parts, jac_left_so3,
@@ -364,6 +364,9 @@ def forward(b: Bound, t: float, q, v, tau) -> np.ndarray:
     """Generalized accelerations (nv,) at time t for a `model.Bound` b: profiles applied, then
     `aba`. The cheap call from Python: q, v, tau C-contiguous float arrays, t a float. Returns the
     workspace's D.qdd itself, as Pinocchio's `aba` returns `data.ddq`: copy it to keep it."""
+    if PURE_PYTHON:
+        q, v = prescribed(b.M, b.D, t, q, v)
+        return aba(b, q, v, tau)
     return forward_at(b.address, t, q, v, tau)
 
 

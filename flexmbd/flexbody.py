@@ -35,6 +35,8 @@ beam clamped there (node 0's constraint modes are rigid-body motions, which the 
 
 from __future__ import annotations
 
+import functools
+import json
 from dataclasses import dataclass, fields
 from typing import NamedTuple
 
@@ -71,8 +73,19 @@ class FlexBody:
         return self.Phi.shape[2]
 
     def node_at(self, x: float) -> int:
-        """Index of the node nearest to position `x` along the beam (m)."""
-        return int(np.argmin(np.abs(self.x0[:, 0] - x)))
+        """Index of the node nearest to position `x` along the beam (m), by `node_index`."""
+        return node_index(self.length, self.n_nodes - 1, x)
+
+
+def node_index(length: float, elements: int, x: float) -> int:
+    """The node nearest to position x (m) along a beam meshed in `elements` equal elements: the
+    one snapping rule of every solver (half-way between two nodes goes to the root side)."""
+    return int(min(max(np.ceil(x * elements / length - 0.5), 0), elements))
+
+
+def snapped(length: float, elements: int, x: float) -> float:
+    """Position x (m) along a beam snapped to its nearest node (`node_index`), m."""
+    return node_index(length, elements, x) * length / elements
 
 
 def beam_section(body: dict) -> section.Section:
@@ -127,7 +140,7 @@ def floating_modes(body: dict, K, M) -> np.ndarray:
     if m["boundary"] == "free-free":
         return modes.normal_modes(K, M, [], m["count"])[1]
     L, n_el = body["length"], body["elements"]
-    held = sorted({int(round(x / L * n_el)) for x in m["interfaces"]})
+    held = sorted({node_index(L, n_el, x) for x in m["interfaces"]})
     iface = np.array([6 * p + k for p in held for k in range(6)])
     n_normal = max(m["count"] - iface.size, 0)
     Phi = modes.craig_bampton(K, M, np.array([], dtype=int), iface, n_normal + 6)
@@ -207,8 +220,32 @@ def stress_points(case, body: str) -> list:
 
 def for_case(case) -> dict:
     """Every flexible beam of a case, reduced, by body name (stress points from its channels)."""
-    return {name: build(name, body, case["materials"][body["material"]], stress_points(case, name))
+    return {name: reduce(name, body, case["materials"][body["material"]], stress_points(case, name))
             for name, body in case["bodies"].items() if body["type"] == "beam" and not body["rigid"]}
+
+
+def reduce(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
+    """`build`, once per content: the reduction is cached by everything it depends on (name,
+    body table, material, stress points), so the solver, the report, the command line and every
+    adapter share one computation per process. Its arrays are read-only."""
+    key = json.dumps([name, body, material, [[x, fibre] for x, fibre in stress_points]], sort_keys=True)
+    return _reduced(key)
+
+
+def undeformed(name: str, body: dict, material: dict) -> FlexBody:
+    """A beam declared rigid: its node masses and positions, no modes (`reduce` with count 0)."""
+    return reduce(name, {**body, "modes": {**body["modes"], "count": 0}}, material)
+
+
+@functools.lru_cache(maxsize=64)
+def _reduced(key: str) -> FlexBody:
+    name, body, material, points = json.loads(key)
+    fb = build(name, body, material, [tuple(p) for p in points])
+    for f in fields(fb):
+        a = getattr(fb, f.name)
+        if isinstance(a, np.ndarray):
+            a.flags.writeable = False
+    return fb
 
 
 def save(fb: FlexBody, path) -> None:
@@ -410,21 +447,6 @@ def mass_matrix(inv, j, eta):
 
 
 @njit
-def mass_matrix_dot(inv, j, eta, eta_d):
-    """dM/dt (6+nm, 6+nm) = sum_k eta_d_k dM/deta_k: the blocks I_O', c~', N1' (I8, I5, I9 are constant)."""
-    nm = eta.size
-    _, IOd, _, _, N1d, _ = contractions(inv, j, eta, eta_d, np.zeros(3))
-    Md = np.zeros((6 + nm, 6 + nm))
-    Cd = skew(first_moment(inv, j, eta_d) - inv.I4[j])
-    Md[:3, :3] = IOd
-    Md[:3, 3:6] = Cd
-    Md[3:6, :3] = Cd.T
-    Md[:3, 6:] = N1d
-    Md[6:, :3] = N1d.T
-    return Md
-
-
-@njit
 def inertia_and_forces_into(inv, j, eta, v, eta_d, M, h):
     """M(eta) (6+nm, 6+nm) and the centrifugal and Coriolis forces h (6+nm,) of the free body,
     from Lagrange's equations, sharing one set of contractions; written into M and h.
@@ -472,12 +494,3 @@ def inertia_and_forces_into(inv, j, eta, v, eta_d, M, h):
             dT -= inv.I5[j, a, k] * wxu[a]              # w . (I5_k x u) = -I5_k . (w x u)
             n1dw += N1d[a, k] * w[a]
         h[6 + k] = n1dw - dT
-
-
-@njit
-def quadratic_forces(inv, j, eta, v, eta_d):
-    """Centrifugal and Coriolis forces (6+nm,) of the free body (see `inertia_and_forces_into`)."""
-    nm = eta.size
-    M, h = np.empty((6 + nm, 6 + nm)), np.empty(6 + nm)
-    inertia_and_forces_into(inv, j, eta, v, eta_d, M, h)
-    return h

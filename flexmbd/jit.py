@@ -41,6 +41,10 @@ def cache_dir() -> Path:
 
 numba.config.CACHE_DIR = str(cache_dir())
 
+# NUMBA_DISABLE_JIT=1: every compiled function runs as plain Python on numpy arrays (the same
+# algorithm, for reading and stepping through in a debugger; far slower, for small models)
+PURE_PYTHON = bool(numba.config.DISABLE_JIT)
+
 
 def njit(fn=None, **kw):
     """numba.njit(cache=True, error_model="numpy", ...); usable bare (@njit) or with options

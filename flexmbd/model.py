@@ -29,7 +29,7 @@ from numba.experimental import structref
 from numba.extending import intrinsic
 
 from flexmbd import flexbody, profiles, spatial
-from flexmbd.jit import njit
+from flexmbd.jit import PURE_PYTHON, njit
 
 FIXED, REVOLUTE, PRISMATIC, SPHERICAL, FREE = range(5)
 JOINT_CODES = {"fixed": FIXED, "revolute": REVOLUTE, "prismatic": PRISMATIC,
@@ -183,7 +183,7 @@ def from_case(case, bodies: dict | None = None) -> Model:
                                                    inertia_matrix(body["inertia"]))
             A["body_mass"][i] = body["mass"]
         elif body["rigid"]:
-            fb = flexbody.build(name, {**body, "modes": {**body["modes"], "count": 0}},
+            fb = flexbody.undeformed(name, body,
                                 case["materials"][body["material"]])
             A["body_inertia"][i] = rigid_inertia_of_beam(fb)
             A["body_mass"][i] = fb.m.sum()
@@ -237,7 +237,8 @@ def attach(A: dict, i: int, j: dict, pbody: dict | None, fb: flexbody.FlexBody |
     if pbody is None or pbody["type"] == "rigid":
         A["jnt_Xtriad"][i] = spatial.plux(R.T, np.asarray(j["at"], dtype=float))
     elif pbody["rigid"]:          # a beam declared rigid: the snapped node's undeformed position
-        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.array([snapped_position(pbody, j["at"]), 0.0, 0.0]))
+        x = flexbody.snapped(pbody["length"], pbody["elements"], j["at"])
+        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.array([x, 0.0, 0.0]))
     else:
         p = fb.node_at(j["at"])
         A["jnt_Xtriad"][i] = spatial.plux(R.T, np.zeros(3))
@@ -275,7 +276,7 @@ def point_loads(case, index: dict, bodies: dict, nm: int):
         if body["type"] == "rigid":
             L["load_point"][k] = ld["at"]
         elif body["rigid"]:
-            L["load_point"][k] = [snapped_position(body, ld["at"]), 0.0, 0.0]
+            L["load_point"][k] = [flexbody.snapped(body["length"], body["elements"], ld["at"]), 0.0, 0.0]
         else:
             fb = bodies[ld["body"]]
             p = fb.node_at(ld["at"])
@@ -305,12 +306,6 @@ def rigid_inertia_of_beam(fb: flexbody.FlexBody) -> np.ndarray:
     I[3:, :3] = spatial.skew(inv.I4[0]).T
     I[3:, 3:] = inv.I8[0] * np.eye(3)
     return I
-
-
-def snapped_position(body: dict, x: float) -> float:
-    """A position along a beam snapped to its nearest node."""
-    h = body["length"] / body["elements"]
-    return round(x / h) * h
 
 
 def inertia_matrix(six) -> np.ndarray:
@@ -422,6 +417,17 @@ def _bind(M, D):
     return b
 
 
+class PlainBound(NamedTuple):
+    """The uncompiled stand-in for a Bound (numba's JIT disabled, `jit.PURE_PYTHON`): the same
+    fields M and D, the NamedTuples themselves."""
+
+    M: Arrays
+    D: Data
+
+
 def bind(model: Model, data: Data) -> Bound:
-    """The Model's arrays and `data` as one `Bound` (see `dynamics.forward`)."""
+    """The Model's arrays and `data` as one `Bound` (see `dynamics.forward`); a PlainBound when
+    numba's JIT is disabled."""
+    if PURE_PYTHON:
+        return PlainBound(model.arrays, data)
     return _bind(model.arrays, data)

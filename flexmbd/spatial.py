@@ -154,23 +154,6 @@ def force_transform(X) -> np.ndarray:
 
 
 @njit
-def crm(v) -> np.ndarray:
-    """Motion cross product operator v x (6, 6)."""
-    C = np.zeros((6, 6))
-    W = skew(v[:3])
-    C[:3, :3] = W
-    C[3:, 3:] = W
-    C[3:, :3] = skew(v[3:])
-    return C
-
-
-@njit
-def crf(v) -> np.ndarray:
-    """Force cross product operator v x* = -crm(v)^T (6, 6)."""
-    return -crm(v).T
-
-
-@njit
 def cross_motion(v, m) -> np.ndarray:
     """v x m for motion vectors (6,)."""
     w, u = v[:3], v[3:]

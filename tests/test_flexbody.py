@@ -1,43 +1,17 @@
-"""The reduced body: invariants against brute-force node sums, the .npz round trip, stress rows,
-modes orthonormal in the node masses, the reference node."""
+"""The reduced body: invariants, mass matrix and quadratic forces against node sums, the .npz
+round trip, stress rows against the FE stress recovery, modes orthonormal in the node masses, the
+reference node."""
+
+import dataclasses
 
 import numpy as np
 import pytest
 import scipy.linalg as la
 
-from flexmbd import cases, flexbody, integrate
+from flexmbd import cases, flexbody, integrate, outputs
+from flexmbd.fe import assembly, stress
 from flexmbd.model import from_case
-from flexmbd.spatial import skew
-
-
-def brute_force(fb, eta, v, eta_d):
-    """Mass matrix and quadratic forces summed node by node (no invariants).
-
-    Node p: B_p = [[1, 0, Phi_r], [-r~, 1, Phi_t]] maps [w; v; eta_d] to its [angular; linear]
-    velocity; M = sum B_p^T diag(J_p, m_p 1) B_p. Quadratic forces: the node's Coriolis and
-    centripetal acceleration w x v + w x (w x r) + 2 w x u_d times m_p, projected by B_p^T, and
-    the rotary term w x J_p (w + Phi_r eta_d) on the reference rotation only (Lagrange: J_p fixed
-    in body axes).
-    """
-    nm = fb.n_modes
-    w, u = v[:3], v[3:]
-    M = np.zeros((6 + nm, 6 + nm))
-    h = np.zeros(6 + nm)
-    for p in range(fb.n_nodes):
-        Pr, Pt = fb.Phi[p, :3], fb.Phi[p, 3:]
-        r = fb.x0[p] + Pt @ eta
-        B = np.zeros((6, 6 + nm))
-        B[:3, :3], B[:3, 6:] = np.eye(3), Pr
-        B[3:, :3], B[3:, 3:6], B[3:, 6:] = -skew(r), np.eye(3), Pt
-        Ip = np.zeros((6, 6))
-        Ip[:3, :3], Ip[3:, 3:] = fb.J[p], fb.m[p] * np.eye(3)
-        M += B.T @ Ip @ B
-        f = fb.m[p] * (np.cross(w, u) + np.cross(w, np.cross(w, r)) + 2 * np.cross(w, Pt @ eta_d))
-        tau = np.cross(w, fb.J[p] @ (w + Pr @ eta_d))
-        h[:3] += tau + np.cross(r, f)
-        h[3:6] += f
-        h[6:] += Pt.T @ f
-    return M, h
+from oracles import node_mass_matrix, quadratic_forces, skew
 
 
 def random_body(rng, boundary):
@@ -52,38 +26,70 @@ def random_body(rng, boundary):
     return flexbody.build("b", body, {"E": 2e11, "nu": 0.3, "rho": 7800.0})
 
 
-@pytest.mark.parametrize("seed,boundary", [(0, "clamped-free"), (1, "free-free"), (2, "hinged-hinged"),
-                                           (3, "clamped-free"), (4, "free-free")])
-def test_invariants_equal_brute_force_node_sums(seed, boundary):
+def scrambled(fb, rng):
+    """The body with its nodes off the axis, full rotary inertias and random modes (no beam
+    structure to hide an index or a transpose)."""
+    N, nm = fb.n_nodes, fb.n_modes
+    A = rng.normal(size=(N, 3, 3)) * 1e-3
+    return dataclasses.replace(fb, x0=fb.x0 + rng.normal(size=(N, 3)) * 0.1, J=A @ A.transpose(0, 2, 1),
+                               Phi=rng.normal(size=(N, 6, nm)) / np.sqrt(fb.m.sum()))
+
+
+@pytest.mark.parametrize("seed,boundary,scramble", [(0, "clamped-free", False), (1, "free-free", False),
+                                                    (2, "hinged-hinged", False), (3, "clamped-free", True),
+                                                    (4, "free-free", True)])
+def test_mass_matrix_and_quadratic_forces_equal_node_sums(seed, boundary, scramble):
+    """M, h of `inertia_and_forces_into` and `mass_matrix` against node sums (oracles: h by Lagrange from T)."""
     rng = np.random.default_rng(seed)
     fb = random_body(rng, boundary)
-    inv = flexbody.invariants(fb)
+    fb = scrambled(fb, rng) if scramble else fb
+    inv, nm = flexbody.invariants(fb), fb.n_modes
     for _ in range(3):
-        eta = rng.normal(size=fb.n_modes) * 0.1
-        v, eta_d = rng.normal(size=6), rng.normal(size=fb.n_modes)
-        M_ref, h_ref = brute_force(fb, eta, v, eta_d)
-        M = flexbody.mass_matrix(inv, 0, eta)
-        h = flexbody.quadratic_forces(inv, 0, eta, v, eta_d)
+        eta = rng.normal(size=nm) * 0.1
+        v, eta_d = rng.normal(size=6), rng.normal(size=nm)
+        M_ref, h_ref = node_mass_matrix(fb, eta), quadratic_forces(fb, eta, v, eta_d)
+        M, h = np.empty((6 + nm, 6 + nm)), np.empty(6 + nm)
+        flexbody.inertia_and_forces_into(inv, 0, eta, v, eta_d, M, h)
         assert np.abs(M - M_ref).max() <= 1e-10 * np.abs(M_ref).max()
+        assert np.abs(flexbody.mass_matrix(inv, 0, eta) - M_ref).max() <= 1e-10 * np.abs(M_ref).max()
         assert np.abs(h - h_ref).max() <= 1e-10 * np.abs(h_ref).max()
 
 
-def test_mass_matrix_dot_is_the_derivative_along_eta_d():
-    rng = np.random.default_rng(5)
-    fb = random_body(rng, "free-free")
-    inv = flexbody.invariants(fb)
-    eta, eta_d = rng.normal(size=fb.n_modes) * 0.1, rng.normal(size=fb.n_modes)
-    h = 1e-6
-    fd = (flexbody.mass_matrix(inv, 0, eta + h * eta_d) - flexbody.mass_matrix(inv, 0, eta - h * eta_d)) / (2 * h)
-    Md = flexbody.mass_matrix_dot(inv, 0, eta, eta_d)
-    assert np.abs(Md - fd).max() <= 1e-7 * np.abs(Md).max()
+def node_loop_invariants(fb):
+    """I1..I10 by their definitions (docs/formulation.md §3), one node and one mode at a time."""
+    N, nm = fb.n_nodes, fb.n_modes
+    I = {k: np.zeros(s) for k, s in [("I1", (3, 3)), ("I2", (nm, 3, 3)), ("I3", (nm, nm, 3, 3)), ("I4", 3),
+                                      ("I5", (3, nm)), ("I6", (3, nm)), ("I7", (nm, 3, nm)), ("I8", ()),
+                                      ("I9", (nm, nm)), ("I10", (3, nm))]}
+    for p in range(N):
+        m, x, J = fb.m[p], fb.x0[p], fb.J[p]
+        Pr, Pt = fb.Phi[p, :3], fb.Phi[p, 3:]
+        X = skew(x)
+        I["I1"] += J - m * X @ X
+        I["I4"] += m * x
+        I["I8"] += m
+        for k in range(nm):
+            Pk = skew(Pt[:, k])
+            I["I2"][k] -= m * (X @ Pk + Pk @ X)
+            I["I5"][:, k] += m * Pt[:, k]
+            I["I6"][:, k] += m * X @ Pt[:, k]
+            I["I10"][:, k] += J @ Pr[:, k]
+            for l in range(nm):
+                I["I3"][k, l] -= m * Pk @ skew(Pt[:, l])
+                I["I7"][k, :, l] += m * Pk @ Pt[:, l]
+                I["I9"][k, l] += Pr[:, k] @ J @ Pr[:, l] + m * Pt[:, k] @ Pt[:, l]
+    return I
 
 
-def test_I7_columns_vanish_on_their_own_mode():
-    fb = random_body(np.random.default_rng(6), "clamped-free")
-    I7 = flexbody.invariants(fb).I7[0]
-    for k in range(fb.n_modes):
-        assert np.abs(I7[k, :, k]).max() < 1e-14 * (np.abs(I7).max() + 1e-300)
+@pytest.mark.parametrize("seed", [6, 7])
+def test_invariants_equal_their_node_loop_definitions(seed):
+    """Every invariant I1..I10 of a scrambled body against plain loops over nodes and modes."""
+    rng = np.random.default_rng(seed)
+    fb = scrambled(random_body(rng, "clamped-free"), rng)
+    inv, ref = flexbody.invariants(fb), node_loop_invariants(fb)
+    for name, r in ref.items():
+        x = getattr(inv, name)[0]
+        assert x.shape == r.shape and np.abs(x - r).max() <= 1e-12 * np.abs(r).max(), name
 
 
 def test_npz_roundtrip(tmp_path):
@@ -96,11 +102,34 @@ def test_npz_roundtrip(tmp_path):
     assert back.labels.tolist() == fb.labels.tolist() and back.boundary == "hinged-hinged"
 
 
+STRESS_CHANNELS = ['channels.s_far={kind="stress_vm", body="beam", at=0.9, fibre=[-0.004, 0.005]}',
+                   'channels.s_mid={kind="stress_vm", body="beam", at=0.4}']
+
+
 def test_stress_rows_follow_channel_order():
-    case = cases.load("double_pendulum")
-    assert flexbody.stress_points(case, "beam1") == [(0.03, None)]
-    fb = flexbody.for_case(case)["beam2"]
-    assert fb.stress_x.tolist() == [0.03] and fb.S_sigma.shape == (1, 12)
+    """Row k of S_sigma, S_tau and stress channel k against the FE recovery at channel k's own point."""
+    case = cases.load("cantilever_step", STRESS_CHANNELS)
+    body, mat = case["bodies"]["beam"], case["materials"]["steel"]
+    points = [(0.03, None), (0.9, [-0.004, 0.005]), (0.4, None)]
+    assert flexbody.stress_points(case, "beam") == points
+    fb = flexbody.for_case(case)["beam"]
+    assert fb.stress_x.tolist() == [0.03, 0.9, 0.4] and fb.S_sigma.shape == fb.S_tau.shape == (3, 12)
+    nodes, elements = assembly.beam_mesh(body["length"], body["elements"])
+    Phi_fe = fb.Phi[:, [3, 4, 5, 0, 1, 2], :].reshape(-1, fb.n_modes)       # node DOFs [u; theta]
+    E, G = mat["E"], mat["E"] / (2 * (1 + mat["nu"]))
+    model = from_case(case)
+    a = model.body_madr[model.index("beam")]
+    eta = np.random.default_rng(8).normal(size=(2, fb.n_modes)) * 1e-3
+    Q = np.zeros((2, model.nq))
+    Q[:, a:a + fb.n_modes] = eta
+    out = outputs.channels(case, model, np.zeros(2), Q, np.zeros((2, model.nv)))
+    for k, (ch, (x, fibre)) in enumerate(zip(["stress_vm", "s_far", "s_mid"], points)):
+        cs, ct = stress.stress_coefficients(nodes, elements, E, G, flexbody.beam_section(body), x, fibre=fibre,
+                                            shear=body["shear"])
+        s_sigma, s_tau = cs @ Phi_fe, ct @ Phi_fe
+        assert np.abs(fb.S_sigma[k] - s_sigma).max() <= 1e-12 * np.abs(s_sigma).max()
+        assert np.abs(fb.S_tau[k] - s_tau).max() <= 1e-12 * np.abs(s_tau).max()
+        assert np.allclose(out[ch], np.sqrt((eta @ s_sigma) ** 2 + 3 * (eta @ s_tau) ** 2), rtol=1e-12, atol=0)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -192,3 +221,26 @@ def test_pendulum_on_craig_bampton_modes_swings_about_its_root_node():
     # 12-mode bases of the same beam)
     assert np.abs(tip["clamped"]).max() > 1e-4
     assert np.abs(tip["cb"] - tip["clamped"]).max() <= 2e-2 * np.abs(tip["clamped"]).max()
+
+
+# ---------------------------------------------------------------------------------------------
+# one reduction per content, one snapping rule
+
+
+def test_a_beam_is_reduced_once_per_content():
+    a = flexbody.for_case(cases.load("pendulum"))["beam"]
+    assert flexbody.for_case(cases.load("pendulum"))["beam"] is a
+    assert not a.Phi.flags.writeable and not a.Km.flags.writeable
+    b = flexbody.for_case(cases.load("pendulum", ["materials.steel.E=2.0e11"]))["beam"]
+    assert b is not a and b.freq_hz[0] < a.freq_hz[0]
+
+
+def test_snapping_is_the_nearest_node():
+    rng = np.random.default_rng(8)
+    length, n = 1.5, 37
+    x0 = np.linspace(0.0, length, n + 1)
+    for x in rng.uniform(-0.1, length + 0.1, 200):
+        assert flexbody.node_index(length, n, x) == int(np.argmin(np.abs(x0 - x)))
+    h = length / n
+    assert flexbody.node_index(length, n, 2.5 * h) == 2                 # half-way: the root side
+    assert flexbody.snapped(length, n, 0.03) == pytest.approx(x0[1])

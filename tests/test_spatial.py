@@ -5,6 +5,7 @@ import pytest
 from scipy.linalg import expm
 
 from flexmbd import spatial as sp
+from oracles import crf, crm
 
 
 def random_X(rng):
@@ -28,16 +29,22 @@ def test_force_transform_preserves_power():
 
 
 def test_cross_operators():
+    """cross_motion, cross_force and their in-place forms against the block matrices v x, v x*;
+    v x is the rate -dX/dt X^-1 of a frame moving with velocity v, and v x* its dual."""
     rng = np.random.default_rng(2)
     v, m, f = rng.normal(size=6), rng.normal(size=6), rng.normal(size=6)
-    assert np.allclose(sp.crm(v) @ m, sp.cross_motion(v, m))
-    assert np.allclose(sp.crf(v) @ f, sp.cross_force(v, f))
-    assert np.allclose(sp.crf(v), -sp.crm(v).T)
-    # d/dt of a transformed motion vector: X(t) = expm-based, dX/dt X^-1 = -crm(v)
+    out = np.empty(6)
+    assert np.allclose(sp.cross_motion(v, m), crm(v) @ m)
+    assert np.allclose(sp.cross_force(v, f), crf(v) @ f)
+    sp.cross_motion_into(v, m, out)
+    assert np.allclose(out, crm(v) @ m)
+    sp.cross_force_into(v, f, out)
+    assert np.allclose(out, crf(v) @ f)
+    assert np.allclose(crf(v), -crm(v).T)
     w, u = rng.normal(size=3), rng.normal(size=3)
     h = 1e-6
     Xh = sp.plux(expm(sp.skew(w * h)).T, u * h)        # frame moving with velocity [w; u]
-    assert np.allclose((Xh - np.eye(6)) / h, -sp.crm(np.r_[w, u]), atol=1e-5)
+    assert np.allclose((Xh - np.eye(6)) / h, -crm(np.r_[w, u]), atol=1e-5)
 
 
 def test_spatial_inertia_is_the_kinetic_energy_of_the_body():

@@ -113,14 +113,12 @@ def initial_frames(case, n_el: dict) -> dict:
 
 def snapped(body: dict, at, n: int) -> float:
     """Position along a beam snapped to the nearest node of an n-element mesh."""
-    x = at if not isinstance(at, list) else at[0]
-    h = body["length"] / n
-    return round(x / h) * h
+    return flexbody.snapped(body["length"], n, at if not isinstance(at, list) else at[0])
 
 
 def node_index(body: dict, at, n: int) -> int:
-    x = at if not isinstance(at, list) else at[0]
-    return int(round(x / body["length"] * n))
+    """The node of an n-element mesh nearest to `at` along a beam."""
+    return flexbody.node_index(body["length"], n, at if not isinstance(at, list) else at[0])
 
 
 def add_beam(mbs, body: dict, mat: dict, n: int, angle: float, origin) -> dict:

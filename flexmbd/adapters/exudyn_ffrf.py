@@ -72,7 +72,8 @@ def applies(case) -> str:
         if parent is None or parent["type"] == "rigid" or parent["rigid"] or j["type"] == "free":
             continue
         at = j["at"] if not isinstance(j["at"], list) else j["at"][0]
-        if round(at / parent["length"] * parent["elements"]) == 0 and parent["modes"]["boundary"] == "clamped-free":
+        if flexbody.node_index(parent["length"], parent["elements"], at) == 0 \
+                and parent["modes"]["boundary"] == "clamped-free":
             continue                         # the root node is the reference frame: any joint
         if j["motion"] is not None:
             return f"joint {jn!r}: prescribed motion on a flexible node"
@@ -221,13 +222,8 @@ def triad_point(case, j: dict, fbs: dict) -> np.ndarray:
     if j["parent"] in fbs:
         fb = fbs[j["parent"]]
         return fb.x0[fb.node_at(at if not isinstance(at, list) else at[0])].copy()
-    return np.array([flexbody_snap(parent, at), 0.0, 0.0])
-
-
-def flexbody_snap(body: dict, at) -> float:
-    x = at if not isinstance(at, list) else at[0]
-    h = body["length"] / body["elements"]
-    return round(x / h) * h
+    return np.array([flexbody.snapped(parent["length"], parent["elements"], at if not isinstance(at, list) else at[0]),
+                     0.0, 0.0])
 
 
 def initial_states(case, order: list, fbs: dict) -> dict:
@@ -559,7 +555,7 @@ def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
 
 def rigid_beam(name: str, body: dict, case) -> dict:
     """Mass, COM and inertia about the COM of a beam declared rigid (its lumped undeformed nodes)."""
-    fb = flexbody.build(name, {**body, "modes": {**body["modes"], "count": 0}},
+    fb = flexbody.undeformed(name, body,
                         case["materials"][body["material"]])
     m = fb.m.sum()
     c = fb.m @ fb.x0 / m
