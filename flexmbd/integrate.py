@@ -198,7 +198,7 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
         elif method == "adams":
             k, steps, status = _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, model.nq)
         elif method == "rk4":
-            k, steps = _rk4(f, y0, t_out, Y, dt, bar, model.nq)
+            k, steps, status = _rk4(f, y0, t_out, Y, dt, bar, model.nq)
         else:
             k, steps, status = _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step)
     except Stop as e:
@@ -414,26 +414,33 @@ def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq):
 
 
 def _rk4(f, y0, t_out, Y, dt, bar, nq):
-    """Classical Runge-Kutta with the largest step <= dt that divides each output interval."""
+    """Classical Runge-Kutta with the largest step <= dt that divides each output interval:
+    (last instant reached, steps, status)."""
     y, steps = y0.copy(), 0
-    k = 0
-    for k in range(1, t_out.size):
-        t0, t1 = t_out[k - 1], t_out[k]
-        m = max(int(np.ceil((t1 - t0) / dt - 1e-9)), 1)
-        h = (t1 - t0) / m
-        for s in range(m):
-            t = t0 + s * h
-            k1 = f(t, y)
-            k2 = f(t + h / 2, y + h / 2 * k1)
-            k3 = f(t + h / 2, y + h / 2 * k2)
-            k4 = f(t + h, y + h * k3)
-            y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        steps += m
-        _check(y, t1, nq)
-        Y[k] = y
-        if bar:
-            bar.update(t1)
-    return k, steps
+    try:
+        for k in range(1, t_out.size):
+            steps += _rk4_interval(f, y, t_out[k - 1], t_out[k], dt, nq)
+            Y[k] = y
+            if bar:
+                bar.update(t_out[k])
+    except Stop as e:
+        return k - 1, steps, e.args[0]
+    return t_out.size - 1, steps, results.Status()
+
+
+def _rk4_interval(f, y, t0, t1, dt, nq) -> int:
+    """Advance y (in place) from t0 to t1 in equal steps <= dt; the number of steps."""
+    m = max(int(np.ceil((t1 - t0) / dt - 1e-9)), 1)
+    h = (t1 - t0) / m
+    for s in range(m):
+        t = t0 + s * h
+        k1 = f(t, y)
+        k2 = f(t + h / 2, y + h / 2 * k1)
+        k3 = f(t + h / 2, y + h / 2 * k2)
+        k4 = f(t + h, y + h * k3)
+        y[:] = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    _check(y, t1, nq)
+    return m
 
 
 def _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step):
