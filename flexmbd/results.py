@@ -110,7 +110,7 @@ def first_failure(t, channels: dict, bounds: dict) -> tuple[int, Status] | None:
         hit = np.flatnonzero(bad)
         if hit.size and (first is None or hit[0] < first[0]):
             why = (f"non-finite {name}" if not np.isfinite(y[hit[0]]) else
-                   f"diverged ({name} beyond {bounds[name]:g}, {DIVERGED_LENGTHS:g} beam lengths)")
+                   f"diverged (|{name}| beyond {bounds[name]:g} m, {DIVERGED_LENGTHS:g} beam lengths)")
             first = (int(hit[0]), failed(why, t[hit[0]]))
     return first
 
