@@ -178,8 +178,7 @@ def find(name_or_path: str) -> Path:
     q = CASES_DIR / f"{name_or_path}.toml"
     if not q.is_file():
         names = available()
-        hint = _hint(name_or_path, names)
-        raise InputError(f"{name_or_path}: unknown case{hint} (known: {', '.join(names)})")
+        raise InputError(f"{name_or_path}: unknown case{hint(name_or_path, names)} (known: {', '.join(names)})")
     return q
 
 
@@ -230,23 +229,13 @@ def apply_override(raw: dict, item: str, path) -> None:
 
 def validate(raw: dict, where: str) -> dict:
     """Check a raw case dict against the schema and the cross-references; return a filled copy."""
-    data = _check_table(copy.deepcopy(raw), CASE, where, "")
+    data = check_table(copy.deepcopy(raw), CASE, where, "")
     _check_references(data, where)
     return data
 
 
-def check_table(raw, schema: dict, where: str, prefix: str) -> dict:
-    """A table checked against a schema (see above), defaults filled; `prefix` is its dotted key
-    with a trailing dot. For schemas declared outside this module (solver settings)."""
-    return _check_table(raw, schema, where, prefix)
-
-
 def hint(word: str, choices) -> str:
     """' (did you mean ...?)' for the closest of `choices`, or ''."""
-    return _hint(word, choices)
-
-
-def _hint(word: str, choices) -> str:
     close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
     return f" (did you mean '{close[0]}'?)" if close else ""
 
@@ -255,7 +244,9 @@ def _fail(where: str, key: str, msg: str):
     raise InputError(f"{where}: {key}: {msg}")
 
 
-def _check_table(raw, schema: dict, where: str, prefix: str) -> dict:
+def check_table(raw, schema: dict, where: str, prefix: str) -> dict:
+    """A table checked against a schema (see above), defaults filled; `prefix` is its dotted key
+    with a trailing dot. Also for schemas declared elsewhere (solver settings)."""
     if not isinstance(raw, dict):
         _fail(where, prefix.rstrip(".") or "(top level)", "expected a table")
     if "*" in schema:                                   # a table of named items
@@ -263,7 +254,7 @@ def _check_table(raw, schema: dict, where: str, prefix: str) -> dict:
                 for name, val in raw.items()}
     for key in raw:
         if key not in schema:
-            _fail(where, prefix + key, f"unknown key{_hint(key, schema)}")
+            _fail(where, prefix + key, f"unknown key{hint(key, schema)}")
     out = {}
     for key, (kind, default) in schema.items():
         if key in raw:
@@ -271,7 +262,7 @@ def _check_table(raw, schema: dict, where: str, prefix: str) -> dict:
         elif default is REQUIRED:
             _fail(where, prefix + key, "missing (required)")
         elif isinstance(kind, dict) and isinstance(default, dict):
-            out[key] = _check_table(default, kind, where, prefix + key + ".")
+            out[key] = check_table(default, kind, where, prefix + key + ".")
         else:
             out[key] = copy.deepcopy(default)
     return out
@@ -287,11 +278,10 @@ def _number(v, where, key):
 
 def _check_value(v, kind, where: str, key: str):
     if isinstance(kind, dict):
-        return _check_table(v, kind, where, key + ".")
+        return check_table(v, kind, where, key + ".")
     if isinstance(kind, tuple):
         if v not in kind:
-            hint = _hint(str(v), kind)
-            _fail(where, key, f"expected one of {', '.join(kind)}, got {v!r}{hint}")
+            _fail(where, key, f"expected one of {', '.join(kind)}, got {v!r}{hint(str(v), kind)}")
         return v
     if kind == "body":
         return _check_body(v, where, key)
@@ -364,8 +354,8 @@ def _check_body(v, where, key):
     kind = v.get("type")
     schema = {"beam": BEAM, "rigid": RIGID}.get(kind)
     if schema is None:
-        _fail(where, key + ".type", f"expected beam or rigid, got {kind!r}{_hint(str(kind), ['beam', 'rigid'])}")
-    return _check_table(v, schema, where, key + ".")
+        _fail(where, key + ".type", f"expected beam or rigid, got {kind!r}{hint(str(kind), ['beam', 'rigid'])}")
+    return check_table(v, schema, where, key + ".")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -388,7 +378,7 @@ def _check_references(d: dict, where: str) -> None:
         for side in ("parent", "child"):
             ref = j[side]
             if ref != "ground" and ref not in bodies:
-                _fail(where, f"{k}.{side}", f"no body {ref!r}{_hint(ref, list(bodies) + ['ground'])}")
+                _fail(where, f"{k}.{side}", f"no body {ref!r}{hint(ref, list(bodies) + ['ground'])}")
         if j["child"] == "ground":
             _fail(where, f"{k}.child", "ground cannot be a child")
         if j["child"] in children:
@@ -404,7 +394,7 @@ def _check_references(d: dict, where: str) -> None:
     for name, ld in d["loads"].items():
         k = f"loads.{name}"
         if ld["body"] not in bodies:
-            _fail(where, f"{k}.body", f"no body {ld['body']!r}{_hint(ld['body'], bodies)}")
+            _fail(where, f"{k}.body", f"no body {ld['body']!r}{hint(ld['body'], bodies)}")
         _check_point(ld["at"], bodies[ld["body"]], where, f"{k}.at")
         p = ld["profile"]
         if p["type"] == "ramp" and (p["t1"] is None or p["t1"] <= p["t0"]):
@@ -416,12 +406,12 @@ def _check_references(d: dict, where: str) -> None:
         _check_channel(name, c, bodies, joints, where)
     for ch in d["report"]["tolerances"]:
         if ch not in d["channels"]:
-            _fail(where, f"report.tolerances.{ch}", f"no channel {ch!r}{_hint(ch, d['channels'])}")
+            _fail(where, f"report.tolerances.{ch}", f"no channel {ch!r}{hint(ch, d['channels'])}")
 
 
 def _check_beam(b, d, where, k):
     if b["material"] not in d["materials"]:
-        _fail(where, f"{k}.material", f"no material {b['material']!r}{_hint(b['material'], d['materials'])}")
+        _fail(where, f"{k}.material", f"no material {b['material']!r}{hint(b['material'], d['materials'])}")
     s = b["section"]
     need = ("b", "h") if s["shape"] == "rectangle" else ("d",)
     for dim in need:
@@ -531,7 +521,7 @@ def _check_channel(name, c, bodies, joints, where):
         if b is None:
             _fail(where, f"{k}.body", f"a {c['kind']} channel needs a body")
         if b not in bodies:
-            _fail(where, f"{k}.body", f"no body {b!r}{_hint(b, bodies)}")
+            _fail(where, f"{k}.body", f"no body {b!r}{hint(b, bodies)}")
         if bodies[b]["type"] != "beam":
             _fail(where, f"{k}.body", f"{c['kind']} needs a beam, {b!r} is rigid")
         if c["at"] is None:
@@ -545,7 +535,7 @@ def _check_channel(name, c, bodies, joints, where):
         if j is None:
             _fail(where, f"{k}.joint", f"a {c['kind']} channel needs a joint")
         if j not in joints:
-            _fail(where, f"{k}.joint", f"no joint {j!r}{_hint(j, joints)}")
+            _fail(where, f"{k}.joint", f"no joint {j!r}{hint(j, joints)}")
         if c["kind"] == "joint_angle" and joints[j]["type"] != "revolute":
             _fail(where, f"{k}.joint", f"joint_angle needs a revolute joint, {j!r} is {joints[j]['type']}")
 

@@ -364,10 +364,14 @@ def forward(b: Bound, t: float, q, v, tau) -> np.ndarray:
     """Generalized accelerations (nv,) at time t for a `model.Bound` b: profiles applied, then
     `aba`. The cheap call from Python: q, v, tau C-contiguous float arrays, t a float. Returns the
     workspace's D.qdd itself, as Pinocchio's `aba` returns `data.ddq`: copy it to keep it."""
-    if PURE_PYTHON:
+    return forward_at(b.address, t, q, v, tau)
+
+
+if PURE_PYTHON:                                         # a PlainBound: no address to pass
+    def forward(b, t: float, q, v, tau) -> np.ndarray:  # noqa: F811
+        """`forward` uncompiled (jit.PURE_PYTHON): the same passes on the NamedTuples."""
         q, v = prescribed(b.M, b.D, t, q, v)
         return aba(b, q, v, tau)
-    return forward_at(b.address, t, q, v, tau)
 
 
 def forward_dynamics(model: Model, data: Data, q, v, tau=None, t: float = 0.0) -> np.ndarray:

@@ -10,6 +10,7 @@ tolerance for that channel.
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 
@@ -50,14 +51,13 @@ def write(base: Path, case, r: Result) -> Path:
 
 def read(base: Path, case: str, solver: str) -> pd.DataFrame:
     """The baseline table; its header's fields (`# key: value` lines) in `.attrs`."""
-    path = Path(base) / case / f"{solver}.csv"
-    df = pd.read_csv(path, comment="#")
-    with open(path) as f:
-        for line in f:
-            if not line.startswith("#"):
-                break
-            key, _, value = line[1:].strip().partition(": ")
-            df.attrs[key] = value
+    text = (Path(base) / case / f"{solver}.csv").read_text()
+    df = pd.read_csv(io.StringIO(text), comment="#")
+    for line in text.splitlines():
+        if not line.startswith("#"):
+            break
+        key, _, value = line[1:].strip().partition(": ")
+        df.attrs[key] = value
     return df
 
 
