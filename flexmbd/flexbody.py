@@ -10,8 +10,10 @@ need of it is kept here as plain arrays, in the body frame (beam along +x from t
     freq_hz (nm,)         natural frequencies of the reduced body, eig(Km, I9), Hz
     labels  (nm,)         'bending xy 1', 'torsion 1', ...
     Km, Cm  (nm, nm)      modal stiffness Phi^T K Phi and modal damping 2 zeta omega (diagonal)
-    stress_x (ns,)        stress points along the beam, m
-    S_sigma, S_tau (ns, nm)  modal normal / torsional-shear stress coefficients, Pa per unit q
+    stress_x (ns,)        stress sections along the beam, m
+    S_strain (ns, 4, nm)  modal section strains there, rows [eps, kappa_y, kappa_z, twist rate]
+                          per unit modal coordinate (stresses at a section point:
+                          `fe.stress.section_stresses`)
 
 The node masses m_p, J_p are always the lumped ones: the floating-frame invariants are node sums,
 and their modal mass I9 = sum Phi_r^T J_p Phi_r + m_p Phi_t^T Phi_t is Phi^T M_lumped Phi. The
@@ -61,8 +63,7 @@ class FlexBody:
     Cm: np.ndarray
     boundary: str
     stress_x: np.ndarray
-    S_sigma: np.ndarray
-    S_tau: np.ndarray
+    S_strain: np.ndarray
 
     @property
     def n_nodes(self) -> int:
@@ -181,7 +182,8 @@ def spatial_blocks(Phi_fe: np.ndarray) -> np.ndarray:
 
 
 def build(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
-    """Reduce a case beam to a FlexBody. `stress_points`: iterable of (x, fibre or None)."""
+    """Reduce a case beam to a FlexBody. `stress_points`: positions x along the beam (m) of the
+    sections whose strains the channels need."""
     nodes, elements, sec, K, M, M_lumped = fe_model(body, material)
     freq, Phi_fe = mode_set(body, K, M, M_lumped, nodes)
 
@@ -196,26 +198,23 @@ def build(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
     omega = 2.0 * np.pi * np.asarray(freq)
     Cm = np.diag(2.0 * body["damping_ratio"] * omega)
 
-    # modal stress recovery
+    # modal strain recovery
     E, G = material["E"], shear_modulus(material)
-    xs, Ss, St = [], [], []
-    for x, fibre in stress_points:
-        cs, ct = stress.stress_coefficients(nodes, elements, E, G, sec, x, fibre=fibre, shear=body["shear"])
-        xs.append(x)
-        Ss.append(cs @ Phi_fe)
-        St.append(ct @ Phi_fe)
+    xs = [float(x) for x in stress_points]
+    S = [stress.strain_rows(nodes, elements, E, G, sec, x, shear=body["shear"]) @ Phi_fe for x in xs]
     nm = Phi_fe.shape[1]
     return FlexBody(
         name=name, length=body["length"], x0=nodes, m=m, J=J, Phi=spatial_blocks(Phi_fe),
         freq_hz=np.asarray(freq), labels=np.array(modes.mode_labels(Phi_fe) if nm else [], dtype=str), Km=Km, Cm=Cm,
         boundary=body["modes"]["boundary"], stress_x=np.array(xs, dtype=float),
-        S_sigma=np.array(Ss).reshape(len(xs), nm), S_tau=np.array(St).reshape(len(xs), nm))
+        S_strain=np.array(S).reshape(len(xs), 4, nm))
 
 
 def stress_points(case, body: str) -> list:
-    """(x, fibre) of every stress_vm channel on a body, in channel order: row k of S_sigma, S_tau."""
-    return [(c["at"], c["fibre"]) for c in case["channels"].values()
-            if c["kind"] == "stress_vm" and c["body"] == body]
+    """Positions x of the stress_vm channels on a body, sorted, without repeats (the sections
+    of FlexBody.S_strain)."""
+    return sorted({float(c["at"]) for c in case["channels"].values()
+                   if c["kind"] == "stress_vm" and c["body"] == body})
 
 
 def for_case(case) -> dict:
@@ -228,7 +227,7 @@ def reduce(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
     """`build`, once per content: the reduction is cached by everything it depends on (name,
     body table, material, stress points), so the solver, the report, the command line and every
     adapter share one computation per process. Its arrays are read-only."""
-    key = json.dumps([name, body, material, [[x, fibre] for x, fibre in stress_points]], sort_keys=True)
+    key = json.dumps([name, body, material, [float(x) for x in stress_points]], sort_keys=True)
     return _reduced(key)
 
 
@@ -240,7 +239,7 @@ def undeformed(name: str, body: dict, material: dict) -> FlexBody:
 @functools.lru_cache(maxsize=64)
 def _reduced(key: str) -> FlexBody:
     name, body, material, points = json.loads(key)
-    fb = build(name, body, material, [tuple(p) for p in points])
+    fb = build(name, body, material, points)
     for f in fields(fb):
         a = getattr(fb, f.name)
         if isinstance(a, np.ndarray):

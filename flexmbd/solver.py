@@ -1,15 +1,17 @@
-"""`flexmbd`, the in-house solver, behind the same interface as every other solver (solvers.py)."""
+"""`flexmbd`, the in-house solver, behind the same interface as every other solver (solvers.py):
+the case's Model integrated in time, reported as a `channels.Trajectory` of its states."""
 
 from __future__ import annotations
 
 import sys
 import time
+from typing import NamedTuple
 
 import numpy as np
 
 import flexmbd
-from flexmbd import flexbody, integrate, jit, outputs
-from flexmbd.model import from_case
+from flexmbd import channels, dynamics, flexbody, integrate, jit
+from flexmbd.model import Model, bind, from_case, make_data
 from flexmbd.results import Result
 
 SETTINGS = {}           # the case's [integrator] table holds this solver's settings
@@ -40,11 +42,108 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
     sim = integrate.simulate(model, t_end, method=ig["method"], rtol=ig["rtol"], atol=ig["atol"],
                              max_step=ig["max_step"], dt=ig["dt"], output_dt=ig["output_dt"],
                              progress=progress, label=f"{case.name} / flexmbd")
-    ch = outputs.channels(case, model, sim.t, sim.q, sim.v)
+    E = energies(model, sim.q, sim.v)
+    ch = channels.channels(case, trajectory(case, model, sim.t, sim.q, sim.v, E))
     modes = {n: {"count": fb.n_modes, "boundary": fb.boundary, "freq_hz": np.round(fb.freq_hz, 4).tolist()}
              for n, fb in model.bodies.items()}
-    kinetic_max = float(outputs.energies(model, sim.q, sim.v)[:, 0].max()) if len(sim.t) else 0.0
+    kinetic_max = float(E[:, 0].max()) if len(sim.t) else 0.0
     return Result(solver="flexmbd", case=case.name, t=sim.t, channels=ch, status=sim.status,
                   wall_s=sim.wall_s, setup_s=setup_s, steps=sim.steps, rhs_evals=sim.rhs_evals,
                   settings={**sim.settings, "modes": modes},
                   extra={"compile_s": compile_s, "kinetic_max_J": kinetic_max})
+
+
+# ---------------------------------------------------------------------------------------------
+# the trajectory of a run
+
+
+def energies(model: Model, Q, V) -> np.ndarray:
+    """(n, 2): kinetic and potential (gravity + strain) energy of every state, J."""
+    data = make_data(model)
+    return np.array([dynamics.energy(model, data, q, v) for q, v in zip(Q, V)]).reshape(-1, 2)
+
+
+class Evaluated(NamedTuple):
+    """Per state k of a run, what one forward-dynamics evaluation leaves in the Data (body frame)."""
+
+    f: np.ndarray       # (n, nb+1, 6) joint force [moment; force] from parent onto body
+    v: np.ndarray       # (n, nb+1, 6) spatial velocity [w; v]
+    a: np.ndarray       # (n, nb+1, 6) spatial acceleration, gravity as base acceleration
+    Xup: np.ndarray     # (n, nb+1, 6, 6) parent frame -> body frame
+    X0: np.ndarray      # (n, nb+1, 6, 6) global -> body frame
+    scale: np.ndarray   # (n, nl) point-load profile factors
+    qdd: np.ndarray     # (n, nv) joint and modal accelerations
+
+
+def evaluate(model: Model, t, Q, V) -> Evaluated:
+    """One forward-dynamics evaluation at every state, keeping what the channels need."""
+    data = make_data(model)
+    b, tau = bind(model, data), np.zeros(model.nv)
+    rows = []
+    for tk, q, v in zip(t, Q, V):
+        dynamics.forward(b, float(tk), np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float), tau)
+        rows.append([data.f.copy(), data.v.copy(), data.a.copy(), data.Xup.copy(), data.X0.copy(),
+                     data.scale.copy(), data.qdd.copy()])
+    return Evaluated(*(np.array([r[k] for r in rows]).reshape((len(t),) + x.shape)
+                       for k, x in enumerate([data.f, data.v, data.a, data.Xup, data.X0, data.scale, data.qdd])))
+
+
+def reactions(model: Model, t, Q, V) -> np.ndarray:
+    """(n, nb+1, 6): joint forces [moment; force] from parent onto body, body frame, at every state."""
+    return evaluate(model, t, Q, V).f
+
+
+def node_forces(model: Model, ev: Evaluated, i: int, Q, V) -> np.ndarray:
+    """(n, N, 3) net force on each node of flexible body i, body frame: the d'Alembert force
+    -m_p a_p (a_p relative to free fall: ev.a carries gravity as a base acceleration), the point
+    loads on the body, and the forces its child joints exert on it.
+
+    a_p = a_O + al x r_p + w x (w x r_p) + 2 w x r'_p + r''_p, with r_p = x0_p + Phi_t,p eta and
+    the classical acceleration of the origin a_O = a_lin + w x v_O (a_lin the spatial one)."""
+    fb = model.bodies[model.names[i]]
+    s = slice(model.body_madr[i], model.body_madr[i] + model.body_nm[i])
+    Pt = fb.Phi[:, 3:, :]                                                   # (N, 3, nm)
+    r = fb.x0 + np.einsum("pim,nm->npi", Pt, Q[:, s])
+    rd = np.einsum("pim,nm->npi", Pt, V[:, s])
+    rdd = np.einsum("pim,nm->npi", Pt, ev.qdd[:, s])
+    w, vO, al = ev.v[:, i, None, :3], ev.v[:, i, 3:], ev.a[:, i, None, :3]
+    aO = (ev.a[:, i, 3:] + np.cross(ev.v[:, i, :3], vO))[:, None, :]
+    acc = aO + np.cross(al, r) + np.cross(w, np.cross(w, r)) + 2.0 * np.cross(w, rd) + rdd
+    F = -fb.m[None, :, None] * acc
+    for k in np.flatnonzero(model.load_body == i):
+        f = model.load_force[k] * ev.scale[:, k, None]                      # (n, 3)
+        if model.load_global[k]:
+            f = np.einsum("nij,nj->ni", ev.X0[:, i, :3, :3], f)
+        F[:, fb.node_at(model.load_point[k, 0]), :] += f
+    for c in np.flatnonzero(model.parent == i):
+        E = ev.Xup[:, c, :3, :3]                                            # parent -> child rotation
+        F[:, model.jnt_node[c], :] -= np.einsum("nji,nj->ni", E, ev.f[:, c, 3:])
+    return F
+
+
+def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
+    """The channels' view of states Q (n, nq), V (n, nv) at t (n,); E: `energies` if known."""
+    traj = channels.Trajectory(t=t)
+    for jname in channels.joints_needed(case):
+        i = model.index(case["joints"][jname]["child"])
+        traj.joints[jname] = Q[:, model.jnt_qadr[i]].copy()
+    if channels.wants_energy(case):
+        E = energies(model, Q, V) if E is None else E
+        traj.energy = {"kinetic": E[:, 0], "potential": E[:, 1]}
+    asked = [c["joint"] for c in case["channels"].values() if c["kind"] in ("reaction_force", "reaction_moment")]
+    stressed = {c["body"] for c in case["channels"].values() if c["kind"] == "stress_vm"} & set(model.bodies)
+    ev = evaluate(model, t, Q, V) if asked or stressed else None
+    traj.reactions = {j: ev.f[:, model.index(case["joints"][j]["child"])] for j in asked}
+    for name, fb in model.bodies.items():
+        i = model.index(name)
+        eta = Q[:, model.body_madr[i]:model.body_madr[i] + model.body_nm[i]]
+        points, x0 = channels.modal_points(fb, channels.points_needed(case, name), eta)
+        strains = channels.modal_strains(fb, eta)
+        if name in stressed and not any(str(label).startswith("axial") for label in fb.labels):
+            F = node_forces(model, ev, i, Q, V)
+            body, mat = case["bodies"][name], case["materials"][case["bodies"][name]["material"]]
+            EA = mat["E"] * flexbody.beam_section(body).A
+            strains = channels.with_axial_strain(strains, {x: channels.axial_force(fb.x0, F, x) for x in strains}, EA)
+        traj.beams[name] = channels.Beam(length=fb.length, points=points, x0=x0, root=channels.modal_root(fb, eta),
+                                         strains=strains)
+    return traj

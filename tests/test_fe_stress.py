@@ -101,9 +101,33 @@ def test_torsion_circle():
 
 
 def test_torsion_rectangle(rect):
+    """Torsional shear at the middle of a long side (the maximum) and of a short side, against
+    Saint-Venant's tables (Timoshenko & Goodier, section 109) for h/b = 1.5: tau_max = T /
+    (k2 h b^2), k2 = 0.231, with the twist rate T / (G J) of the element's J."""
     nodes, elements, U = rect
-    _, c_tau = stress.stress_coefficients(nodes, elements, E, G, SEC, 1.0)
-    assert c_tau @ (2.0 * U[:, 3]) == pytest.approx(2.0 * B / SEC.J, rel=1e-9)
+    T = 2.0
+    theta = T / (G * SEC.J)                                  # twist rate of the FE beam, rad/m
+    _, c_long = stress.stress_coefficients(nodes, elements, E, G, SEC, 1.0, fibre=(0.0, SEC.cz))
+    _, c_short = stress.stress_coefficients(nodes, elements, E, G, SEC, 1.0, fibre=(SEC.cy, 0.0))
+    k1 = SEC.J / (H * B ** 3)                                # 0.196 for h/b = 1.5 (table: 0.196)
+    assert k1 == pytest.approx(0.196, abs=2e-3)
+    assert c_long @ (T * U[:, 3]) == pytest.approx(G * theta * B * k1 / 0.231, rel=5e-3)
+    assert 0.5 < (c_short @ U[:, 3]) / (c_long @ U[:, 3]) < 1.0
+
+
+def test_torsion_lever_limits():
+    """Square: the same shear at the middle of every side (k1/k2 = 0.1406/0.208 side); thin
+    strip: 2 x the distance from the mid-plane; zero at the centre and at a corner."""
+    sq = section.rectangle(0.02, 0.02)
+    assert section.torsion_lever(sq, sq.cy, 0.0) == pytest.approx(0.02 * 0.1406 / 0.2082, rel=2e-3)
+    # the series converges slowly on the short sides (|w| = b): 400 terms give 1e-6
+    assert section.torsion_lever(sq, 0.0, sq.cz) == pytest.approx(section.torsion_lever(sq, sq.cy, 0.0), rel=1e-5)
+    thin = section.rectangle(0.1, 0.001)
+    for y in (0.0005, 0.0002, -0.0004):
+        assert section.torsion_lever(thin, y, 0.0) == pytest.approx(2 * abs(y), rel=1e-6)
+    assert section.torsion_lever(sq, 0.0, 0.0) == 0.0
+    assert section.torsion_lever(sq, sq.cy, sq.cz) <= 1e-2 * section.torsion_lever(sq, sq.cy, 0.0)
+    assert section.torsion_lever(section.circle(0.02), 0.003, 0.004) == pytest.approx(0.005, rel=1e-15)
 
 
 def test_node_belongs_to_element_away_from_root():

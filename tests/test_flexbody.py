@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.linalg as la
 
-from flexmbd import cases, flexbody, integrate, outputs
+from flexmbd import cases, channels, flexbody, integrate, solver
 from flexmbd.fe import assembly, stress
 from flexmbd.model import from_case
 from oracles import node_mass_matrix, quadratic_forces, skew
@@ -97,7 +97,7 @@ def test_npz_roundtrip(tmp_path):
     fb = flexbody.for_case(case)["beam1"]
     flexbody.save(fb, tmp_path / "b.npz")
     back = flexbody.load(tmp_path / "b.npz")
-    for f in ("x0", "m", "J", "Phi", "freq_hz", "Km", "Cm", "stress_x", "S_sigma", "S_tau"):
+    for f in ("x0", "m", "J", "Phi", "freq_hz", "Km", "Cm", "stress_x", "S_strain"):
         assert np.array_equal(getattr(back, f), getattr(fb, f))
     assert back.labels.tolist() == fb.labels.tolist() and back.boundary == "hinged-hinged"
 
@@ -106,29 +106,30 @@ STRESS_CHANNELS = ['channels.s_far={kind="stress_vm", body="beam", at=0.9, fibre
                    'channels.s_mid={kind="stress_vm", body="beam", at=0.4}']
 
 
-def test_stress_rows_follow_channel_order():
-    """Row k of S_sigma, S_tau and stress channel k against the FE recovery at channel k's own point."""
+def test_stress_sections_and_their_channels():
+    """S_strain at each stress section against the FE strain rows there; each stress channel
+    against the FE stress recovery at its own section point."""
     case = cases.load("cantilever_step", STRESS_CHANNELS)
     body, mat = case["bodies"]["beam"], case["materials"]["steel"]
-    points = [(0.03, None), (0.9, [-0.004, 0.005]), (0.4, None)]
-    assert flexbody.stress_points(case, "beam") == points
+    assert flexbody.stress_points(case, "beam") == [0.03, 0.4, 0.9]
     fb = flexbody.for_case(case)["beam"]
-    assert fb.stress_x.tolist() == [0.03, 0.9, 0.4] and fb.S_sigma.shape == fb.S_tau.shape == (3, 12)
+    assert fb.stress_x.tolist() == [0.03, 0.4, 0.9] and fb.S_strain.shape == (3, 4, 12)
     nodes, elements = assembly.beam_mesh(body["length"], body["elements"])
     Phi_fe = fb.Phi[:, [3, 4, 5, 0, 1, 2], :].reshape(-1, fb.n_modes)       # node DOFs [u; theta]
     E, G = mat["E"], mat["E"] / (2 * (1 + mat["nu"]))
+    sec = flexbody.beam_section(body)
+    for k, x in enumerate([0.03, 0.4, 0.9]):
+        rows = stress.strain_rows(nodes, elements, E, G, sec, x, shear=body["shear"]) @ Phi_fe
+        assert np.abs(fb.S_strain[k] - rows).max() <= 1e-12 * np.abs(rows).max()
     model = from_case(case)
     a = model.body_madr[model.index("beam")]
     eta = np.random.default_rng(8).normal(size=(2, fb.n_modes)) * 1e-3
     Q = np.zeros((2, model.nq))
     Q[:, a:a + fb.n_modes] = eta
-    out = outputs.channels(case, model, np.zeros(2), Q, np.zeros((2, model.nv)))
-    for k, (ch, (x, fibre)) in enumerate(zip(["stress_vm", "s_far", "s_mid"], points)):
-        cs, ct = stress.stress_coefficients(nodes, elements, E, G, flexbody.beam_section(body), x, fibre=fibre,
-                                            shear=body["shear"])
+    out = channels.channels(case, solver.trajectory(case, model, np.zeros(2), Q, np.zeros((2, model.nv))))
+    for ch, x, fibre in [("stress_vm", 0.03, None), ("s_far", 0.9, [-0.004, 0.005]), ("s_mid", 0.4, None)]:
+        cs, ct = stress.stress_coefficients(nodes, elements, E, G, sec, x, fibre=fibre, shear=body["shear"])
         s_sigma, s_tau = cs @ Phi_fe, ct @ Phi_fe
-        assert np.abs(fb.S_sigma[k] - s_sigma).max() <= 1e-12 * np.abs(s_sigma).max()
-        assert np.abs(fb.S_tau[k] - s_tau).max() <= 1e-12 * np.abs(s_tau).max()
         assert np.allclose(out[ch], np.sqrt((eta @ s_sigma) ** 2 + 3 * (eta @ s_tau) ** 2), rtol=1e-12, atol=0)
 
 

@@ -14,7 +14,7 @@ LAYERS = {
     "errors": 1, "jit": 1, "dense": 1, "spatial": 1, "fe": 1, "results": 1, "profiles": 1, "metrics": 1,
     "cases": 2, "flexbody": 2,
     "model": 3, "dynamics": 3, "integrate": 3,
-    "outputs": 5, "solver": 5, "adapters": 5, "solvers": 5,
+    "channels": 5, "solver": 5, "adapters": 5, "solvers": 5,
     "report": 6, "bench": 6, "cli": 6, "__main__": 6, "__init__": 6,
 }
 

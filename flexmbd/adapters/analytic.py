@@ -16,7 +16,7 @@ import time
 import numpy as np
 from scipy.optimize import brentq
 
-from flexmbd import flexbody
+from flexmbd import channels, flexbody
 from flexmbd.adapters import common
 
 SETTINGS = {"modes": ("int+", 200)}     # continuous modes summed per bending plane
@@ -105,6 +105,23 @@ def modal_response(t, w, zeta, t0):
     return h * (t >= t0)
 
 
+def trajectory(case, name: str, t, eta: dict, bL) -> channels.Trajectory:
+    """The channels' view of the modal responses eta {axis: ((n, modes), norm)}: positions
+    x + (0, u_y, u_z) in the body frame (the clamp's), curvatures kappa_z = u_y'', kappa_y = -u_z''."""
+    L = case["bodies"][name]["length"]
+    shapes = lambda x: [cantilever_shapes(z, np.array([x]), L) for z in bL]
+    u = lambda x, axis: eta[axis][0] @ (np.array([s[0][0] for s in shapes(x)]) * eta[axis][1])
+    d2 = lambda x, axis: eta[axis][0] @ (np.array([s[1][0] for s in shapes(x)]) * (bL / L) ** 2 * eta[axis][1])
+    xs = channels.points_needed(case, name)
+    zero = np.zeros(len(t))
+    beam = channels.Beam(
+        length=L, points={x: np.column_stack([np.full(len(t), x), u(x, 1), u(x, 2)]) for x in xs},
+        x0={x: np.array([x, 0.0, 0.0]) for x in xs}, root=np.tile(np.eye(3), (len(t), 1, 1)),
+        strains={float(c["at"]): np.column_stack([zero, -d2(c["at"], 2), d2(c["at"], 1), zero])
+                 for c in case["channels"].values() if c["kind"] == "stress_vm"})
+    return channels.Trajectory(t=t, beams={name: beam})
+
+
 def run(case, t_end, settings):
     from flexmbd.results import Result
     t_start = time.perf_counter()
@@ -141,21 +158,8 @@ def run(case, t_end, settings):
             resp += modal_response(t[:, None], w, zeta, 0.0) * (rho * A * g[axis] * integral / w ** 2)
         eta[axis] = (resp, norm)
 
-    channels = {}
-    for cname, c in case["channels"].items():
-        x = np.array([c["at"]])
-        shapes = [cantilever_shapes(z, x, L) for z in bL]
-        phi = np.array([s[0][0] for s in shapes])
-        d2 = np.array([s[1][0] for s in shapes]) * (bL / L) ** 2
-        if c["kind"] == "deflection":
-            resp, norm = eta[common.component_index(c["component"])]
-            channels[cname] = resp @ (phi * norm)
-        else:
-            y, z = c["fibre"] if c["fibre"] is not None else (sec.cy, 0.0)
-            curv_y = eta[1][0] @ (d2 * eta[1][1])
-            curv_z = eta[2][0] @ (d2 * eta[2][1])
-            channels[cname] = np.abs(-E * (y * curv_y + z * curv_z))
+    traj = trajectory(case, name, t, eta, bL)
     wall_s = time.perf_counter() - t_solve
-    return Result(solver="analytic", case=case.name, t=t, channels=channels, wall_s=wall_s,
+    return Result(solver="analytic", case=case.name, t=t, channels=channels.channels(case, traj), wall_s=wall_s,
                   setup_s=setup_s, steps=int(t.size), rhs_evals=0,
                   settings={"modes_per_plane": n, "theory": "Euler-Bernoulli, continuous"})

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from flexmbd import channels
 from flexmbd.spatial import rotation_rpy
 
 
@@ -46,15 +47,12 @@ def component_index(c: str) -> int:
     return "xyz".index(c)
 
 
-def rigid_channels(case, model, n: int, angle, energy) -> dict:
-    """Channels of a rigid-limit solver: joint angles from `angle(body index)` (n,), `energy()` (n,);
-    deflections and stresses of rigid beams are identically zero; reactions are not recovered."""
-    out = {}
-    for name, c in case["channels"].items():
-        if c["kind"] == "joint_angle":
-            out[name] = angle(model.index(case["joints"][c["joint"]]["child"]))
-        elif c["kind"] == "energy":
-            out[name] = energy()
-        elif c["kind"] in ("deflection", "stress_vm"):
-            out[name] = np.zeros(n)
-    return out
+def rigid_trajectory(case, model, t, angle, energy) -> channels.Trajectory:
+    """The trajectory of a rigid-limit solver: joint coordinates from `angle(body index)` (n,),
+    the total energy from `energy()` (n,); no beam deforms, reactions are not recovered."""
+    traj = channels.Trajectory(t=t)
+    for jname in channels.joints_needed(case):
+        traj.joints[jname] = angle(model.index(case["joints"][jname]["child"]))
+    if channels.wants_energy(case):
+        traj.energy = {"total": energy()}
+    return traj

@@ -13,16 +13,15 @@ one the case snaps `at` to) and the child's root node; a fixed joint to ground c
 node's three coordinates. Point loads are `LoadForceVector` on their node (a body-frame load
 turns with the root node); gravity is `LoadMassProportional` on every element.
 
-Channels from Exudyn's nodes and elements (DESIGN §2):
+The trajectory (`flexmbd.channels`) from Exudyn's nodes and elements (DESIGN §2):
   deflection   clamped-root body: node displacement in the root node's frame (the cross-section
                frame: it differs from the tangent by the shear angle, ~1e-6 rad here) minus the
                undeformed offset; hinged-hinged body: signed distance from the chord through the
                end nodes, in the chord frame;
   joint_angle  child body frame angle (root node rotation, or chord angle for a hinged-hinged
                body) minus the input triad's (ground: 0; a beam: the rotation of its node);
-  stress_vm    |E eps - E y kappa| at the fibre y, eps and kappa taken at the element centres
-               (where the constant-strain element is most accurate) and interpolated linearly to
-               the stress point;
+  stress_vm    from eps and kappa taken at the element centres (where the constant-strain
+               element is most accurate) and interpolated linearly to the stress section;
   energy       Exudyn's kinetic and strain energies of the elements plus -g . (rho A l (r1 + r2) / 2).
 Time integration: Exudyn's implicit solver, fixed step.
 """
@@ -33,7 +32,7 @@ import time
 
 import numpy as np
 
-from flexmbd import flexbody, profiles
+from flexmbd import channels, flexbody, profiles
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
 
@@ -206,7 +205,7 @@ def add_sensors(mbs, case, beams: dict) -> dict:
     elem = lambda e, ov: mbs.AddSensor(eii.SensorBody(bodyNumber=e, localPosition=[0, 0, 0], outputVariableType=ov,
                                                       writeToFile=False, storeInternal=True,
                                                       visualization=eii.VSensorBody(show=False)))
-    energy = any(c["kind"] == "energy" for c in case["channels"].values())
+    energy = channels.wants_energy(case)
     S = {}
     for name, b in beams.items():
         S[name] = {"r": {k: node(n, OV.Position) for k, n in enumerate(b["nodes"])},
@@ -234,22 +233,33 @@ def stress_elements(b: dict, x: float) -> tuple:
 # channels
 
 
-def channels(case, beams: dict, X: dict, t: np.ndarray) -> dict:
-    out = {}
-    for cname, c in case["channels"].items():
-        kind = c["kind"]
-        if kind == "joint_angle":
-            out[cname] = joint_angle(case, beams, X, case["joints"][c["joint"]])
-        elif kind == "energy":
-            out[cname] = energy(case, beams, X)
-        elif kind == "deflection":
-            body = case["bodies"][c["body"]]
-            b = beams[c["body"]]
-            p = node_index(body, c["at"], len(b["elems"]))
-            out[cname] = deflection(body, b, X[c["body"]], p, "xyz".index(c["component"]))
-        else:
-            out[cname] = stress(c, beams[c["body"]], X[c["body"]])
-    return out
+def trajectory(case, beams: dict, X: dict, t: np.ndarray) -> channels.Trajectory:
+    """The channels' view of the sensor data X: global node positions with the root node's
+    rotation (or the chord, hinged-hinged), strains interpolated to the stress sections."""
+    traj = channels.Trajectory(t=t)
+    for jname in channels.joints_needed(case):
+        traj.joints[jname] = joint_angle(case, beams, X, case["joints"][jname])
+    if channels.wants_energy(case):
+        traj.energy = {"total": energy(case, beams, X)}
+    for name, b in beams.items():
+        body, Xb = case["bodies"][name], X[name]
+        nodes = {x: node_index(body, x, len(b["elems"])) for x in channels.points_needed(case, name)}
+        hinged = body["modes"]["boundary"] == "hinged-hinged"
+        traj.beams[name] = channels.Beam(
+            length=body["length"], points={x: Xb["r"][k] for x, k in nodes.items()},
+            x0={x: np.array([k * b["l"], 0.0, 0.0]) for x, k in nodes.items()},
+            root=None if hinged else rot_z(node_angle(Xb, 0)),
+            strains={float(c["at"]): strains(c["at"], b, Xb) for c in case["channels"].values()
+                     if c["kind"] == "stress_vm" and c["body"] == name})
+    return traj
+
+
+def rot_z(a) -> np.ndarray:
+    """(n, 3, 3) rotations about z by angles a (n,)."""
+    c, s = np.cos(a), np.sin(a)
+    R = np.zeros((a.size, 3, 3))
+    R[:, 0, 0], R[:, 0, 1], R[:, 1, 0], R[:, 1, 1], R[:, 2, 2] = c, -s, s, c, 1.0
+    return R
 
 
 def frame_angle(body: dict, Xb: dict) -> np.ndarray:
@@ -265,14 +275,6 @@ def node_angle(Xb: dict, k: int) -> np.ndarray:
     return Xb["rot"][k][:, -1]
 
 
-def deflection(body, b, Xb: dict, p: int, axis: int) -> np.ndarray:
-    """Node p's displacement along `axis` in the root-node (or chord) frame, minus undeformed."""
-    a = frame_angle(body, Xb)
-    d = Xb["r"][p] - Xb["r"][0]
-    local = np.column_stack([np.cos(a) * d[:, 0] + np.sin(a) * d[:, 1], -np.sin(a) * d[:, 0] + np.cos(a) * d[:, 1]])
-    return local[:, axis] - (p * b["l"] if axis == 0 else 0.0)
-
-
 def joint_angle(case, beams, X, j: dict) -> np.ndarray:
     """Child frame angle minus the input triad's angle (a beam's triad turns with its node)."""
     child = frame_angle(case["bodies"][j["child"]], X[j["child"]])
@@ -283,15 +285,14 @@ def joint_angle(case, beams, X, j: dict) -> np.ndarray:
     return child - node_angle(X[j["parent"]], p) - j["rpy"][2]
 
 
-def stress(c: dict, b: dict, Xb: dict) -> np.ndarray:
-    """|E eps - E y kappa| at the fibre y, interpolated between element centres."""
-    e0, e1 = stress_elements(b, c["at"])
-    w = (c["at"] - (e0 + 0.5) * b["l"]) / b["l"]
+def strains(x: float, b: dict, Xb: dict) -> np.ndarray:
+    """(n, 4) section strains [eps, 0, kappa_z, 0] at x, interpolated between element centres."""
+    e0, e1 = stress_elements(b, x)
+    w = (x - (e0 + 0.5) * b["l"]) / b["l"]
     kap = (1 - w) * Xb["kappa"][e0][:, 2] + w * Xb["kappa"][e1][:, 2]
     eps = (1 - w) * Xb["eps"][e0][:, 0] + w * Xb["eps"][e1][:, 0]
-    y = c["fibre"][0] if c["fibre"] is not None else b["k"]["cy"]
-    E = b["k"]["E"]
-    return np.abs(E * eps - E * y * kap)
+    zero = np.zeros_like(eps)
+    return np.column_stack([eps, zero, kap, zero])
 
 
 def energy(case, beams, X) -> np.ndarray:
@@ -352,10 +353,5 @@ def run(case, t_end, settings):
         return r
     X = {name: {k: ({i: xc.sensor_series(mbs, s, t[:n]) for i, s in v.items()}) for k, v in Sb.items()}
          for name, Sb in S.items()}
-    r.t, r.channels = t[:n], channels(case, beams, X, t[:n])
-    return r
-    X = {name: {k: ({i: xc.sensor_series(mbs, s, t) for i, s in v.items()}) for k, v in Sb.items()}
-         for name, Sb in S.items()}
-    r.t, r.channels = t, channels(case, beams, X, t)
-    r.status = xc.channel_failure(case, r.channels, t) or r.status
+    r.t, r.channels = t[:n], channels.channels(case, trajectory(case, beams, X, t[:n]))
     return r

@@ -21,7 +21,7 @@ import exudyn.itemInterface as eii       # noqa: F401  (used by the adapters)
 
 from flexmbd import results
 from flexmbd.adapters import common
-from flexmbd.outputs import chord_frame  # noqa: F401  (the adapters measure chords the same way)
+
 from flexmbd.spatial import expm_so3
 
 # solver name in the case file -> Exudyn's implicit solver type. "fox-goodwin" is Exudyn's

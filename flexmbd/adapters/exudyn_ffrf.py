@@ -22,10 +22,10 @@ Joints (body frame = the FFRF reference node, which is the beam's root node):
 Prescribed joint motion: the generic joint's offset user function. Loads: `LoadForceVector` on
 the node's super-element marker; gravity: `LoadMassProportional`.
 
-Channels are measured from Exudyn's sensors: node positions of the super element (global),
-the reference node's pose, the modal coordinates. Deflections are formed from the node positions
-in the root-node (or chord) frame; stresses apply the FlexBody's modal stress coefficients to
-Exudyn's modal coordinates; the triad of a joint on a flexible node turns with the node's elastic
+The trajectory (`flexmbd.channels`) is measured from Exudyn's sensors: node positions of the
+super element (global, taken into the body frame with the reference node's pose), the modal
+coordinates (the root node's rotation and the section strains, through the FlexBody's modes and
+modal strains); the triad of a joint on a flexible node turns with the node's elastic
 rotation Phi_r eta (Exudyn's modal coordinates).
 """
 
@@ -36,11 +36,10 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from flexmbd import flexbody, profiles
+from flexmbd import channels, flexbody, profiles
 from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
-from flexmbd.fe.stress import von_mises
 from flexmbd.spatial import rotation_rpy
 
 from exudyn.FEM import ObjectFFRFreducedOrderInterface
@@ -394,7 +393,7 @@ def add_sensors(mbs, items, case, fbs) -> dict:
                                                      visualization=eii.VSensorNode(show=False), **kw))
     sup = lambda **kw: mbs.AddSensor(eii.SensorSuperElement(writeToFile=False, storeInternal=True,
                                                             visualization=eii.VSensorSuperElement(show=False), **kw))
-    energy = any(c["kind"] == "energy" for c in case["channels"].values())
+    energy = channels.wants_energy(case)
     OV = exu.OutputVariableType
     for name, it in items.items():
         if name == "ground":
@@ -408,7 +407,7 @@ def add_sensors(mbs, items, case, fbs) -> dict:
         if name in fbs:
             fb = fbs[name]
             S[name]["eta"] = sens(nodeNumber=it["modal"], outputVariableType=OV.Coordinates)
-            nodes = range(fb.n_nodes) if energy else sorted({0, fb.n_nodes - 1} | channel_nodes(case, name, fb))
+            nodes = range(fb.n_nodes) if energy else sorted({fb.node_at(x) for x in channels.points_needed(case, name)})
             S[name]["r"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Position)
                             for k in nodes}
             if energy:
@@ -416,11 +415,6 @@ def add_sensors(mbs, items, case, fbs) -> dict:
                 S[name]["u"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Velocity)
                                 for k in nodes}
     return S
-
-
-def channel_nodes(case, name: str, fb) -> set:
-    return {fb.node_at(c["at"]) for c in case["channels"].values()
-            if c["kind"] == "deflection" and c["body"] == name}
 
 
 def read_sensors(mbs, S: dict, t: np.ndarray) -> dict:
@@ -432,46 +426,27 @@ def read_sensors(mbs, S: dict, t: np.ndarray) -> dict:
     return rd(S)
 
 
-def channels(case, fbs: dict, X: dict, t: np.ndarray) -> dict:
-    """The case's channels from the sensor data X (see read_sensors)."""
-    out, row = {}, {}
-    for cname, c in case["channels"].items():
-        kind = c["kind"]
-        if kind == "joint_angle":
-            j = case["joints"][c["joint"]]
-            out[cname] = joint_angle(case, fbs, X, j)
-        elif kind == "energy":
-            out[cname] = energy(case, fbs, X)
-        elif c["body"] not in fbs:
-            out[cname] = np.zeros(t.size)                  # a rigid body does not deform
-        elif kind == "deflection":
-            fb = fbs[c["body"]]
-            out[cname] = deflection(fb, X[c["body"]], fb.node_at(c["at"]), "xyz".index(c["component"]))
-        else:
-            fb = fbs[c["body"]]
-            k = row[c["body"]] = row.get(c["body"], -1) + 1
-            eta = X[c["body"]]["eta"]
-            out[cname] = von_mises(eta @ fb.S_sigma[k], eta @ fb.S_tau[k])
-    return out
+def trajectory(case, fbs: dict, X: dict, t: np.ndarray) -> channels.Trajectory:
+    """The channels' view of the sensor data X (see read_sensors): node positions in the body
+    frame, the root node's rotation from the modal coordinates, modal section strains."""
+    traj = channels.Trajectory(t=t)
+    for jname in channels.joints_needed(case):
+        traj.joints[jname] = joint_angle(case, fbs, X, case["joints"][jname])
+    if channels.wants_energy(case):
+        traj.energy = {"total": energy(case, fbs, X)}
+    for name, fb in fbs.items():
+        Xb, xs = X[name], channels.points_needed(case, name)
+        traj.beams[name] = channels.Beam(
+            length=fb.length, points={x: body_positions(Xb, fb.node_at(x)) for x in xs},
+            x0={x: fb.x0[fb.node_at(x)] for x in xs}, root=channels.modal_root(fb, Xb["eta"]),
+            strains=channels.modal_strains(fb, Xb["eta"]))
+    return traj
 
 
 def body_positions(Xb: dict, k: int) -> np.ndarray:
     """Node k's position (n, 3) in the body frame, from Exudyn's global node position and frame pose."""
     R = Xb["R"].reshape(-1, 3, 3)
     return np.einsum("nji,nj->ni", R, Xb["r"][k] - Xb["p"])
-
-
-def deflection(fb, Xb: dict, p: int, axis: int) -> np.ndarray:
-    """DESIGN §2: in the chord frame (hinged-hinged modes) or the root-node frame, minus undeformed."""
-    r0, rp = body_positions(Xb, 0), body_positions(Xb, p)
-    if fb.boundary == "hinged-hinged":
-        e = body_positions(Xb, fb.n_nodes - 1) - r0
-        Rs = [xc.chord_frame(x / np.linalg.norm(x)) for x in e]
-    else:
-        rot = Xb["eta"] @ fb.Phi[0, :3, :].T                 # root node's elastic rotation (n, 3)
-        Rs = [xc.rotvec(w) for w in rot]
-    d = np.array([(R.T @ (b - a))[axis] for R, a, b in zip(Rs, r0, rp)])
-    return d - (fb.x0[p] - fb.x0[0])[axis]
 
 
 def joint_angle(case, fbs, X, j: dict) -> np.ndarray:
@@ -600,5 +575,5 @@ def run(case, t_end, settings):
     if n == 0:
         return r
     X = read_sensors(mbs, S, t[:n])
-    r.t, r.channels = t[:n], channels(case, fbs, X, t[:n])
+    r.t, r.channels = t[:n], channels.channels(case, trajectory(case, fbs, X, t[:n]))
     return r

@@ -25,7 +25,7 @@ import scipy.linalg
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from flexmbd import flexbody, profiles
+from flexmbd import channels, flexbody, profiles
 from flexmbd.adapters import common
 from flexmbd.fe import stress
 
@@ -64,7 +64,7 @@ def run(case, t_end, settings):
     nodes, elements, sec, K, M, _ = flexbody.fe_model(body, mat)
     n_dof = K.shape[0]
     free = np.arange(6, n_dof)                         # root node clamped by the fixed joint
-    node_of = lambda x: int(np.argmin(np.abs(nodes[:, 0] - x)))
+    node_of = lambda x: flexbody.node_index(body["length"], body["elements"], x)
 
     # external loads: point loads with their profiles, gravity as constant nodal forces
     loads = load_vectors(case, n_dof, node_of)
@@ -73,19 +73,6 @@ def run(case, t_end, settings):
 
     Kf, Mf = K[free][:, free].tocsc(), M[free][:, free].tocsc()
     C = damping(Kf, Mf, body["damping_ratio"])
-
-    # output maps u (n_dof,) -> channel value
-    outputs = {}
-    E, G = mat["E"], flexbody.shear_modulus(mat)
-    for cname, c in case["channels"].items():
-        if c["kind"] == "deflection":
-            outputs[cname] = ("lin", node_of(c["at"]) * 6 + common.component_index(c["component"]))
-        elif c["kind"] == "stress_vm":
-            cs, ct = stress.stress_coefficients(nodes, elements, E, G, sec, c["at"], fibre=c["fibre"],
-                                                shear=body["shear"])
-            outputs[cname] = ("vm", cs, ct)
-        elif c["kind"] == "energy":
-            outputs[cname] = ("energy",)
 
     scheme = settings.get("scheme", "exact")
     out_dt = case["integrator"]["output_dt"]
@@ -105,18 +92,31 @@ def run(case, t_end, settings):
     u_full[:, free] = U
     v_full = np.zeros_like(u_full)
     v_full[:, free] = V
-    channels = {}
-    for cname, o in outputs.items():
-        if o[0] == "lin":
-            channels[cname] = u_full[:, o[1]]
-        elif o[0] == "vm":
-            channels[cname] = stress.von_mises(u_full @ o[1], u_full @ o[2])
-        else:
-            channels[cname] = energy(u_full, v_full, K, M, fg)
-    return Result(solver="fe-linear", case=case.name, t=t_out, channels=channels, wall_s=wall_s,
+    traj = trajectory(case, name, t_out, u_full, nodes, elements, sec)
+    if channels.wants_energy(case):
+        traj.energy = {"total": energy(u_full, v_full, K, M, fg)}
+    return Result(solver="fe-linear", case=case.name, t=t_out, channels=channels.channels(case, traj), wall_s=wall_s,
                   setup_s=setup_s, steps=(t_out.size - 1) * stride, rhs_evals=(t_out.size - 1) * stride,
                   settings={"dt": dt, "scheme": scheme, "dofs": int(free.size),
                             "elements": body["elements"], "mass": body["mass"]})
+
+
+def trajectory(case, name: str, t, U, nodes, elements, sec) -> channels.Trajectory:
+    """The channels' view of the nodal displacements U (n, 6N) of the clamped beam `name`: node
+    positions in the body frame (the root node is clamped: its frame is the body frame) and
+    section strains from the element shape functions."""
+    body = case["bodies"][name]
+    mat = case["materials"][body["material"]]
+    node_of = lambda x: flexbody.node_index(body["length"], body["elements"], x)
+    xs = channels.points_needed(case, name)
+    rows = {float(c["at"]): stress.strain_rows(nodes, elements, mat["E"], flexbody.shear_modulus(mat), sec, c["at"],
+                                               shear=body["shear"])
+            for c in case["channels"].values() if c["kind"] == "stress_vm"}
+    beam = channels.Beam(length=body["length"],
+                         points={x: nodes[node_of(x)] + U[:, 6 * node_of(x):6 * node_of(x) + 3] for x in xs},
+                         x0={x: nodes[node_of(x)] for x in xs}, root=np.tile(np.eye(3), (len(t), 1, 1)),
+                         strains={x: U @ r.T for x, r in rows.items()})
+    return channels.Trajectory(t=t, beams={name: beam})
 
 
 def damping(K, M, zeta: float):

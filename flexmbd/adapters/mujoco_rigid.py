@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 import mujoco
-from flexmbd import cases, profiles, results
+from flexmbd import cases, channels, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, quat_to_rot, rot_to_quat
 from flexmbd.spatial import inertia_parts, plux_parts
@@ -155,10 +155,10 @@ def apply_loads(model, m, d) -> None:
         d.xfrc_applied[b, 3:] += np.cross(p - d.xipos[b], f)
 
 
-def channels(case, model, m, t, P, E) -> dict:
-    """The case's channels (n,) from qpos samples P (n, nq) and energies E (n,)."""
-    return common.rigid_channels(case, model, len(t), lambda i: P[:, m.jnt_qposadr[m.joint(f"j{i}").id]].copy(),
-                                 lambda: E.copy())
+def trajectory(case, model, m, t, P, E) -> channels.Trajectory:
+    """The trajectory from qpos samples P (n, nq) and energies E (n,)."""
+    return common.rigid_trajectory(case, model, t, lambda i: P[:, m.jnt_qposadr[m.joint(f"j{i}").id]].copy(),
+                                   lambda: E.copy())
 
 
 def run(case, t_end, settings):
@@ -193,7 +193,8 @@ def run(case, t_end, settings):
     wall_s = time.perf_counter() - t1
 
     n = k
-    return Result(solver="mujoco", case=case.name, t=t_out[:n], channels=channels(case, model, m, t_out[:n], P[:n], E[:n]),
+    return Result(solver="mujoco", case=case.name, t=t_out[:n], channels=channels.channels(
+                      case, trajectory(case, model, m, t_out[:n], P[:n], E[:n])),
                   status=status, wall_s=wall_s, setup_s=setup_s, steps=(n - 1) * stride,
                   rhs_evals=4 * (n - 1) * stride,
                   settings={"integrator": "RK4", "dt": dt, "contacts": "disabled",

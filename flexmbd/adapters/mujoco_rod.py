@@ -22,11 +22,12 @@ The parent body is the world (fixed joint) or a body with a hinge at the joint (
 to ground). A box section of half-sizes (extent along y, extent along z) / 2 gives the rod the
 beam's two bending stiffnesses (checked: 23.29 mm / 52.4 mm static tip deflections).
 
-Channels, from the rod's own vertex positions in the root frame (the parent body's frame, which
-holds the clamped first edge, i.e. the frame attached to the root and tangent to the beam there):
+The trajectory (`flexmbd.channels`), from the rod's own vertex positions in the root frame (the
+parent body's frame, which holds the clamped first edge, i.e. the frame attached to the root and
+tangent to the beam there):
   deflection   position of the rod point at `at` (linear between vertices) minus its undeformed one;
-  stress_vm    |E (y kz - z ky)| at the section point (y, z), default the outer fibre y = extent/2,
-               with the discrete curvature binormal kb_k = 2 e_{k-1} x e_k / (|e_{k-1}||e_k| +
+  stress_vm    curvatures (kappa_y, kappa_z) = (kb_y, kb_z) (no axial strain: the edges are
+               inextensible), with the discrete curvature binormal kb_k = 2 e_{k-1} x e_k / (|e_{k-1}||e_k| +
                e_{k-1}.e_k) divided by the Voronoi length (l_{k-1} + l_k)/2 at vertex k, linearly
                interpolated between the two vertices that bracket `at`;
   joint_angle  the hinge coordinate (angle of the clamped first edge from +x);
@@ -42,7 +43,7 @@ import time
 import numpy as np
 
 import mujoco
-from flexmbd import profiles, results
+from flexmbd import channels, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, rot_to_quat
 from flexmbd.spatial import rotation_rpy
@@ -185,32 +186,41 @@ def bending_energy(X, E: float, Iz: float, Iy: float, l0: float) -> float:
     return float(np.sum(E * Iz / (2 * l0) * kappa[:, 2] ** 2 + E * Iy / (2 * l0) * kappa[:, 1] ** 2))
 
 
-def sample(case, m, d, ne: int, s: np.ndarray, l: float) -> dict:
-    """Channel values of the current state (root-frame vertex positions, MuJoCo energies)."""
+def sample(case, m, d, ne: int, l: float) -> dict:
+    """What the trajectory needs of the current state: vertex positions X (ne + 1, 3) in the
+    root frame, the hinge coordinate q, and the energy E (MuJoCo's plus the rod's bending energy)."""
     body = next(iter(case["bodies"].values()))
     mat = case["materials"][body["material"]]
-    ey, ez = section(body)
     R, p = root_frame(m, d)
-    X = (vertex_positions(m, d, ne) - p) @ R                 # (ne + 1, 3) in the root frame
-    X0 = np.c_[s, np.zeros((s.size, 2))]
-    out = {}
-    for name, c in case["channels"].items():
-        kind = c["kind"]
-        if kind == "joint_angle":
-            out[name] = d.qpos[m.jnt_qposadr[m.joint("pivot").id]] if "pivot" in names(m) else 0.0
-        elif kind == "deflection":
-            k = common.component_index(c["component"])
-            out[name] = np.interp(c["at"], s, X[:, k] - X0[:, k])
-        elif kind == "stress_vm":
-            kap = curvatures(X)
-            y, z = c["fibre"] if c["fibre"] is not None else (ey / 2, 0.0)
-            ky, kz = np.interp(c["at"], s[1:-1], kap[1:-1, 1]), np.interp(c["at"], s[1:-1], kap[1:-1, 2])
-            out[name] = abs(mat["E"] * (y * kz - z * ky))
-        elif kind == "energy":
-            mujoco.mj_energyPos(m, d)
-            mujoco.mj_energyVel(m, d)
-            out[name] = d.energy.sum() + bending_energy(X, mat["E"], ez * ey ** 3 / 12, ey * ez ** 3 / 12, l)
+    X = (vertex_positions(m, d, ne) - p) @ R
+    out = {"X": X, "q": d.qpos[m.jnt_qposadr[m.joint("pivot").id]] if "pivot" in names(m) else 0.0}
+    if channels.wants_energy(case):
+        ey, ez = section(body)
+        mujoco.mj_energyPos(m, d)
+        mujoco.mj_energyVel(m, d)
+        out["E"] = d.energy.sum() + bending_energy(X, mat["E"], ez * ey ** 3 / 12, ey * ez ** 3 / 12, l)
     return out
+
+
+def trajectory(case, rows: list, t: np.ndarray, s: np.ndarray) -> channels.Trajectory:
+    """The channels' view of the samples `rows` (see `sample`) at vertex positions s: points
+    interpolated linearly between vertices, in the root frame; curvatures at the vertices."""
+    traj = channels.Trajectory(t=t)
+    for jname in channels.joints_needed(case):
+        traj.joints[jname] = np.array([r["q"] for r in rows])
+    if channels.wants_energy(case):
+        traj.energy = {"total": np.array([r["E"] for r in rows])}
+    name, body = next(iter(case["bodies"].items()))
+    X = np.array([r["X"] for r in rows])                                   # (n, ne + 1, 3)
+    at = lambda x, F, grid: np.array([[np.interp(x, grid, f[:, k]) for k in range(F.shape[2])] for f in F])
+    xs = channels.points_needed(case, name)
+    K = np.array([curvatures(x) for x in X])                               # (n, ne + 1, 3)
+    strain = lambda x: np.column_stack([np.zeros(len(t)), at(x, K[:, 1:-1, 1:], s[1:-1]), np.zeros(len(t))])
+    traj.beams[name] = channels.Beam(
+        length=body["length"], points={x: at(x, X, s) for x in xs}, x0={x: np.array([x, 0.0, 0.0]) for x in xs},
+        root=np.tile(np.eye(3), (len(t), 1, 1)),
+        strains={float(c["at"]): strain(c["at"]) for c in case["channels"].values() if c["kind"] == "stress_vm"})
+    return traj
 
 
 def names(m) -> set:
@@ -253,7 +263,7 @@ def run(case, t_end, settings):
     rows, status = [], results.Status()
     t1 = time.perf_counter()
     mujoco.mj_forward(m, d)
-    rows.append(sample(case, m, d, ne, s, l))
+    rows.append(sample(case, m, d, ne, l))
     for k in range(1, t_out.size):
         for _ in range(stride):
             apply_loads(case, m, d, ne, s)
@@ -262,11 +272,11 @@ def run(case, t_end, settings):
             status = results.failed("non-finite state", d.time)
             break
         mujoco.mj_fwdPosition(m, d)                             # kinematics and inertia of the new state
-        rows.append(sample(case, m, d, ne, s, l))
+        rows.append(sample(case, m, d, ne, l))
     wall_s = time.perf_counter() - t1
 
     n = len(rows)
-    ch = {name: np.array([r[name] for r in rows]) for name in case["channels"]}
+    ch = channels.channels(case, trajectory(case, rows, t_out[:n], s))
     return Result(solver="mujoco-rod", case=case.name, t=t_out[:n], channels=ch, status=status,
                   wall_s=wall_s, setup_s=setup_s, steps=(n - 1) * stride, rhs_evals=(n - 1) * stride,
                   settings={"edges": ne, "edge_length": l, "dt": dt, "integrator": integrator,

@@ -20,7 +20,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.integrate import DOP853, RK45, Radau
 
-from flexmbd import cases, profiles, results
+from flexmbd import cases, channels, profiles, results
 from flexmbd.adapters import common, pinocchio_model
 from flexmbd.model import from_case
 
@@ -170,10 +170,10 @@ def integrate(eng: Rigid, y0, t_out, method: str, rtol: float, atol: float):
     return Y, steps, results.Status()
 
 
-def channels(case, model, eng: Rigid, t, Q, V) -> dict:
-    """The case's channels (n,) from Pinocchio states Q (n, nq), V (n, nv)."""
-    return common.rigid_channels(case, model, len(t), lambda i: Q[:, eng.pm.joints[eng.frame[i][0]].idx_q].copy(),
-                                 lambda: np.array([eng.energy(q, v) for q, v in zip(Q, V)]))
+def trajectory(case, model, eng: Rigid, t, Q, V) -> channels.Trajectory:
+    """The trajectory from Pinocchio states Q (n, nq), V (n, nv)."""
+    return common.rigid_trajectory(case, model, t, lambda i: Q[:, eng.pm.joints[eng.frame[i][0]].idx_q].copy(),
+                                   lambda: np.array([eng.energy(q, v) for q, v in zip(Q, V)]))
 
 
 def run(case, t_end, settings):
@@ -200,7 +200,8 @@ def run(case, t_end, settings):
     Q, V = Y[:, :eng.nq].copy(), Y[:, eng.nq:].copy()
     for k, t in enumerate(t_out):
         Q[k], V[k], _ = eng.impose(t, Q[k], V[k])
-    return Result(solver="pinocchio", case=case.name, t=t_out, channels=channels(case, model, eng, t_out, Q, V),
+    return Result(solver="pinocchio", case=case.name, t=t_out, channels=channels.channels(
+                      case, trajectory(case, model, eng, t_out, Q, V)),
                   status=status, wall_s=wall_s, setup_s=setup_s, steps=steps, rhs_evals=eng.evals,
                   settings={"method": method, "rtol": rtol, "atol": atol,
                             "model": "rigid limit: every beam rigid, undeformed reduced-body inertia"})

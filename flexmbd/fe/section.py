@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Section", "rectangle", "circle"]
+__all__ = ["Section", "rectangle", "circle", "torsion_lever"]
 
 # shear correction factors (Timoshenko): 5/6 for a solid rectangle, 6/7 for a solid
 # circle (Cowper's 6(1+nu)/(7+6nu) at nu = 0; 0.857, vs 0.886 at nu = 0.3)
@@ -104,3 +104,27 @@ def circle(d):
     return Section(A=np.pi * d**2 / 4.0, Iy=I, Iz=I, J=J, Ip=J,
                    ky=K_SHEAR_CIRCLE, kz=K_SHEAR_CIRCLE,
                    cy=d / 2.0, cz=d / 2.0, tau_factor=(d / 2.0) / J, shape="circle")
+
+
+def torsion_lever(sec: Section, y: float, z: float, terms: int = 400) -> float:
+    """Saint-Venant torsional shear per unit G * twist rate at the section point (y, z), m:
+    ``tau = G (d rx/dx) torsion_lever``.
+
+    Circle: the distance from the axis. Rectangle (half-sides a <= b, u across the thickness,
+    w along the long side): the gradient of Prandtl's stress function (Timoshenko & Goodier,
+    Theory of Elasticity, section 109),
+    ``phi / (G twist) = (32 a^2 / pi^3) sum_n odd (-1)^((n-1)/2) / n^3
+    (1 - cosh(n pi w / 2a) / cosh(n pi b / 2a)) cos(n pi u / 2a)``; at the middle of a long side
+    it is 2a (1 - sum 8 / (pi^2 n^2 cosh(n pi b / 2a))), 2a for a thin rectangle."""
+    if sec.shape == "circle":
+        return float(np.hypot(y, z))
+    u, w, a, b = (y, z, sec.cy, sec.cz) if sec.cy <= sec.cz else (z, y, sec.cz, sec.cy)
+    n = np.arange(1, 2 * terms, 2, dtype=float)
+    k = n * np.pi / (2.0 * a)
+    sign = np.where((n - 1) % 4 == 0, 1.0, -1.0)
+    ch = np.exp(k * (abs(w) - b)) * (1.0 + np.exp(-2.0 * k * abs(w))) / (1.0 + np.exp(-2.0 * k * b))  # cosh ratio
+    sh = np.sign(w) * np.exp(k * (abs(w) - b)) * (1.0 - np.exp(-2.0 * k * abs(w))) / (1.0 + np.exp(-2.0 * k * b))
+    c = 16.0 * a / np.pi ** 2 * sign / n ** 2
+    d_du = -2.0 * u + np.sum(c * ch * np.sin(k * u))       # -2u: the thin strip's series, summed
+    d_dw = -np.sum(c * sh * np.cos(k * u))
+    return float(np.hypot(d_du, d_dw))

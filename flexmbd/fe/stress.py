@@ -7,7 +7,9 @@ Sign conventions (beam along local x, section point (y, z), m):
   ``kappa_y = d ry/dx = -d2uz/dx2`` (``rz = duy/dx``, ``ry = -duz/dx``). A positive
   curvature d2uy/dx2 puts the +y fibre in compression; a cantilever loaded along -y
   has its +y fibre in tension at the root.
-- torsional shear ``tau = T * tau_factor`` with ``T = G J d rx/dx`` (sign follows T).
+- torsional shear at the section point, ``tau = G r(y, z) d rx/dx`` (sign follows the twist):
+  r is the distance from the axis on a circle, twice the distance from the mid-plane across the
+  thickness on a rectangle (thin-wall membrane analogy; :func:`flexmbd.fe.section.torsion_lever`).
 """
 
 import numpy as np
@@ -15,7 +17,7 @@ import numpy as np
 from flexmbd.fe import element
 from flexmbd.fe.assembly import element_dofs, element_lengths
 
-__all__ = ["locate", "stress_coefficients", "von_mises"]
+__all__ = ["locate", "strain_rows", "section_stresses", "stress_coefficients", "von_mises"]
 
 
 def locate(nodes, elements, x):
@@ -73,50 +75,52 @@ def _curvatures_from_moments(E, G, sec, xi, l):
     return kz, ky
 
 
-def stress_coefficients(nodes, elements, E, G, sec, x, fibre=None, shear=False):
-    """Linear maps from the nodal displacements u (6N,) to the stresses at one section point.
+def strain_rows(nodes, elements, E, G, sec, x, shear=False):
+    """Linear maps (4, 6N) from the nodal displacements u (6N,) to the section strains at ``x``:
+    rows [eps, kappa_y, kappa_z, twist rate] (1, 1/m, 1/m, rad/m).
 
     Evaluated in the element containing ``x`` (see :func:`locate`) with its shape functions:
     linear for axial strain and twist rate, cubic Hermite for the curvatures (which vary
     linearly within the element). With ``shear=True`` the curvatures are those of the
     Timoshenko element (bending moment from its end forces, also linear).
+    """
+    e, xi, l = locate(nodes, elements, x)
+    rows = np.zeros((4, 12))
+    rows[0, element.AXIAL] = np.array([-1.0, 1.0]) / l
+    rows[3, element.TORSION] = np.array([-1.0, 1.0]) / l
+    kz, ky = _curvatures_from_moments(E, G, sec, xi, l) if shear else _curvatures_hermite(xi, l)
+    rows[1], rows[2] = ky, kz
+    out = np.zeros((4, 6 * nodes.shape[0]))
+    out[:, element_dofs(elements[e:e + 1])[0]] = rows
+    return out
 
-    Parameters
-    ----------
-    nodes, elements : ndarray
-        Mesh, (N, 3) m and (n_el, 2).
-    E, G : float
-        Young's and shear moduli, Pa.
-    sec : Section
-    x : float
-        Position along the beam, m, in [0, L].
-    fibre : (2,) array_like, optional
-        Section point (y, z), m; default ``(sec.cy, 0)``, the outer fibre along y.
-    shear : bool
-        Match the Timoshenko stiffness used for the displacements.
+
+def section_stresses(strains, E, G, sec, fibre=None):
+    """Normal and torsional shear stress (sigma, tau), Pa, at the section point ``fibre`` = (y, z)
+    (default ``(sec.cy, 0)``) from section strains (..., 4) [eps, kappa_y, kappa_z, twist rate]:
+    ``sigma = E (eps - y kappa_z + z kappa_y)``, ``tau = G twist r(y, z)`` (see
+    :func:`flexmbd.fe.section.torsion_lever`)."""
+    from flexmbd.fe.section import torsion_lever
+    y, z = (sec.cy, 0.0) if fibre is None else (float(fibre[0]), float(fibre[1]))
+    s = np.asarray(strains)
+    sigma = E * (s[..., 0] - y * s[..., 2] + z * s[..., 1])
+    tau = G * torsion_lever(sec, y, z) * s[..., 3]
+    return sigma, tau
+
+
+def stress_coefficients(nodes, elements, E, G, sec, x, fibre=None, shear=False):
+    """Linear maps (6N,) from the nodal displacements u to (sigma, tau) at the section point
+    ``fibre`` of the section at ``x``: :func:`section_stresses` of :func:`strain_rows`.
 
     Returns
     -------
     c_sigma : (6N,) ndarray
         ``sigma_xx = c_sigma @ u``, Pa per (m or rad).
     c_tau : (6N,) ndarray
-        Outer-fibre torsional shear ``tau = c_tau @ u = T * tau_factor``, Pa per rad.
+        Torsional shear at the point, ``tau = c_tau @ u``, Pa per rad.
     """
-    y, z = (sec.cy, 0.0) if fibre is None else (float(fibre[0]), float(fibre[1]))
-    e, xi, l = locate(nodes, elements, x)
-
-    # strain, curvature and twist-rate rows over the element DOFs
-    eps, twist = np.zeros(12), np.zeros(12)
-    eps[element.AXIAL] = np.array([-1.0, 1.0]) / l
-    twist[element.TORSION] = np.array([-1.0, 1.0]) / l
-    kz, ky = _curvatures_from_moments(E, G, sec, xi, l) if shear else _curvatures_hermite(xi, l)
-
-    # stresses, scattered onto the global DOFs of the element
-    c_sigma, c_tau = np.zeros(6 * nodes.shape[0]), np.zeros(6 * nodes.shape[0])
-    dofs = element_dofs(elements[e:e + 1])[0]
-    c_sigma[dofs] = E * (eps - y * kz + z * ky)
-    c_tau[dofs] = G * sec.J * sec.tau_factor * twist
-    return c_sigma, c_tau
+    rows = strain_rows(nodes, elements, E, G, sec, x, shear)
+    return section_stresses(rows.T, E, G, sec, fibre)
 
 
 def von_mises(sigma, tau):

@@ -1,13 +1,25 @@
-"""Channels measured geometrically from the deformed nodes; joint reactions from the momentum."""
+"""Channels measured geometrically from the deformed nodes; joint reactions from the momentum;
+each channel kind computed in one place."""
 
+import ast
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from flexmbd import cases, dynamics, flexbody, outputs
+import flexmbd
+from flexmbd import cases, channels, dynamics, flexbody, solver
 from flexmbd import model as M
+
+
+def deflection(fb, p, axis, eta):
+    """channels.deflection of node p from one state's modal coordinates eta (nm,)."""
+    x = float(fb.x0[p, 0])
+    points, x0 = channels.modal_points(fb, [0.0, fb.length, x], eta[None, :])
+    beam = channels.Beam(length=fb.length, points=points, x0=x0, root=channels.modal_root(fb, eta[None, :]))
+    return float(channels.deflection(beam, x, axis)[0])
 
 
 def moving_body(boundary, seed):
@@ -45,9 +57,9 @@ def test_deflection_is_measured_in_the_deformed_root_node_frame():
     for p in (3, 7, 10):
         for axis in range(3):
             ref = R0[:, axis] @ (r[p] - r[0]) - (fb.x0[p] - fb.x0[0])[axis]
-            assert outputs.deflection(fb, p, axis, eta) == pytest.approx(ref, rel=1e-12, abs=1e-15)
-            assert outputs.deflection(moved, p, axis, eta_moved) == pytest.approx(ref, rel=1e-10, abs=1e-13)
-            assert abs(outputs.deflection(rigid, p, axis, eta_rigid)) <= 1e-13
+            assert deflection(fb, p, axis, eta) == pytest.approx(ref, rel=1e-12, abs=1e-15)
+            assert deflection(moved, p, axis, eta_moved) == pytest.approx(ref, rel=1e-10, abs=1e-13)
+            assert abs(deflection(rigid, p, axis, eta_rigid)) <= 1e-13
 
 
 def test_hinged_hinged_deflection_is_measured_from_the_chord():
@@ -64,14 +76,14 @@ def test_hinged_hinged_deflection_is_measured_from_the_chord():
     for p in (3, 7):
         for axis in range(3):
             ref = axes[axis] @ (r[p] - r[0]) - (fb.x0[p] - fb.x0[0])[axis]
-            assert outputs.deflection(fb, p, axis, eta) == pytest.approx(ref, rel=1e-12, abs=1e-15)
-            assert outputs.deflection(moved, p, axis, eta_moved) == pytest.approx(ref, rel=1e-10, abs=1e-13)
-            assert abs(outputs.deflection(rigid, p, axis, eta_rigid)) <= 1e-13
+            assert deflection(fb, p, axis, eta) == pytest.approx(ref, rel=1e-12, abs=1e-15)
+            assert deflection(moved, p, axis, eta_moved) == pytest.approx(ref, rel=1e-10, abs=1e-13)
+            assert abs(deflection(rigid, p, axis, eta_rigid)) <= 1e-13
 
 
 def test_chord_frame_turns_x_onto_the_chord():
     e = np.array([0.6, 0.8, 0.0])
-    R = outputs.chord_frame(e)
+    R = channels.chord_frame(e)
     assert np.allclose(R @ [1, 0, 0], e) and np.allclose(R.T @ R, np.eye(3))
     assert np.allclose(R @ [0, 0, 1], [0, 0, 1])            # a planar chord keeps z
 
@@ -85,7 +97,7 @@ def test_clamp_reactions_are_the_rate_of_momentum_less_the_applied_loads():
     rng = np.random.default_rng(5)
     t = np.array([0.0, 0.3, 1.1])
     Q, V = rng.normal(size=(3, m.nq)) * 1e-3, rng.normal(size=(3, m.nv)) * 1e-2
-    f = outputs.reactions(m, t, Q, V)
+    f = solver.reactions(m, t, Q, V)
     g, F = np.array(case["gravity"]), np.array([0.0, -12.0, 0.0]) * (t >= 0.5)[:, None]
     for k in range(3):
         eta_dd = dynamics.forward_dynamics(m, M.make_data(m), Q[k], V[k], t=t[k])[a:a + n]
@@ -97,3 +109,63 @@ def test_clamp_reactions_are_the_rate_of_momentum_less_the_applied_loads():
         assert np.abs(f[k, i, 3:] - force).max() <= 1e-11 * np.abs(force).max()
         assert np.abs(f[k, i, :3] - moment).max() <= 1e-11 * np.abs(moment).max()
     assert not np.allclose(f[0], f[2])
+
+
+def test_no_adapter_computes_a_channel_itself():
+    """Adapters produce trajectories: none defines a channel function or forms stresses or chords."""
+    own = {"deflection", "stress", "stress_vm", "chord_frame", "von_mises", "channels"}
+    for path in (Path(flexmbd.__file__).parent / "adapters").glob("*.py"):
+        tree = ast.parse(path.read_text())
+        defined = {n.name for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)}
+        used = {n.attr if isinstance(n, ast.Attribute) else n.id for n in ast.walk(tree)
+                if isinstance(n, (ast.Attribute, ast.Name))}
+        assert not defined & own, (path.name, defined & own)
+        assert not used & {"von_mises", "section_stresses", "chord_frame", "stress_coefficients"}, path.name
+
+
+def test_stress_vm_at_a_section_point():
+    """sigma = E (eps - y kappa_z + z kappa_y), tau = G r twist on a circle, von Mises of both."""
+    from flexmbd.fe import section
+    sec = section.circle(0.02)
+    s = np.array([[1e-4, 2e-3, -3e-3, 0.05]])
+    y, z = 0.006, -0.004
+    sigma = 2e11 * (1e-4 - y * -3e-3 + z * 2e-3)
+    tau = 8e10 * np.hypot(y, z) * 0.05
+    assert channels.stress_vm(s, 2e11, 8e10, sec, (y, z))[0] == pytest.approx(np.sqrt(sigma ** 2 + 3 * tau ** 2), rel=1e-14)
+
+
+# ---------------------------------------------------------------------------------------------
+# quasi-static axial stress (no retained mode is axial)
+
+
+def root_stress(overrides, t, angle, rate):
+    """stress_vm at the pendulum's stress section (x = 0.03 m) in the state joint angle, joint
+    rate, modes at rest."""
+    case = cases.load("pendulum", overrides)
+    m = M.from_case(case)
+    q, v = np.zeros(m.nq), np.zeros(m.nv)
+    q[0], v[0] = angle, rate
+    out = channels.channels(case, solver.trajectory(case, m, np.array([t]), q[None], v[None]))
+    return float(out["stress_vm"][0])
+
+
+def test_a_hanging_beam_carries_its_own_weight():
+    """At rest hanging down, sigma(x) = rho g (L - x), the weight below the section over the area."""
+    s = root_stress([], 0.0, -np.pi / 2, 0.0)
+    assert s == pytest.approx(7820.0 * 9.81 * (1.5 - 0.03), rel=1e-9)
+
+
+def test_a_spinning_beam_carries_its_centrifugal_force():
+    """Prescribed constant rate W about the pivot, no gravity: sigma(x) = rho W^2 (L^2 - x^2) / 2."""
+    W = 6.0
+    s = root_stress(["gravity=[0.0, 0.0, 0.0]", f'joints.pivot.motion={{type="constant_rate", rate={W}}}'],
+                    0.5, W * 0.5, W)
+    assert s == pytest.approx(7820.0 * W ** 2 * (1.5 ** 2 - 0.03 ** 2) / 2, rel=1e-3)
+
+
+def test_axial_force_sums_the_outer_nodes():
+    x0 = np.c_[np.linspace(0.0, 1.0, 5), np.zeros((5, 2))]
+    F = np.zeros((1, 5, 3))
+    F[0, :, 0] = [1.0, 2.0, 4.0, 8.0, 16.0]
+    assert channels.axial_force(x0, F, 0.25)[0] == 0.5 * 2.0 + 4.0 + 8.0 + 16.0
+    assert channels.axial_force(x0, F, 0.3)[0] == 28.0

@@ -1,0 +1,190 @@
+"""Channels (DESIGN.md §2): each kind computed by one function, from a solver-neutral trajectory.
+
+A solver — flexmbd or an adapter — reports what it knows of a run as a `Trajectory`: the
+coordinates of the joints the channels name, the parts of the energy, the joint reactions if it
+recovers them, and per flexible beam a `Beam`: the positions of the material points the channels
+use, the rotation of the root node's frame, and the section strains at the stress sections. The
+functions below turn that into channels, the same way for every solver:
+
+    deflection   node p's displacement along an axis of the root-node frame (or, for a beam
+                 with hinged-hinged modes, of the chord frame through both end nodes), minus its
+                 undeformed offset from the root node: (R^T (r_p - r_0))_axis - (x0_p - x0_0)_axis
+    stress_vm    von Mises stress sqrt(sigma^2 + 3 tau^2) at the section point (y, z), with
+                 sigma = E (eps - y kappa_z + z kappa_y), tau = G r(y, z) twist rate
+    joint_angle  the joint's coordinate (rad; m for a prismatic joint)
+    energy       the sum of the energy parts (kinetic, gravity, strain), J
+    reaction_*   a component of the force the joint transmits from parent onto child, child frame
+
+A beam that is not flexible in a solver's model (declared rigid, or every beam of a rigid-body
+solver) has no Beam: its deflections and stresses are zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from flexmbd import flexbody
+from flexmbd.fe.stress import section_stresses, von_mises
+from flexmbd.spatial import expm_so3
+
+
+@dataclass
+class Beam:
+    """One flexible beam at n instants. Positions and the root rotation are in one frame F of the
+    solver's choice (body, root node or global frame): the channels use only positions relative
+    to the root node, in the root node's (or the chord's) frame.
+
+    points  {x: (n, 3)}      position in F of the material point the solver tracks for the
+                             position x along the beam (m, as the case names it); always x = 0
+                             (root node) and, for the chord, x = length
+    x0      {x: (3,)}        undeformed position of that point, body frame, m
+    root    (n, 3, 3)|None   rotation of the root node's frame in F (None: chord frame)
+    strains {x: (n, 4)}      section strains [eps, kappa_y, kappa_z, twist rate] at x (1, 1/m, rad/m)
+    """
+
+    length: float
+    points: dict
+    x0: dict
+    root: np.ndarray | None
+    strains: dict = field(default_factory=dict)
+
+
+@dataclass
+class Trajectory:
+    """What one run of one solver produced, at the output instants t (n,)."""
+
+    t: np.ndarray
+    beams: dict = field(default_factory=dict)      # flexible beam name -> Beam
+    joints: dict = field(default_factory=dict)     # joint name -> (n,) coordinate of a 1-DOF joint
+    energy: dict = field(default_factory=dict)     # part name -> (n,) J
+    reactions: dict = field(default_factory=dict)  # joint name -> (n, 6) [moment; force], child frame
+
+
+# ---------------------------------------------------------------------------------------------
+# what a solver has to report
+
+
+def points_needed(case, body: str) -> list:
+    """Positions x (m) whose points a Beam must hold: the root, the tip and every deflection
+    channel's point, in that order, without repeats."""
+    xs = [0.0, float(case["bodies"][body]["length"])]
+    xs += [c["at"] for c in case["channels"].values() if c["kind"] == "deflection" and c["body"] == body]
+    return list(dict.fromkeys(xs))
+
+
+def joints_needed(case) -> list:
+    """Names of the joints whose coordinates the channels use."""
+    return list(dict.fromkeys(c["joint"] for c in case["channels"].values() if c["kind"] == "joint_angle"))
+
+
+def wants_energy(case) -> bool:
+    return any(c["kind"] == "energy" for c in case["channels"].values())
+
+
+def modal_points(fb: flexbody.FlexBody, xs, eta) -> tuple[dict, dict]:
+    """({x: (n, 3)}, {x: (3,)}): positions x0_p + Phi_t,p eta of the nodes nearest to xs in the
+    body frame, and their undeformed positions, from modal coordinates eta (n, nm)."""
+    nodes = {x: fb.node_at(x) for x in xs}
+    return ({x: fb.x0[p] + eta @ fb.Phi[p, 3:, :].T for x, p in nodes.items()},
+            {x: fb.x0[p] for x, p in nodes.items()})
+
+
+def modal_root(fb: flexbody.FlexBody, eta) -> np.ndarray | None:
+    """(n, 3, 3) rotation of the root node's frame in the body frame, exp(Phi_r,0 eta)~; None on a
+    beam with hinged-hinged modes (its deflections are measured from the chord)."""
+    if fb.boundary == "hinged-hinged":
+        return None
+    return np.array([expm_so3(w) for w in eta @ fb.Phi[0, :3, :].T]).reshape(-1, 3, 3)
+
+
+def modal_strains(fb: flexbody.FlexBody, eta) -> dict:
+    """{x: (n, 4)} section strains at the body's stress sections from modal coordinates eta (n, nm)."""
+    return {float(x): eta @ fb.S_strain[k].T for k, x in enumerate(fb.stress_x)}
+
+
+def axial_force(x0: np.ndarray, F: np.ndarray, x: float) -> np.ndarray:
+    """(n,) quasi-static axial force N(x) (tension positive), N, from the net forces F (n, N, 3)
+    on the nodes at x0 (N, 3) in the body frame (applied loads, gravity and d'Alembert inertia
+    -m_p a_p, and the forces of child joints): the x component of their sum over the outer part,
+    x0_p > x, a node at the cut counting half. It is what a beam whose retained modes have no
+    axial motion carries along its axis (docs/formulation.md §7)."""
+    w = np.where(x0[:, 0] > x, 1.0, np.where(x0[:, 0] == x, 0.5, 0.0))
+    return F[:, :, 0] @ w
+
+
+def with_axial_strain(strains: dict, N: dict, EA: float) -> dict:
+    """Section strains {x: (n, 4)} with the axial strain N(x) / (E A) added at every section."""
+    out = {}
+    for x, s in strains.items():
+        s = s.copy()
+        s[:, 0] += N[x] / EA
+        out[x] = s
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# one function per channel kind
+
+
+def chord_frame(e) -> np.ndarray:
+    """Rotation (3, 3) taking the x axis onto unit vector e by the smallest turn."""
+    x = np.array([1.0, 0.0, 0.0])
+    k = np.cross(x, e)
+    s = np.linalg.norm(k)
+    if s < 1e-15:
+        return np.eye(3)
+    return expm_so3(k / s * np.arctan2(s, x @ e))
+
+
+def deflection(beam: Beam, x: float, axis: int) -> np.ndarray:
+    """(n,) displacement of the point at x along `axis` (0, 1, 2) of the root-node frame (or the
+    chord frame), minus its undeformed offset from the root node, m."""
+    r0 = beam.points[0.0]
+    R = beam.root
+    if R is None:
+        e = beam.points[beam.length] - r0
+        R = np.array([chord_frame(u / np.linalg.norm(u)) for u in e]).reshape(-1, 3, 3)
+    d = np.einsum("nji,nj->ni", R, beam.points[x] - r0)
+    return d[:, axis] - (beam.x0[x] - beam.x0[0.0])[axis]
+
+
+def stress_vm(strains, E: float, G: float, sec, fibre) -> np.ndarray:
+    """(n,) von Mises stress at the section point `fibre` (y, z) (None: (cy, 0)) from section
+    strains (n, 4), Pa."""
+    return von_mises(*section_stresses(strains, E, G, sec, fibre))
+
+
+def energy(traj: Trajectory) -> np.ndarray:
+    """(n,) total energy: the sum of the parts, J."""
+    return sum(traj.energy.values())
+
+
+def reaction(f, kind: str, component: str) -> np.ndarray:
+    """(n,) one component of joint forces f (n, 6) [moment; force]."""
+    return f[:, "xyz".index(component) + (3 if kind == "reaction_force" else 0)].copy()
+
+
+def channels(case, traj: Trajectory) -> dict:
+    """Every channel of the case, (n,) each. A reaction the solver does not recover is left out."""
+    out, n = {}, len(traj.t)
+    for name, c in case["channels"].items():
+        kind = c["kind"]
+        if kind == "joint_angle":
+            out[name] = np.array(traj.joints[c["joint"]], dtype=float)
+        elif kind == "energy":
+            out[name] = energy(traj)
+        elif kind in ("reaction_force", "reaction_moment"):
+            if c["joint"] in traj.reactions:
+                out[name] = reaction(traj.reactions[c["joint"]], kind, c["component"])
+        elif c["body"] not in traj.beams:
+            out[name] = np.zeros(n)
+        elif kind == "deflection":
+            out[name] = deflection(traj.beams[c["body"]], c["at"], "xyz".index(c["component"]))
+        else:
+            body = case["bodies"][c["body"]]
+            mat = case["materials"][body["material"]]
+            out[name] = stress_vm(traj.beams[c["body"]].strains[float(c["at"])], mat["E"],
+                                  flexbody.shear_modulus(mat), flexbody.beam_section(body), c["fibre"])
+    return out
