@@ -1,4 +1,9 @@
-"""Case files: TOML in, a validated plain-dict case out.
+"""Case files: TOML in, a validated case out: the plain dicts of the file with every default
+filled in (`Case.data`), and the resolved case built from them once (`Case.resolved`): bodies in
+tree order with their kind and parent index, joints with their triads and coordinate counts,
+every point on a beam snapped to its node by the one rule (`flexbody.node_index`), stress
+sections keyed by channel, nq and nv, and the reduced flexible bodies (computed on first use,
+cached by content: `flexbody.reduce`).
 
 Every key a case may hold is declared once, in the schema below (`cases/README.md` documents
 the same keys with units). Loading fills defaults, checks types, signs and ranges, resolves
@@ -18,7 +23,9 @@ import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 
+from flexmbd import flexbody
 from flexmbd.errors import InputError
 
 CASES_DIR = Path(__file__).resolve().parent.parent / "cases"
@@ -151,14 +158,85 @@ CASE = {
 
 
 @dataclass(frozen=True)
+class Body:
+    name: str
+    index: int          # 1..nb, parents before children (0: ground)
+    kind: str           # "rigid", "beam" (flexible) or "rigid beam" (a beam declared rigid)
+    parent: int         # parent body index, 0 for ground
+    joint: str          # the joint to the parent
+    nodes: int          # beam nodes (elements + 1); 0 for a rigid body
+    modes: int          # modal coordinates (a flexible beam's mode count, else 0)
+
+
+@dataclass(frozen=True)
+class Joint:
+    name: str
+    type: str
+    parent: int         # body index, 0 for ground
+    child: int
+    nq: int             # coordinates: revolute, prismatic 1; spherical 4 (quaternion); free 7
+    nv: int             # velocities: 1, 1, 3, 6
+    node: int           # node of a beam parent it sits on (snapped), -1 otherwise
+    x: float | None     # that node's position along the beam, m (None off a beam)
+
+
+@dataclass(frozen=True)
+class Point:
+    """A position x along a beam (as the case names it) and the node it snaps to."""
+
+    body: str
+    x: float
+    node: int
+    x_node: float
+
+
+@dataclass(frozen=True)
+class Resolved:
+    bodies: tuple       # Body, in tree order (parents first)
+    joints: MappingProxyType    # name -> Joint
+    points: MappingProxyType    # deflection channel -> Point
+    stress: MappingProxyType    # stress channel -> (Point, fibre (y, z) or None)
+    nq: int
+    nv: int
+    _data: dict = field(repr=False)
+
+    def body(self, name: str) -> Body:
+        return next(b for b in self.bodies if b.name == name)
+
+    @property
+    def order(self) -> list:
+        """Body names, parents before children."""
+        return [b.name for b in self.bodies]
+
+    def stress_sections(self, body: str) -> list:
+        """Positions x of a beam's stress channels, sorted, without repeats (FlexBody.stress_x)."""
+        return sorted({p.x for p, _ in self.stress.values() if p.body == body})
+
+    def reduced(self, name: str) -> flexbody.FlexBody:
+        """The reduced flexible beam `name` (computed once per content, `flexbody.reduce`)."""
+        body = self._data["bodies"][name]
+        return flexbody.reduce(name, body, self._data["materials"][body["material"]], self.stress_sections(name))
+
+    def flexible(self) -> dict:
+        """Every flexible beam, reduced, by name, in tree order."""
+        return {b.name: self.reduced(b.name) for b in self.bodies if b.kind == "beam"}
+
+
+@dataclass(frozen=True)
 class Case:
-    """A validated case: `data` is the case as nested dicts with every default filled in."""
+    """A validated case: `data` is the case as nested dicts with every default filled in,
+    `resolved` what is derived from it once."""
 
     name: str
     path: Path
     data: dict
     sha256: str = ""
     overrides: tuple = field(default_factory=tuple)
+    resolved: Resolved | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self):
+        if self.resolved is None:
+            object.__setattr__(self, "resolved", resolve(self.data))
 
     def __getitem__(self, key):
         return self.data[key]
@@ -461,7 +539,8 @@ def _check_attachment(j, bodies, where, k):
         _fail(where, f"{k}.axis", "the joint axis must not be zero")
 
 
-JOINT_DOFS = {"revolute": 1, "prismatic": 1, "fixed": 0, "spherical": 3, "free": 6}
+JOINT_COORDS = {"fixed": (0, 0), "revolute": (1, 1), "prismatic": (1, 1), "spherical": (4, 3), "free": (7, 6)}
+JOINT_DOFS = {k: nv for k, (_, nv) in JOINT_COORDS.items()}
 
 
 def _check_joint_values(j, where, k):
@@ -538,6 +617,54 @@ def _check_channel(name, c, bodies, joints, where):
             _fail(where, f"{k}.joint", f"no joint {j!r}{hint(j, joints)}")
         if c["kind"] == "joint_angle" and joints[j]["type"] != "revolute":
             _fail(where, f"{k}.joint", f"joint_angle needs a revolute joint, {j!r} is {joints[j]['type']}")
+
+
+# ---------------------------------------------------------------------------------------------
+# the resolved case
+
+
+def tree_order(data: dict) -> list:
+    """Body names so that every parent comes before its children (file order kept otherwise)."""
+    parent_of = {j["child"]: j["parent"] for j in data["joints"].values()}
+    order, placed = [], {"ground"}
+    while len(order) < len(parent_of):
+        for name in data["bodies"]:
+            if name not in placed and parent_of[name] in placed:
+                order.append(name)
+                placed.add(name)
+    return order
+
+
+def beam_point(data: dict, body: str, x: float) -> Point:
+    b = data["bodies"][body]
+    return Point(body=body, x=x, node=flexbody.node_index(b["length"], b["elements"], x),
+                 x_node=flexbody.snapped(b["length"], b["elements"], x))
+
+
+def resolve(data: dict) -> Resolved:
+    """The resolved case of validated case data."""
+    order = tree_order(data)
+    index = {"ground": 0, **{name: k + 1 for k, name in enumerate(order)}}
+    joint_of = {j["child"]: name for name, j in data["joints"].items()}
+    bodies, joints, nq, nv = [], {}, 0, 0
+    for name in order:
+        b, jn = data["bodies"][name], joint_of[name]
+        j = data["joints"][jn]
+        kind = "rigid" if b["type"] == "rigid" else "rigid beam" if b["rigid"] else "beam"
+        modes = b["modes"]["count"] if kind == "beam" else 0
+        bodies.append(Body(name=name, index=index[name], kind=kind, parent=index[j["parent"]], joint=jn,
+                           nodes=b["elements"] + 1 if kind != "rigid" else 0, modes=modes))
+        on_beam = j["parent"] != "ground" and data["bodies"][j["parent"]]["type"] == "beam"
+        p = beam_point(data, j["parent"], j["at"]) if on_beam else None
+        jq, jv = JOINT_COORDS[j["type"]]
+        joints[jn] = Joint(name=jn, type=j["type"], parent=index[j["parent"]], child=index[name], nq=jq, nv=jv,
+                           node=p.node if p else -1, x=p.x_node if p else None)
+        nq, nv = nq + jq + modes, nv + jv + modes
+    points = {n: beam_point(data, c["body"], c["at"]) for n, c in data["channels"].items() if c["kind"] == "deflection"}
+    stress = {n: (beam_point(data, c["body"], c["at"]), None if c["fibre"] is None else tuple(c["fibre"]))
+              for n, c in data["channels"].items() if c["kind"] == "stress_vm"}
+    return Resolved(bodies=tuple(bodies), joints=MappingProxyType(joints), points=MappingProxyType(points),
+                    stress=MappingProxyType(stress), nq=nq, nv=nv, _data=data)
 
 
 # ---------------------------------------------------------------------------------------------

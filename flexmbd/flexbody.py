@@ -210,17 +210,9 @@ def build(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
         S_strain=np.array(S).reshape(len(xs), 4, nm))
 
 
-def stress_points(case, body: str) -> list:
-    """Positions x of the stress_vm channels on a body, sorted, without repeats (the sections
-    of FlexBody.S_strain)."""
-    return sorted({float(c["at"]) for c in case["channels"].values()
-                   if c["kind"] == "stress_vm" and c["body"] == body})
-
-
 def for_case(case) -> dict:
-    """Every flexible beam of a case, reduced, by body name (stress points from its channels)."""
-    return {name: reduce(name, body, case["materials"][body["material"]], stress_points(case, name))
-            for name, body in case["bodies"].items() if body["type"] == "beam" and not body["rigid"]}
+    """Every flexible beam of a case, reduced, by body name (`cases.Resolved.flexible`)."""
+    return case.resolved.flexible()
 
 
 def reduce(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:

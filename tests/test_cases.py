@@ -145,3 +145,35 @@ def test_motion_table_file_is_checked(tmp_path):
     from flexmbd import profiles
     q, qd, qdd = profiles.motion(c["joints"]["pivot"]["motion"], 0.15)
     assert q == pytest.approx(0.15) and qd == pytest.approx(1.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# the resolved case
+
+
+def test_the_resolved_case_of_the_double_pendulum():
+    """Tree order, kinds, parents, the joint on beam1's snapped tip node, stress sections keyed by
+    channel, and nq / nv equal to the Model's (built separately, from the dict)."""
+    from flexmbd.model import from_case
+    case = cases.load("double_pendulum", ["bodies.beam1.elements=10", "joints.pivot2.at=1.46"])
+    r = case.resolved
+    assert r.order == ["beam1", "beam2"]
+    assert [(b.index, b.kind, b.parent, b.nodes) for b in r.bodies] == [(1, "beam", 0, 11), (2, "beam", 1, 101)]
+    elbow = r.joints["pivot2"]
+    assert (elbow.parent, elbow.child, elbow.node, elbow.x, elbow.nq, elbow.nv) == (1, 2, 10, 1.5, 1, 1)
+    assert r.joints["pivot1"].node == -1 and r.joints["pivot1"].x is None
+    assert set(r.stress) == {n for n, c in case["channels"].items() if c["kind"] == "stress_vm"}
+    assert all(p.node == round(p.x_node / 1.5 * (r.body(p.body).nodes - 1)) for p, _ in r.stress.values())
+    m = from_case(case)
+    assert (r.nq, r.nv) == (m.nq, m.nv)
+
+
+def test_the_resolved_case_is_immutable_and_shares_its_reductions():
+    case = cases.load("pendulum")
+    with pytest.raises(AttributeError):
+        case.resolved.nq = 3
+    with pytest.raises(TypeError):
+        case.resolved.joints["pivot"] = None
+    again = cases.load("pendulum")
+    assert again.resolved.reduced("beam") is case.resolved.reduced("beam")
+    assert again.resolved.reduced("beam").stress_x.tolist() == [0.03]
