@@ -42,6 +42,7 @@ class Beam:
     x0      {x: (3,)}        undeformed position of that point, body frame, m
     root    (n, 3, 3)|None   rotation of the root node's frame in F (None: chord frame)
     strains {x: (n, 4)}      section strains [eps, kappa_y, kappa_z, twist rate] at x (1, 1/m, rad/m)
+    extent  {name: (n,)}     a modal solver's measures of its linear validity (`modal_extent`)
     """
 
     length: float
@@ -49,6 +50,7 @@ class Beam:
     x0: dict
     root: np.ndarray | None
     strains: dict = field(default_factory=dict)
+    extent: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -122,6 +124,59 @@ def with_axial_strain(strains: dict, N: dict, EA: float) -> dict:
         s[:, 0] += N[x] / EA
         out[x] = s
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# linear validity of a modal beam (docs/formulation.md §7)
+
+# limits of a linear modal model: the largest elastic displacement of a node over the beam's
+# length, the largest elastic node rotation (rad), the largest strain, and - when the model has
+# no geometric stiffening - the largest axial force over the buckling load of the beam clamped at
+# its root, pi^2 E I_min / (4 L^2) (beyond ~2 % the axial force shifts the bending frequencies
+# by ~1 % and the phase drifts within tens of cycles)
+LIMITS = {"deflection": 0.10, "rotation": 0.10, "strain": 0.005, "axial_load": 0.02}
+WORDS = {"deflection": "deflection {:.0f} % of length", "rotation": "node rotation {:.2f} rad",
+         "strain": "strain {:.2f} %", "axial_load": "axial load {:.0f} % of the buckling load"}
+PERCENT = {"deflection", "strain", "axial_load"}
+
+
+def modal_extent(fb: flexbody.FlexBody, eta, sec) -> dict:
+    """{measure: (n,)} of a modal beam at modal coordinates eta (n, nm): the largest elastic node
+    displacement |Phi_t,p eta| / L, the largest elastic node rotation |Phi_r,p eta| (rad), and the
+    largest element strain (|du_x| + cy |d theta_z| + cz |d theta_y|) / l between neighbouring
+    nodes (the element's mean axial and outer-fibre bending strain)."""
+    u = np.einsum("pim,nm->npi", fb.Phi[:, 3:, :], eta)                  # (n, N, 3)
+    th = np.einsum("pim,nm->npi", fb.Phi[:, :3, :], eta)
+    l = np.diff(fb.x0[:, 0])
+    du, dth = np.diff(u, axis=1), np.diff(th, axis=1)
+    strain = (np.abs(du[:, :, 0]) + sec.cy * np.abs(dth[:, :, 2]) + sec.cz * np.abs(dth[:, :, 1])) / l
+    return {"deflection": np.linalg.norm(u, axis=2).max(axis=1) / fb.length,
+            "rotation": np.linalg.norm(th, axis=2).max(axis=1),
+            "strain": strain.max(axis=1)}
+
+
+def axial_load(N, E: float, sec, length: float) -> np.ndarray:
+    """(n,) |N| over the buckling load pi^2 E I_min / (4 L^2) of the beam clamped at its root."""
+    return np.abs(N) / (np.pi ** 2 * E * min(sec.Iy, sec.Iz) / (4.0 * length ** 2))
+
+
+def validity(traj: Trajectory) -> tuple[dict, tuple | None]:
+    """({body: {measure: largest value}}, (why, t) or None): the largest excess over LIMITS of
+    the geometric measures (deflection, rotation, strain), or, when none is exceeded, of the
+    axial load (a beam that deflects beyond its linear range is reported by how far it deflects)."""
+    summary, worst = {}, {}
+    for name, beam in traj.beams.items():
+        summary[name] = {k: float(np.max(v)) if len(v) else 0.0 for k, v in beam.extent.items()}
+        for k, v in beam.extent.items():
+            if not len(v):
+                continue
+            i = int(np.argmax(v))
+            ratio, group = v[i] / LIMITS[k], "axial" if k == "axial_load" else "geometric"
+            if ratio > 1.0 and ratio > worst.get(group, (0.0,))[0]:
+                why = WORDS[k].format(100.0 * v[i] if k in PERCENT else v[i])
+                worst[group] = (ratio, why if len(traj.beams) == 1 else f"{name}: {why}", float(traj.t[i]))
+    pick = worst.get("geometric") or worst.get("axial")
+    return summary, None if pick is None else pick[1:]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -86,6 +86,9 @@ def cmd_run(args) -> int:
         raise InputError(f"{case.path}: solver {args.solver}: {why}")
     r = solvers.run(case, args.solver, args.t_end)
     csv, js = results.write(r, Path(args.out))
+    if r.status.outside:
+        print(f"flexmbd: warning: {case.name} / {r.solver} ran outside its model's linear validity "
+              f"({r.status.why}); see docs/formulation.md §7", file=sys.stderr)
     if args.json:
         print(js.read_text(), end="")
     else:

@@ -43,8 +43,9 @@ KINDS = ("ok", "failed", "not applicable", "unavailable")
 @dataclass(frozen=True)
 class Status:
     """What became of a run, the same for every solver: `kind` one of KINDS; `why` says why for
-    every kind but ok; `t` (s) is when a failed run failed, None when that is not known.
-    str() gives the one line shown in tables and stored in sidecars."""
+    every kind but ok; `t` (s) is when a failed run failed, None when that is not known. An ok
+    run of a model outside its linear validity (`outside_validity`) carries what was exceeded in
+    `why` and when in `t`. str() gives the one line shown in tables and stored in sidecars."""
 
     kind: str = "ok"
     why: str = ""
@@ -58,15 +59,24 @@ class Status:
     def ok(self) -> bool:
         return self.kind == "ok"
 
+    @property
+    def outside(self) -> bool:
+        """An ok run outside its model's linear validity."""
+        return self.kind == "ok" and bool(self.why)
+
     def __str__(self) -> str:
-        if self.kind == "ok":
-            return "ok"
         at = f" at t = {self.t:.6g} s" if self.t is not None else ""
+        if self.kind == "ok":
+            return f"ok, outside linear validity ({self.why}{at})" if self.why else "ok"
         return f"{self.kind}: {self.why}{at}"
 
     @classmethod
     def parse(cls, text: str) -> "Status":
         """The Status whose str() is `text`."""
+        if text.startswith("ok, outside linear validity (") and text.endswith(")"):
+            inner = text[len("ok, outside linear validity ("):-1]
+            m = re.fullmatch(r"(.*) at t = ([-+0-9.eE]+|nan|inf) s", inner, re.S)
+            return cls("ok", m.group(1), float(m.group(2))) if m else cls("ok", inner)
         kind, _, rest = text.partition(": ")
         if kind == "ok" and not rest:
             return cls()
@@ -78,6 +88,12 @@ class Status:
 
 def failed(why: str, t: float | None = None) -> Status:
     return Status("failed", why, None if t is None else float(t))
+
+
+def outside_validity(why: str, t: float | None = None) -> Status:
+    """An ok run whose model left its linear validity: `why` names the limit passed (the largest
+    excess), `t` when."""
+    return Status("ok", why, None if t is None else float(t))
 
 
 def not_applicable(why: str) -> Status:

@@ -10,7 +10,7 @@ from typing import NamedTuple
 import numpy as np
 
 import flexmbd
-from flexmbd import channels, dynamics, flexbody, integrate, jit
+from flexmbd import channels, dynamics, flexbody, integrate, jit, results
 from flexmbd.model import Model, bind, from_case, make_data
 from flexmbd.results import Result
 
@@ -43,14 +43,18 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
                              max_step=ig["max_step"], dt=ig["dt"], output_dt=ig["output_dt"],
                              progress=progress, label=f"{case.name} / flexmbd")
     E = energies(model, sim.q, sim.v)
-    ch = channels.channels(case, trajectory(case, model, sim.t, sim.q, sim.v, E))
+    traj = trajectory(case, model, sim.t, sim.q, sim.v, E)
+    ch = channels.channels(case, traj)
+    extent, outside = channels.validity(traj)
+    status = sim.status if outside is None or not sim.status.ok else results.outside_validity(*outside)
     modes = {n: {"count": fb.n_modes, "boundary": fb.boundary, "freq_hz": np.round(fb.freq_hz, 4).tolist()}
              for n, fb in model.bodies.items()}
     kinetic_max = float(E[:, 0].max()) if len(sim.t) else 0.0
-    return Result(solver="flexmbd", case=case.name, t=sim.t, channels=ch, status=sim.status,
+    return Result(solver="flexmbd", case=case.name, t=sim.t, channels=ch, status=status,
                   wall_s=sim.wall_s, setup_s=setup_s, steps=sim.steps, rhs_evals=sim.rhs_evals,
                   settings={**sim.settings, "modes": modes},
-                  extra={"compile_s": compile_s, "kinetic_max_J": kinetic_max})
+                  extra={"compile_s": compile_s, "kinetic_max_J": kinetic_max,
+                         "validity": {"largest": extent, "limits": channels.LIMITS}})
 
 
 # ---------------------------------------------------------------------------------------------
@@ -132,18 +136,22 @@ def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
         traj.energy = {"kinetic": E[:, 0], "potential": E[:, 1]}
     asked = [c["joint"] for c in case["channels"].values() if c["kind"] in ("reaction_force", "reaction_moment")]
     stressed = {c["body"] for c in case["channels"].values() if c["kind"] == "stress_vm"} & set(model.bodies)
-    ev = evaluate(model, t, Q, V) if asked or stressed else None
+    ev = evaluate(model, t, Q, V)
     traj.reactions = {j: ev.f[:, model.index(case["joints"][j]["child"])] for j in asked}
     for name, fb in model.bodies.items():
         i = model.index(name)
         eta = Q[:, model.body_madr[i]:model.body_madr[i] + model.body_nm[i]]
         points, x0 = channels.modal_points(fb, channels.points_needed(case, name), eta)
         strains = channels.modal_strains(fb, eta)
+        body, mat = case["bodies"][name], case["materials"][case["bodies"][name]["material"]]
+        sec = flexbody.beam_section(body)
+        extent = channels.modal_extent(fb, eta, sec)
+        F = node_forces(model, ev, i, Q, V)
+        extent["axial_load"] = channels.axial_load(channels.axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), mat["E"], sec,
+                                                   fb.length)
         if name in stressed and not any(str(label).startswith("axial") for label in fb.labels):
-            F = node_forces(model, ev, i, Q, V)
-            body, mat = case["bodies"][name], case["materials"][case["bodies"][name]["material"]]
-            EA = mat["E"] * flexbody.beam_section(body).A
-            strains = channels.with_axial_strain(strains, {x: channels.axial_force(fb.x0, F, x) for x in strains}, EA)
+            strains = channels.with_axial_strain(strains, {x: channels.axial_force(fb.x0, F, x) for x in strains},
+                                                 mat["E"] * sec.A)
         traj.beams[name] = channels.Beam(length=fb.length, points=points, x0=x0, root=channels.modal_root(fb, eta),
-                                         strains=strains)
+                                         strains=strains, extent=extent)
     return traj

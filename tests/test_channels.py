@@ -169,3 +169,35 @@ def test_axial_force_sums_the_outer_nodes():
     F[0, :, 0] = [1.0, 2.0, 4.0, 8.0, 16.0]
     assert channels.axial_force(x0, F, 0.25)[0] == 0.5 * 2.0 + 4.0 + 8.0 + 16.0
     assert channels.axial_force(x0, F, 0.3)[0] == 28.0
+
+
+# ---------------------------------------------------------------------------------------------
+# linear validity
+
+
+def test_validity_names_the_largest_geometric_excess_before_the_axial_load():
+    t = np.array([0.0, 0.5, 1.0])
+    beam = lambda **m: channels.Beam(length=1.0, points={}, x0={}, root=None, extent={k: np.array(v) for k, v in m.items()})
+    traj = channels.Trajectory(t=t, beams={"b": beam(deflection=[0.0, 1.61, 0.5], rotation=[0.0, 0.3, 0.0],
+                                                     strain=[0, 0, 0], axial_load=[0.0, 500.0, 0.0])})
+    summary, (why, at) = channels.validity(traj)
+    assert why == "deflection 161 % of length" and at == 0.5 and summary["b"]["axial_load"] == 500.0
+    traj.beams["b"] = beam(deflection=[0.0, 0.01, 0.0], axial_load=[0.0, 0.01, 0.153])
+    assert channels.validity(traj)[1] == ("axial load 15 % of the buckling load", 1.0)
+    traj.beams["b"] = beam(deflection=[0.0, 0.09, 0.0], rotation=[0.0, 0.099, 0.0], axial_load=[0.0, 0.019, 0.0])
+    assert channels.validity(traj)[1] is None
+
+
+def test_modal_extent_of_a_bent_beam():
+    """A beam bent into a circular arc of curvature k (modes set to that shape): deflection,
+    rotation and strain against the arc's closed forms (small k)."""
+    case = cases.load("cantilever_step", ["bodies.beam.elements=20", "bodies.beam.modes.count=1"])
+    fb = flexbody.for_case(case)["beam"]
+    k, x = 1e-3, fb.x0[:, 0]
+    Phi = np.zeros_like(fb.Phi)
+    Phi[:, 4, 0], Phi[:, 2, 0] = k * x ** 2 / 2, k * x            # u_y = k x^2 / 2, theta_z = k x
+    sec = flexbody.beam_section(case["bodies"]["beam"])
+    e = channels.modal_extent(dataclasses.replace(fb, Phi=Phi), np.ones((1, 1)), sec)
+    assert e["deflection"][0] == pytest.approx(k * 1.5 ** 2 / 2 / 1.5, rel=1e-12)
+    assert e["rotation"][0] == pytest.approx(k * 1.5, rel=1e-12)
+    assert e["strain"][0] == pytest.approx(k * sec.cy, rel=1e-12)

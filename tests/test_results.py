@@ -22,7 +22,9 @@ from flexmbd.results import Result, Status
 @pytest.mark.parametrize("status", [Status(), results.failed("diverged (|v| > 1e+08)", 0.125),
                                     results.failed("Exudyn: no convergence"), results.not_applicable("no motion"),
                                     results.unavailable("No module named 'exudyn'"),
-                                    results.failed("VODE return code -1 at t = 3 s inside", 2.5)])
+                                    results.failed("VODE return code -1 at t = 3 s inside", 2.5),
+                                    results.outside_validity("deflection 161 % of length", 0.42),
+                                    results.outside_validity("axial load 9.3 % of the buckling load")])
 def test_status_reads_back_from_its_line(status):
     assert Status.parse(str(status)) == status
 
@@ -31,6 +33,9 @@ def test_status_line_and_kinds():
     assert str(results.failed("non-finite state", 0.0)) == "failed: non-finite state at t = 0 s"
     assert str(results.not_applicable("prescribed motion")) == "not applicable: prescribed motion"
     assert Status().ok and not results.failed("x").ok
+    out = results.outside_validity("deflection 161 % of length", 0.42)
+    assert str(out) == "ok, outside linear validity (deflection 161 % of length at t = 0.42 s)"
+    assert out.ok and out.outside and not Status().outside and not results.failed("x", 1.0).outside
     with pytest.raises(ValueError):
         Status("crashed")
     with pytest.raises(ValueError):

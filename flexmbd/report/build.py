@@ -21,7 +21,7 @@ from flexmbd.results import _atomic_write
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
 table{border-collapse:collapse;margin:0.6em 0;font-size:13px}th,td{border:1px solid #bbb;padding:3px 7px;text-align:right}
 th{background:#eee}td:first-child,th:first-child{text-align:left}.pass,.ok{background:#dfd}.fail{background:#fdd}
-.bad{background:#fed;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
+.bad{background:#fed;text-align:left}.outside{background:#ffe9a8;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
 
 
 def load_results(out: Path, case_name: str, names) -> dict:

@@ -54,6 +54,8 @@ def html_table(head: list, rows: list[list], raw_cols: tuple = ()) -> str:
             if isinstance(text, str) and (text.startswith("failed") or text.startswith("unavailable")
                                           or text.startswith("not applicable")):
                 cls = " class='bad'"
+            if isinstance(text, str) and text.startswith("ok, outside linear validity"):
+                cls = " class='outside'"
             cells.append(f"<td{cls}>{text if j in raw_cols else html.escape(text)}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
     return f"<table><thead><tr>{th}</tr></thead><tbody>{''.join(body)}</tbody></table>"
