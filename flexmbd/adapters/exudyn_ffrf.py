@@ -32,7 +32,8 @@ Exudyn's results: every node's global acceleration a_p (super-element sensor), t
 gravity g into the body frame, -m_p R^T (a_p - g); the point loads on the beam at their nodes
 with their profiles; and the force each child joint exerts on its node (a spherical joint's
 `Force`, global; a generic joint's `ForceLocal`, in its marker 0's frame; both on marker 0,
-the parent side).
+the parent side). Accelerations and joint forces are read as means over the steps around each
+output instant (`record_steps`): sampled raw they carry a part alternating from step to step.
 """
 
 from __future__ import annotations
