@@ -49,6 +49,46 @@ def test_ffrf_cantilever_follows_flexmbd_short():
     assert r.settings["dt"] == pytest.approx(2.5e-5) and r.steps > 0 and r.wall_s > 0
 
 
+@pytest.mark.parametrize("name, over, expected", [
+    ("pendulum", ["joints.pivot.q0=-1.5707963267948966"], {"stress_vm": 1.47}),
+    ("double_pendulum", ["joints.pivot1.q0=-1.5707963267948966"], {"stress_vm_1": 1.47 + 1.5, "stress_vm_2": 1.47}),
+])
+def test_ffrf_axial_stress_of_hanging_beams(name, over, expected):
+    """Beams hanging at rest (no axial mode retained): the stress at 0.03 m is the quasi-static
+    axial N / A = rho g (L - 0.03), plus the weight of the beam hanging below (child joint force)."""
+    r = solvers.run(cases.load(name, over), "exudyn-ffrf", 0.05)
+    assert r.ok, r.status
+    for ch, length in expected.items():
+        np.testing.assert_allclose(r.channels[ch], 7820.0 * 9.81 * length, rtol=1e-9)
+
+
+def test_ffrf_axial_stress_of_point_loads():
+    """An axial tip load, in the body frame or global with a ramp: N = P (the modes have no
+    axial motion, so the nodes do not accelerate along the beam)."""
+    body = cases.load("cantilever_step", ["loads.tip_force.force=[12.0, 0.0, 0.0]"])
+    ramp = cases.load("cantilever_step", ["loads.tip_force.force=[12.0, 0.0, 0.0]", 'loads.tip_force.frame="global"',
+                                          'loads.tip_force.profile={type="ramp", t1=0.02}'])
+    sigma = 12.0 / (0.01 * 0.015)
+    r = solvers.run(body, "exudyn-ffrf", 0.01)
+    np.testing.assert_allclose(r.channels["stress_vm"], sigma, rtol=1e-9)
+    r = solvers.run(ramp, "exudyn-ffrf", 0.04)
+    np.testing.assert_allclose(r.channels["stress_vm"], sigma * np.minimum(r.t / 0.02, 1.0), rtol=1e-9, atol=1e-6)
+
+
+@pytest.mark.parametrize("step_means", [True, False])
+def test_ffrf_axial_stress_step_means(step_means, monkeypatch):
+    """Double pendulum, 0.2 s: with the node accelerations and joint forces read as step means the
+    stresses (axial term included) follow flexmbd's; sampled raw, the part of them alternating
+    from step to step (index-3 constraints, no numerical damping) spoils them."""
+    if not step_means:
+        monkeypatch.setattr(exudyn_ffrf, "record_steps", lambda *a: {})
+    case = cases.load("double_pendulum")
+    ref = solvers.run(case, "flexmbd", 0.2)
+    r = solvers.run(case, "exudyn-ffrf", 0.2)
+    err = [rel_rms(ref.channels[ch], r.channels[ch]) for ch in ("stress_vm_1", "stress_vm_2")]
+    assert (err[0] < 0.005 and err[1] < 0.015) == step_means, err
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["cantilever_step", "pendulum", "double_pendulum"])
 def test_ffrf_matches_flexmbd(name):

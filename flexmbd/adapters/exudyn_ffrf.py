@@ -26,7 +26,14 @@ The trajectory (`flexmbd.channels`) is measured from Exudyn's sensors: node posi
 super element (global, taken into the body frame with the reference node's pose), the modal
 coordinates (the root node's rotation and the section strains, through the FlexBody's modes and
 modal strains); the triad of a joint on a flexible node turns with the node's elastic
-rotation Phi_r eta (Exudyn's modal coordinates).
+rotation Phi_r eta (Exudyn's modal coordinates). A beam with a stress channel and no axial
+mode gets flexmbd's quasi-static axial strain N(x) / (E A) (docs/formulation.md §7) from
+Exudyn's results: every node's global acceleration a_p (super-element sensor), taken with
+gravity g into the body frame, -m_p R^T (a_p - g); the point loads on the beam at their nodes
+with their profiles; and the force each child joint exerts on its node (a spherical joint's
+`Force`, global; a generic joint's `ForceLocal`, in its marker 0's frame; both on marker 0,
+the parent side). Accelerations and joint forces are read as means over the steps around each
+output instant (`record_steps`): sampled raw they carry a part alternating from step to step.
 """
 
 from __future__ import annotations
@@ -264,10 +271,15 @@ def on_root(case, j, fbs) -> bool:
     return p == 0 and not np.any(fb.Phi[0])
 
 
-def add_joint(mbs, items, case, fbs, jname: str, j: dict) -> None:
-    """The joint to the parent (see the module docstring for how each kind is realised)."""
+def add_joint(mbs, items, case, fbs, jname: str, j: dict):
+    """The joint to the parent (see the module docstring for how each kind is realised).
+
+    Returns (object, frame) of the joint object that carries the force onto the parent: frame
+    None for a spherical joint (Exudyn's `Force`: global), else the rotation (3, 3) of its
+    marker 0 in the parent's body frame (Exudyn's `ForceLocal` is in that marker's frame); None
+    for a free joint. Either is the force the joint exerts on marker 0, the parent side."""
     if j["type"] == "free":
-        return
+        return None
     child = j["child"]
     A = xc.axis_frame(j["axis"])
     flexible_parent = j["parent"] in fbs and not on_root(case, j, fbs)
@@ -279,8 +291,8 @@ def add_joint(mbs, items, case, fbs, jname: str, j: dict) -> None:
         it = items[child]
         m1 = (mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=it["node"])) if child in fbs
               else mbs.AddMarker(eii.MarkerBodyPosition(bodyNumber=it["obj"], localPosition=[0, 0, 0])))
-        mbs.AddObject(eii.ObjectJointSpherical(markerNumbers=[m0, m1],
-                                               visualization=eii.VObjectJointSpherical(show=False)))
+        sph = mbs.AddObject(eii.ObjectJointSpherical(markerNumbers=[m0, m1],
+                                                     visualization=eii.VObjectJointSpherical(show=False)))
         if j["type"] == "revolute":
             # planar case: the node's triad keeps its z axis along global z, so the child's does too
             mg = mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=items["ground"], localPosition=[0, 0, 0]))
@@ -288,10 +300,11 @@ def add_joint(mbs, items, case, fbs, jname: str, j: dict) -> None:
                   else mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=it["obj"], localPosition=[0, 0, 0])))
             mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[mg, mc], constrainedAxes=[0, 0, 0, 1, 1, 0],
                                                  visualization=eii.VObjectJointGeneric(show=False)))
-        return
+        return sph, None
     # parent side: the input triad turned onto the axis (z of the joint frame is the axis)
     Rt = rotation_rpy(j["rpy"])
-    m0 = body_marker_rigid(mbs, items, j["parent"], case, fbs, triad_point(case, j, fbs), Rt @ A)
+    R0 = Rt @ A
+    m0 = body_marker_rigid(mbs, items, j["parent"], case, fbs, triad_point(case, j, fbs), R0)
 
     # child side: the same joint frame at q0, in the child frame (coincident when driven)
     Rq, tq = joint_offset(j)
@@ -299,8 +312,9 @@ def add_joint(mbs, items, case, fbs, jname: str, j: dict) -> None:
     m1 = body_marker_rigid(mbs, items, child, case, fbs, -Rq.T @ tq if driven else np.zeros(3), Rq.T @ A)
     kw = motion_offset(j) if driven else {}
     axes = [1] * 6 if driven else CONSTRAINED[j["type"]]
-    mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[m0, m1], constrainedAxes=axes,
-                                         visualization=eii.VObjectJointGeneric(show=False), **kw))
+    obj = mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[m0, m1], constrainedAxes=axes,
+                                               visualization=eii.VObjectJointGeneric(show=False), **kw))
+    return obj, R0
 
 
 def motion_offset(j: dict) -> dict:
@@ -386,13 +400,26 @@ def fixed_to_ground(case, name: str) -> bool:
 # sensors and channels
 
 
-def add_sensors(mbs, items, case, fbs) -> dict:
-    """Sensors kept in memory: poses of every body, modal coordinates, node positions and velocities."""
+def axial_bodies(case, fbs) -> list:
+    """Names of the flexible beams whose stress takes the quasi-static axial force: a stress_vm
+    channel on the beam and no axial retained mode (as flexmbd, docs/formulation.md §7)."""
+    stressed = {c["body"] for c in case["channels"].values() if c["kind"] == "stress_vm"}
+    return [n for n, fb in fbs.items()
+            if n in stressed and not any(str(label).startswith("axial") for label in fb.labels)]
+
+
+def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
+    """Sensors kept in memory: poses of every body, modal coordinates, node positions and
+    velocities; for the beams of `axial_bodies`, every node's acceleration and the force of each
+    child joint (`joints`: add_joint's (object, frame) by joint name)."""
     S = {}
     sens = lambda **kw: mbs.AddSensor(eii.SensorNode(writeToFile=False, storeInternal=True,
                                                      visualization=eii.VSensorNode(show=False), **kw))
     sup = lambda **kw: mbs.AddSensor(eii.SensorSuperElement(writeToFile=False, storeInternal=True,
                                                             visualization=eii.VSensorSuperElement(show=False), **kw))
+    obj = lambda **kw: mbs.AddSensor(eii.SensorObject(writeToFile=False, storeInternal=True,
+                                                      visualization=eii.VSensorObject(show=False), **kw))
+    axial = axial_bodies(case, fbs)
     energy = channels.wants_energy(case)
     OV = exu.OutputVariableType
     for name, it in items.items():
@@ -414,7 +441,54 @@ def add_sensors(mbs, items, case, fbs) -> dict:
                 S[name]["eta_d"] = sens(nodeNumber=it["modal"], outputVariableType=OV.Coordinates_t)
                 S[name]["u"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Velocity)
                                 for k in nodes}
+            if name in axial:
+                S[name]["a"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Acceleration)
+                                for k in range(fb.n_nodes)}
+                S[name]["f"] = {jn: obj(objectNumber=jo[0], outputVariableType=OV.Force if jo[1] is None
+                                        else OV.ForceLocal)
+                                for jn, jo in joints.items() if jo is not None and case["joints"][jn]["parent"] == name}
     return S
+
+
+def step_sensors(S: dict) -> list:
+    """The sensors of S read as step means (see `record_steps`): node accelerations and joint forces."""
+    return [x for Sb in S.values() for key in ("a", "f") for x in Sb.get(key, {}).values()]
+
+
+def record_steps(mbs, sensors: list, dt: float, out_dt: float) -> dict:
+    """Install a post-step function that keeps the values of `sensors` at the steps next to and at
+    every output instant; returns the record {step index: {sensor: value (k,)}}, filled by the solve.
+
+    Why: with index-3 constraints and no numerical damping, Exudyn's accelerations and joint
+    forces of a constrained body carry a part that alternates in sign from step to step (it
+    leaves the positions alone: the update uses a_n + a_n+1); sampled every output_dt / dt steps,
+    always at the same parity, it would not average out (docs/exudyn.md)."""
+    rec: dict = {}
+    if not sensors or dt > out_dt:
+        return rec
+    every = int(round(out_dt / dt))
+
+    def post_step(mbs_, t):
+        i = int(round(t / dt))
+        if min(i % every, every - i % every) <= 1:
+            rec[i] = {x: np.asarray(mbs_.GetSensorValues(x), dtype=float) for x in sensors}
+        return True
+    mbs.SetPostStepUserFunction(post_step)
+    return rec
+
+
+def step_mean(v: np.ndarray, x, rec: dict, t: np.ndarray, dt: float) -> np.ndarray:
+    """(n, k) sensor x's sampled values v (n, k) at t (n,) replaced by their step means: at an
+    output step i, (v_i-1 + 2 v_i + v_i+1) / 4 (which cancels a part alternating from step to
+    step); at the last one (v_i-1 + v_i) / 2; at t = 0, Exudyn's consistent initial value."""
+    out = v.copy()
+    for k, tk in enumerate(t):
+        i = int(round(tk / dt))
+        if i - 1 in rec and i + 1 in rec:
+            out[k] = 0.25 * rec[i - 1][x] + 0.5 * rec[i][x] + 0.25 * rec[i + 1][x]
+        elif i - 1 in rec and i in rec:
+            out[k] = 0.5 * (rec[i - 1][x] + rec[i][x])
+    return out
 
 
 def read_sensors(mbs, S: dict, t: np.ndarray) -> dict:
@@ -426,21 +500,60 @@ def read_sensors(mbs, S: dict, t: np.ndarray) -> dict:
     return rd(S)
 
 
-def trajectory(case, fbs: dict, X: dict, t: np.ndarray) -> channels.Trajectory:
+def trajectory(case, fbs: dict, X: dict, t: np.ndarray, joints: dict) -> channels.Trajectory:
     """The channels' view of the sensor data X (see read_sensors): node positions in the body
-    frame, the root node's rotation from the modal coordinates, modal section strains."""
+    frame, the root node's rotation from the modal coordinates, modal section strains plus, on
+    the beams of `axial_bodies`, the quasi-static axial strain N(x) / (E A) from `node_forces`
+    (`joints`: add_joint's (object, frame) by joint name)."""
     traj = channels.Trajectory(t=t)
     for jname in channels.joints_needed(case):
         traj.joints[jname] = joint_angle(case, fbs, X, case["joints"][jname])
     if channels.wants_energy(case):
         traj.energy = {"total": energy(case, fbs, X)}
+    axial = axial_bodies(case, fbs)
     for name, fb in fbs.items():
         Xb, xs = X[name], channels.points_needed(case, name)
+        strains = channels.modal_strains(fb, Xb["eta"])
+        if name in axial:
+            F = node_forces(case, fb, name, Xb, t, joints)
+            body = case["bodies"][name]
+            EA = case["materials"][body["material"]]["E"] * flexbody.beam_section(body).A
+            strains = channels.with_axial_strain(strains, {x: channels.axial_force(fb.x0, F, x) for x in strains}, EA)
         traj.beams[name] = channels.Beam(
             length=fb.length, points={x: body_positions(Xb, fb.node_at(x)) for x in xs},
             x0={x: fb.x0[fb.node_at(x)] for x in xs}, root=channels.modal_root(fb, Xb["eta"]),
-            strains=channels.modal_strains(fb, Xb["eta"]))
+            strains=strains)
     return traj
+
+
+def node_forces(case, fb, name: str, Xb: dict, t: np.ndarray, joints: dict) -> np.ndarray:
+    """(n, N, 3) net force on each node of beam `name`, body frame (docs/formulation.md §7):
+    the d'Alembert force -m_p (a_p - g) from Exudyn's global node accelerations a_p, the point
+    loads on the beam and the forces its child joints exert on their nodes."""
+    R = Xb["R"].reshape(-1, 3, 3)                                          # body frame -> global
+    g = np.asarray(case["gravity"], dtype=float)
+    a = np.stack([Xb["a"][k] for k in range(fb.n_nodes)], axis=1) - g     # (n, N, 3) global
+    F = -fb.m[None, :, None] * np.einsum("nji,npj->npi", R, a)
+    for ld in case["loads"].values():
+        if ld["body"] == name:
+            F[:, fb.node_at(ld["at"] if not isinstance(ld["at"], list) else ld["at"][0]), :] += load_force(ld, t, R)
+    for jn, f in Xb.get("f", {}).items():
+        j = case["joints"][jn]
+        F[:, fb.node_at(j["at"] if not isinstance(j["at"], list) else j["at"][0]), :] += joint_force(f, joints[jn][1], R)
+    return F
+
+
+def load_force(ld: dict, t: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """(n, 3) point load `ld` at the instants t (n,), body frame (R (n, 3, 3): body -> global)."""
+    f = profiles.load_factor(ld["profile"], t)[:, None] * np.asarray(ld["force"], dtype=float)
+    return f if ld["frame"] == "body" else np.einsum("nji,nj->ni", R, f)
+
+
+def joint_force(f: np.ndarray, R0, R: np.ndarray) -> np.ndarray:
+    """(n, 3) force a joint exerts on its parent node, body frame, from Exudyn's joint force f
+    (n, 3) on marker 0: global (R0 None, a spherical joint's `Force`) or in marker 0's frame (R0
+    (3, 3) its rotation in the body frame, a generic joint's `ForceLocal`). R (n, 3, 3): body -> global."""
+    return np.einsum("nji,nj->ni", R, f) if R0 is None else f @ np.asarray(R0).T
 
 
 def body_positions(Xb: dict, k: int) -> np.ndarray:
@@ -520,12 +633,11 @@ def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
         else:                                    # a beam declared rigid: its undeformed mass properties
             rb = rigid_beam(name, body, case)
             items[name] = add_rigid(mbs, rb, R, p, v, w)
-    for jn, j in case["joints"].items():
-        add_joint(mbs, items, case, fbs, jn, j)
+    joints = {jn: add_joint(mbs, items, case, fbs, jn, j) for jn, j in case["joints"].items()}
     add_loads(mbs, items, case, fbs, states, gravity_mode)
-    S = add_sensors(mbs, items, case, fbs)
+    S = add_sensors(mbs, items, case, fbs, joints)
     mbs.Assemble()
-    return SC, mbs, items, S
+    return SC, mbs, items, S, joints
 
 
 def rigid_beam(name: str, body: dict, case) -> dict:
@@ -557,10 +669,11 @@ def run(case, t_end, settings):
     fbs = flexbody.for_case(case)
     dt = step_size(case, opt)
     with xc.quiet():
-        SC, mbs, items, S = build(case, fbs, opt["rotary_inertia"], opt["gravity"])
+        SC, mbs, items, S, joints = build(case, fbs, opt["rotary_inertia"], opt["gravity"])
     sim = xc.simulation_settings(case, t_end, dt, opt)
     setup_s = time.perf_counter() - t_start
 
+    rec = record_steps(mbs, step_sensors(S), dt, case["integrator"]["output_dt"])
     status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"])
     t = xc.output_grid(case, t_end)
     recorded = {"dt": dt, **{k: opt[k] for k in ("solver", "spectral_radius", "newton_rtol", "adaptive",
@@ -575,5 +688,9 @@ def run(case, t_end, settings):
     if n == 0:
         return r
     X = read_sensors(mbs, S, t[:n])
-    r.t, r.channels = t[:n], channels.channels(case, trajectory(case, fbs, X, t[:n]))
+    if rec:
+        for Xb, Sb in ((X[b], S[b]) for b in axial_bodies(case, fbs)):
+            for key in ("a", "f"):
+                Xb[key] = {k: step_mean(Xb[key][k], x, rec, t[:n], dt) for k, x in Sb[key].items()}
+    r.t, r.channels = t[:n], channels.channels(case, trajectory(case, fbs, X, t[:n], joints))
     return r
