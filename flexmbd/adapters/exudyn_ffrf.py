@@ -43,7 +43,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from flexmbd import channels, flexbody, profiles
+from flexmbd import channels, flexbody, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
@@ -513,16 +513,20 @@ def trajectory(case, fbs: dict, X: dict, t: np.ndarray, joints: dict) -> channel
     axial = axial_bodies(case, fbs)
     for name, fb in fbs.items():
         Xb, xs = X[name], channels.points_needed(case, name)
+        body = case["bodies"][name]
+        E, sec = case["materials"][body["material"]]["E"], flexbody.beam_section(body)
         strains = channels.modal_strains(fb, Xb["eta"])
+        extent = channels.modal_extent(fb, Xb["eta"], sec)
         if name in axial:
             F = node_forces(case, fb, name, Xb, t, joints)
-            body = case["bodies"][name]
-            EA = case["materials"][body["material"]]["E"] * flexbody.beam_section(body).A
-            strains = channels.with_axial_strain(strains, {x: channels.axial_force(fb.x0, F, x) for x in strains}, EA)
+            strains = channels.with_axial_strain(strains, {x: channels.axial_force(fb.x0, F, x) for x in strains},
+                                                 E * sec.A)
+            extent["axial_load"] = channels.axial_load(channels.axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), E, sec,
+                                                       fb.length)
         traj.beams[name] = channels.Beam(
             length=fb.length, points={x: body_positions(Xb, fb.node_at(x)) for x in xs},
             x0={x: fb.x0[fb.node_at(x)] for x in xs}, root=channels.modal_root(fb, Xb["eta"]),
-            strains=strains)
+            strains=strains, extent=extent)
     return traj
 
 
@@ -663,7 +667,6 @@ def options(settings) -> dict:
 
 
 def run(case, t_end, settings):
-    from flexmbd.results import Result
     opt = options(settings)
     t_start = time.perf_counter()
     fbs = flexbody.for_case(case)
@@ -680,7 +683,7 @@ def run(case, t_end, settings):
                                                  "rotary_inertia", "gravity")},
                 "node_type": str(NODE_TYPE), "linear_solver": "EigenSparse",
                 "modes": {n: {"count": fb.n_modes, "boundary": fb.boundary} for n, fb in fbs.items()}}
-    r = Result(solver="exudyn-ffrf", case=case.name, status=status, wall_s=wall_s, setup_s=setup_s,
+    r = results.Result(solver="exudyn-ffrf", case=case.name, status=status, wall_s=wall_s, setup_s=setup_s,
                steps=steps, rhs_evals=newton, settings=recorded, solver_version=version(),
                extra={"newton_iterations": newton})
     first = next(iter(S.values()))["p"]
@@ -692,5 +695,10 @@ def run(case, t_end, settings):
         for Xb, Sb in ((X[b], S[b]) for b in axial_bodies(case, fbs)):
             for key in ("a", "f"):
                 Xb[key] = {k: step_mean(Xb[key][k], x, rec, t[:n], dt) for k, x in Sb[key].items()}
-    r.t, r.channels = t[:n], channels.channels(case, trajectory(case, fbs, X, t[:n], joints))
+    traj = trajectory(case, fbs, X, t[:n], joints)
+    r.t, r.channels = t[:n], channels.channels(case, traj)
+    extent, outside = channels.validity(traj)
+    r.extra["validity"] = {"largest": extent, "limits": channels.LIMITS}
+    if outside is not None and r.ok:
+        r.status = results.outside_validity(*outside)
     return r
