@@ -12,7 +12,8 @@ import numpy as np
 
 from flexmbd import dynamics, flexbody
 from flexmbd.fe.stress import von_mises
-from flexmbd.model import Model, bind, make_data
+from flexmbd.kernel import entry
+from flexmbd.model import Model, make_data
 from flexmbd.spatial import expm_so3
 
 
@@ -47,10 +48,10 @@ def reactions(model: Model, t, Q, V) -> np.ndarray:
     """(n, nb+1, 6): joint forces [moment; force] from parent onto body, body frame, at every
     state (one forward-dynamics evaluation each)."""
     data = make_data(model)
-    b, tau = bind(model, data), np.zeros(model.nv)
+    tau = np.zeros(model.nv)
     out = np.empty((len(t), model.nb + 1, 6))
     for k, (tk, q, v) in enumerate(zip(t, Q, V)):
-        dynamics.forward(b, float(tk), np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float), tau)
+        entry.forward(model, data, float(tk), np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float), tau)
         out[k] = data.f
     return out
 

@@ -8,8 +8,9 @@ import time
 import numpy as np
 
 import flexmbd
-from flexmbd import flexbody, integrate, jit, outputs
-from flexmbd.model import from_case
+from flexmbd import flexbody, integrate, outputs
+from flexmbd.build import from_case
+from flexmbd.kernel import jit
 from flexmbd.results import Result
 
 SETTINGS = {}           # the case's [integrator] table holds this solver's settings

@@ -96,7 +96,7 @@ def initial_frames(case, n_el: dict) -> dict:
     snapped node."""
     by_child = {j["child"]: j for j in case["joints"].values()}
     out = {"ground": (0.0, np.zeros(2))}
-    from flexmbd.model import topological_order
+    from flexmbd.build import topological_order
     for name in topological_order(case):
         j = by_child[name]
         a, p = out[j["parent"]]

@@ -36,7 +36,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from flexmbd import flexbody, profiles
+from flexmbd import flexbody, invariants, profiles
 from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
@@ -128,7 +128,7 @@ def ffrf_interface(fb: flexbody.FlexBody, rotary: bool) -> ObjectFFRFreducedOrde
                                           roundMassMatrix=0.0, roundStiffnessMatrix=0.0)
     cms.stiffnessMatrixReduced = np.array(fb.Km, dtype=float)
     if rotary:
-        inv = flexbody.invariants(fb)
+        inv = invariants.invariants(fb)
         cms.massMatrixReduced = np.array(inv.I9[0])                     # sum Phi_r'J Phi_r + m Phi_t'Phi_t
         cms.inertiaLocal = cms.inertiaLocal + fb.J.sum(axis=0)          # sum J_p
         cms.mXRefTildePsi = cms.mXRefTildePsi - inv.I10[0]              # Mrf = G'(I6 + I10)
@@ -530,7 +530,7 @@ def energy(case, fbs, X) -> np.ndarray:
 
 def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
     """(SystemContainer, mbs, items by body name, sensors) of the case."""
-    from flexmbd.model import topological_order
+    from flexmbd.build import topological_order
     SC, mbs = xc.system()
     order = topological_order(case)
     states = initial_states(case, order, fbs)
