@@ -89,7 +89,8 @@ OK, NONFINITE, DIVERGING, TOO_SMALL, NEWTON = 0, 1, 2, 3, 4
 @njit
 def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
     """Integrate from (t_out[0], y) through the instants t_out, writing the state at each into
-    Y[1:]; steps are cut to land on them. Step size by the error of the embedded 4th-order
+    Y[1:], the right-hand side evaluated through `ev` (`kernel.entry.handle`); steps are cut to
+    land on them. Step size by the error of the embedded 4th-order
     solution (RMS norm, weights atol + rtol |y|) with Hairer's PI controller (alpha 0.17, beta 0.04).
 
     Returns (k, h, status, t): the last instant reached, the next step size, a status code

@@ -95,7 +95,7 @@ def _skew_rows(a: np.ndarray) -> np.ndarray:
 # the body-level terms, rebuilt from the invariants each evaluation (compiled; no node loops)
 
 
-@njit
+@njit(inline="always")
 def contractions(inv, j, eta, eta_d, w):
     """The O(nm^2) contractions of I3 and I7 that the mass matrix, its rate and the quadratic
     forces share, for body j at modal state (eta, eta_d) and angular velocity w (3,).
@@ -149,7 +149,7 @@ def contractions(inv, j, eta, eta_d, w):
     return IO, IOd, wN2w, N1, N1d, wI7e
 
 
-@njit
+@njit(inline="always")
 def first_moment(inv, j, eta):
     """c = I4 + I5 eta (3,): the body's mass times its centre of mass, body frame."""
     c = inv.I4[j].copy()
@@ -159,7 +159,7 @@ def first_moment(inv, j, eta):
     return c
 
 
-@njit
+@njit(inline="always")
 def mass_matrix_into(inv, j, IO, c, N1, M):
     """Assemble M (6+nm, 6+nm) over [w; v; eta_d] from I_O, c and N1, into M:
 

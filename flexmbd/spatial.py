@@ -112,7 +112,7 @@ def plux(E, r) -> np.ndarray:
     return X
 
 
-@njit
+@njit(inline="always")
 def xmul_into(X1, X2, out):
     """out = X1 X2 (6, 6) for Plücker transforms [E 0; F E]: E = E1 E2, F = F1 E2 + E1 F2
     (81 multiply-adds instead of 216); out must not overlap X1 or X2."""
@@ -167,7 +167,7 @@ def cross_force(v, f) -> np.ndarray:
     return np.concatenate((np.cross(w, f[:3]) + np.cross(u, f[3:]), np.cross(w, f[3:])))
 
 
-@njit
+@njit(inline="always")
 def cross_motion_into(v, m, out):
     """out = v x m for motion vectors (6,)."""
     w0, w1, w2, u0, u1, u2 = v[0], v[1], v[2], v[3], v[4], v[5]
@@ -179,7 +179,7 @@ def cross_motion_into(v, m, out):
     out[5] = w0 * m[4] - w1 * m[3] + u0 * m[1] - u1 * m[0]
 
 
-@njit
+@njit(inline="always")
 def cross_force_into(v, f, out):
     """out = v x* f for a force vector f (6,)."""
     w0, w1, w2, u0, u1, u2 = v[0], v[1], v[2], v[3], v[4], v[5]

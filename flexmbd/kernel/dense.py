@@ -12,7 +12,7 @@ import numpy as np
 from flexmbd.kernel.jit import njit
 
 
-@njit
+@njit(inline="always")
 def mm_into(A, B, out):
     """out = A B: (m, k) (k, n) -> out (m, n); out must not overlap A or B."""
     m, k = A.shape
@@ -25,7 +25,7 @@ def mm_into(A, B, out):
             out[i, j] = s
 
 
-@njit
+@njit(inline="always")
 def mv_into(A, x, out):
     """out = A x: (m, k) (k,) -> out (m,)."""
     m, k = A.shape
@@ -36,7 +36,7 @@ def mv_into(A, x, out):
         out[i] = s
 
 
-@njit
+@njit(inline="always")
 def mv_add_into(A, x, out):
     """out += A x."""
     m, k = A.shape
@@ -75,13 +75,13 @@ def mtv(A, x):
     return mv(A.T, x)
 
 
-@njit
+@njit(inline="always")
 def mtv_add_into(A, x, out):
     """out += A^T x: (k, m) (k,) -> out (m,)."""
     mv_add_into(A.T, x, out)
 
 
-@njit
+@njit(inline="always")
 def congruence_add_into(G, I, out, IG):
     """out += G^T I G for I (6, 6) symmetric and G (6, n): the projection of an articulated
     inertia onto the parent's coordinates. IG (6, n): workspace."""

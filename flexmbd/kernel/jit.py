@@ -5,9 +5,9 @@ Every compiled function in flexmbd is decorated with `njit` (or, for the kernel'
 
 numba's cache notices edits to a function's own file but not to the functions it calls from
 other files, so the cache lives in a folder named after a hash of every source file that holds
-compiled code (those that import from `flexmbd.kernel`, this package's files, and the constants
-of results.py): any edit to them starts a fresh cache, and a stale compiled kernel can never be
-loaded.
+compiled code (those that import from `kernel.jit`, and the kernel's files), of the Model layout
+in model.py and of the constants in results.py: any edit to them starts a fresh cache, and a
+stale compiled kernel can never be loaded.
 """
 
 import hashlib
@@ -24,12 +24,12 @@ _SOURCE = Path(__file__).resolve().parent.parent
 
 
 def source_hash() -> str:
-    """Hash of the files with compiled code (and the constants they import from results.py)."""
+    """Hash of the files with compiled code (and the layout and constants they import)."""
     h = hashlib.sha256()
     for p in sorted(_SOURCE.rglob("*.py")):
         text = p.read_bytes()
         rel = p.relative_to(_SOURCE).as_posix()
-        if rel.startswith("kernel/") or rel == "results.py" or b"from flexmbd.kernel" in text:
+        if rel.startswith("kernel/") or rel in ("model.py", "results.py") or b"from flexmbd.kernel.jit import" in text:
             h.update(rel.encode())
             h.update(text)
     return h.hexdigest()[:16]
