@@ -1,8 +1,9 @@
 """The recursive algorithms, as free functions of the Model's arrays `model` and a Data `data`.
 
 docs/formulation.md §4-§5. Forward dynamics is the articulated-body algorithm extended to modal
-flexible bodies, in Featherstone's names (Xup, S, vJ, c, IA, pA, U, d, u) and the paper's
-(the body-level mass matrix M(eta) and its blocks A = M_rr, B = M_rm, D = M_mm):
+flexible bodies, in Featherstone's names (Xup, S, vJ, c, IA, pA, and Uj = IA S, d, u of a joint)
+and the paper's (a body's mass matrix M(eta) with blocks A = M_rr, B = M_rm, D = M_mm; U maps
+the parent's modal velocities to the body's, G = [Xup, U]):
   pass 1 (root -> leaves, `forward_kinematics`, `external_forces`, `body_forces`): joint and node
       transforms, velocities, velocity-product terms, and each body's own inertia, velocity-product,
       elastic and external forces;
@@ -189,32 +190,32 @@ def articulated_inertias(model, data, tau):
         if model.jnt_prescribed[i]:
             mv_add_into(IA, c + mv(data.S[i, :, :nvj], data.qdd_p[kv:kv + nvj]), pa)
         elif nvj == 1:                                  # the general case below, with scalar d and u
-            S, U = data.S[i, :, 0], data.Uj[i, :, 0]
+            S, Uj = data.S[i, :, 0], data.Uj[i, :, 0]
             d, u = 0.0, tau[kv]
             for r in range(6):
                 s = 0.0
                 for k in range(6):
                     s += IA[r, k] * S[k]
-                U[r] = s
+                Uj[r] = s
                 d += S[r] * s
                 u -= S[r] * pa[r]
             dinv = 1.0 / d
             data.dinv[i, 0, 0], data.u[i, 0] = dinv, u
             for r in range(6):
                 for k in range(6):
-                    IA[r, k] -= U[r] * U[k] * dinv
+                    IA[r, k] -= Uj[r] * Uj[k] * dinv
             mv_add_into(IA, c, pa)
             for r in range(6):
-                pa[r] += U[r] * u * dinv
+                pa[r] += Uj[r] * u * dinv
         elif nvj > 1:
             S = data.S[i, :, :nvj]
-            U, dinv, u = data.Uj[i, :, :nvj], data.dinv[i, :nvj, :nvj], data.u[i, :nvj]
-            mm_into(IA, S, U)                           # U = IA S
-            dinv[:] = inv_spd(mtm(S, U))                # d^-1 = (S^T U)^-1
+            Uj, dinv, u = data.Uj[i, :, :nvj], data.dinv[i, :nvj, :nvj], data.u[i, :nvj]
+            mm_into(IA, S, Uj)                          # Uj = IA S
+            dinv[:] = inv_spd(mtm(S, Uj))               # d^-1 = (S^T Uj)^-1
             u[:] = tau[kv:kv + nvj] - mtv(S, pa)        # u = tau - S^T pA
-            IA -= mm(U, mm(dinv, U.T))                  # Ia = IA - U d^-1 U^T
-            mv_add_into(IA, c, pa)                      # pa = pA + Ia c + U d^-1 u
-            mv_add_into(U, mv(dinv, u), pa)
+            IA -= mm(Uj, mm(dinv, Uj.T))                # Ia = IA - Uj d^-1 Uj^T
+            mv_add_into(IA, c, pa)                      # pa = pA + Ia c + Uj d^-1 u
+            mv_add_into(Uj, mv(dinv, u), pa)
         else:
             mv_add_into(IA, c, pa)
 
@@ -240,7 +241,7 @@ def articulated_inertias(model, data, tau):
 @njit(inline="always")
 def accelerations(model, data):
     """Root to leaves: a_i = Xup_i a_lam + U_i eta_dd_lam + c_i, joint accelerations
-    qdd_i = d^-1 (u - U^T a_i), a_i += S_i qdd_i, modal accelerations eta_dd_i = -D^-1 (B^T a_i + p_m),
+    qdd_i = d^-1 (u - Uj^T a_i), a_i += S_i qdd_i, modal accelerations eta_dd_i = -D^-1 (B^T a_i + p_m),
     and the joint reaction f_i from the reference rows of MA_i [a_i; eta_dd_i] + pA_i = [f_i; 0]."""
     qdd = data.qdd
     data.a[0, :3] = 0.0
