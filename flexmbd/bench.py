@@ -26,8 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, dynamics, metrics, solvers
-from flexmbd.model import bind, from_case, make_data
+from flexmbd import cases, metrics, solvers
+from flexmbd.build import from_case
+from flexmbd.kernel.entry import forward
+from flexmbd.model import make_data
 
 BEAM = {"type": "beam", "material": "steel", "length": 1.5, "elements": 30,
         "section": {"shape": "rectangle", "b": 0.01, "h": 0.015}, "modes": {"count": 12}}
@@ -66,12 +68,12 @@ def median_us(f, calls: int = 2000, repeats: int = 7) -> float:
 
 def evaluation(model):
     """A zero-argument call of one flexmbd forward-dynamics evaluation at a fixed random state:
-    `dynamics.forward` on the model bound to a Data, as a user calls it from Python."""
+    `kernel.entry.forward` on the model and a Data, as a user calls it from Python."""
     rng = np.random.default_rng(0)
-    bound = bind(model, make_data(model))
+    data = make_data(model)
     q, v = rng.normal(size=model.nq) * 0.3, rng.normal(size=model.nv) * 0.3
     tau = np.zeros(model.nv)
-    return lambda: dynamics.forward(bound, 0.0, q, v, tau), (q, v, tau)
+    return lambda: forward(model, data, 0.0, q, v, tau), (q, v, tau)
 
 
 def rigid_chain(ns=(1, 2, 8, 32, 64)) -> list[dict]:
@@ -104,8 +106,8 @@ def flexible_chain(ns=(1, 2, 4, 8, 16, 32, 64)) -> tuple[list[dict], float]:
 
 def compile_seconds() -> dict:
     """First compilation (empty cache, subprocess) and a cached start (same cache, second subprocess)."""
-    code = ("import time; t=time.perf_counter(); from flexmbd import bench, dynamics; "
-            "from flexmbd.model import from_case; m=from_case(bench.chain_case(2, True)); "
+    code = ("import time; t=time.perf_counter(); from flexmbd import bench; "
+            "from flexmbd.build import from_case; m=from_case(bench.chain_case(2, True)); "
             "f=bench.evaluation(m)[0]; f(); from flexmbd import integrate; integrate.warm_up(m); "
             "print(time.perf_counter()-t)")
     with tempfile.TemporaryDirectory() as cache:

@@ -25,11 +25,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import ode, solve_ivp
 
-from flexmbd import dynamics, results
-from flexmbd.dense import mv
-from flexmbd.jit import njit
-from flexmbd.model import FREE, SPHERICAL, Model, bind, make_data
-from flexmbd.spatial import quat_rate, quat_to_rot
+from flexmbd import results
+from flexmbd.kernel.bound import bind
+from flexmbd.kernel.dense import mv
+from flexmbd.kernel.entry import handle, rhs
+from flexmbd.kernel.jit import njit
+from flexmbd.model import Model, make_data
 
 DIVERGED = results.DIVERGED_V    # |v| beyond this (rad/s, m/s, modal units) counts as divergence
 
@@ -50,47 +51,21 @@ class Simulation:
     settings: dict = field(default_factory=dict)
 
 
-@njit(inline="always")
-def qdot(M, q, v, out):
-    """dq/dt (nq,) into `out`: v for 1-DOF joints and modes, quaternion rates for spherical and
-    free joints (angular velocity in the body frame), R v for the free joint's position."""
-    for i in range(1, M.parent.size):
-        k, kv = M.jnt_qadr[i], M.jnt_vadr[i]
-        if M.jnt_type[i] == SPHERICAL:
-            out[k:k + 4] = quat_rate(q[k:k + 4], v[kv:kv + 3])
-        elif M.jnt_type[i] == FREE:
-            out[k:k + 4] = quat_rate(q[k:k + 4], v[kv:kv + 3])
-            out[k + 4:k + 7] = quat_to_rot(q[k:k + 4]) @ v[kv + 3:kv + 6]
-        elif M.jnt_nv[i] == 1:
-            out[k] = v[kv]
-        a, nm = M.body_madr[i], M.body_nm[i]
-        out[a:a + nm] = v[a:a + nm]
-    return out
-
-
-@njit
-def rhs(b, t, y, nq):
-    """dy/dt (nq+nv,) for y = [q; v] at time t, b a `model.Bound`; prescribed joints follow their
-    profiles."""
-    q, v = dynamics.prescribed(b.M, b.D, t, y[:nq], y[nq:])
-    yd = np.empty(y.size)
-    qdot(b.M, q, v, yd[:nq])
-    yd[nq:] = dynamics.aba(b, q, v, np.zeros(v.size))
-    return yd
-
-
 def rhs_function(model: Model):
-    """f(t, y) for y = [q; v] (the compiled `rhs` behind a Python call), and a counter of its evaluations."""
+    """f(t, y) for y = [q; v] (the compiled `kernel.entry.rhs` behind a Python call), and a counter
+    of its evaluations."""
     b, nq = bind(model, make_data(model)), model.nq
+    ev = handle(b)
     count = [0]
 
     def f(t, y):
         count[0] += 1
-        yd = rhs(b, float(t), y, nq)
+        yd = rhs(ev, float(t), y, nq)
         if not np.all(np.isfinite(yd)):
             raise Stop(results.failed("non-finite acceleration", t))
         return yd
 
+    f.bound = b                 # alive as long as f: the compiled code reaches it by address
     return f, count
 
 
@@ -112,9 +87,10 @@ OK, NONFINITE, DIVERGING, TOO_SMALL, NEWTON = 0, 1, 2, 3, 4
 
 
 @njit
-def dopri5(b, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
+def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
     """Integrate from (t_out[0], y) through the instants t_out, writing the state at each into
-    Y[1:]; steps are cut to land on them. Step size by the error of the embedded 4th-order
+    Y[1:], the right-hand side evaluated through `ev` (`kernel.entry.handle`); steps are cut to
+    land on them. Step size by the error of the embedded 4th-order
     solution (RMS norm, weights atol + rtol |y|) with Hairer's PI controller (alpha 0.17, beta 0.04).
 
     Returns (k, h, status, t): the last instant reached, the next step size, a status code
@@ -124,7 +100,7 @@ def dopri5(b, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
     n = y.size
     K = np.empty((7, n))
     t = t_out[0]
-    K[0] = rhs(b, t, y, nq)
+    K[0] = rhs(ev, t, y, nq)
     counts[2] += 1
     err_old = 1e-4
     yn = np.empty(n)
@@ -138,7 +114,7 @@ def dopri5(b, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
                 for r in range(s):
                     if _A[s, r] != 0.0:
                         ys += hs * _A[s, r] * K[r]
-                K[s] = rhs(b, t + _C[s] * hs, ys, nq)
+                K[s] = rhs(ev, t + _C[s] * hs, ys, nq)
             yn[:] = ys                                  # stage 7 is at the 5th-order solution (FSAL)
             counts[2] += 6
             err = 0.0
@@ -219,17 +195,17 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
 
 
 @njit
-def newmark_matrix(b, nq, t, y, h, beta, gamma):
+def newmark_matrix(ev, nq, t, y, h, beta, gamma):
     """(I - beta h^2 da/dq - gamma h da/dv)^-1 (nv, nv) at (t, y) by forward differences of the
     accelerations; q and v must be aligned (nq == nv, no quaternion joints)."""
     n = y.size - nq
-    a0 = rhs(b, t, y, nq)[nq:]
+    a0 = rhs(ev, t, y, nq)[nq:]
     J = np.eye(n)
     for k in range(y.size):
         yp = y.copy()
         d = 1e-7 * max(abs(y[k]), 1.0)
         yp[k] += d
-        col = (rhs(b, t, yp, nq)[nq:] - a0) / d
+        col = (rhs(ev, t, yp, nq)[nq:] - a0) / d
         w, j = (beta * h * h, k) if k < nq else (gamma * h, k - nq)
         for r in range(n):
             J[r, j] -= w * col[r]
@@ -237,7 +213,7 @@ def newmark_matrix(b, nq, t, y, h, beta, gamma):
 
 
 @njit
-def fox_goodwin(b, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
+def fox_goodwin(ev, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
     """Newmark with beta = 1/12, gamma = 1/2 (phase error (w h)^4/480, no numerical damping,
     stable for w_max h < sqrt(6)) from (t_out[0], y, acc) through the instants t_out, writing
     Y[1:]. Each step solves A - a(t+h, q(A), v(A)) = 0 for the new accelerations A by Newton with
@@ -258,7 +234,7 @@ def fox_goodwin(b, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
         hs = (t_out[k] - t) / m
         if abs(hs - h) > 1e-6 * h:                      # a new step: the one that divides this interval
             h = hs
-            Jinv[:] = newmark_matrix(b, nq, t, y, h, beta, gamma)
+            Jinv[:] = newmark_matrix(ev, nq, t, y, h, beta, gamma)
             counts[1] += 1
             counts[2] += y.size + 1
         for _ in range(m):
@@ -272,7 +248,7 @@ def fox_goodwin(b, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
                 for it in range(10):
                     y1[:nq] = qp + beta * h * h * A
                     y1[nq:] = vp + gamma * h * A
-                    r = A - rhs(b, t + h, y1, nq)[nq:]
+                    r = A - rhs(ev, t + h, y1, nq)[nq:]
                     counts[2] += 1
                     dA = mv(Jinv, r)
                     A -= dA
@@ -294,7 +270,7 @@ def fox_goodwin(b, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
                 if done:
                     break
                 eta = 1.0
-                Jinv[:] = newmark_matrix(b, nq, t, y, h, beta, gamma)
+                Jinv[:] = newmark_matrix(ev, nq, t, y, h, beta, gamma)
                 counts[1] += 1
                 counts[2] += y.size + 1
                 A = acc.copy()
@@ -317,33 +293,37 @@ def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50):
     if model.nq != model.nv:
         raise Stop(results.failed("fox-goodwin needs q and v aligned (no spherical or free joints)", 0.0))
     b, nq = bind(model, make_data(model)), model.nq
-    acc = np.ascontiguousarray(rhs(b, 0.0, y0, nq)[nq:])
+    ev = handle(b)
+    acc = np.ascontiguousarray(rhs(ev, 0.0, y0, nq)[nq:])
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(acc))):
         return 0, 0, 1, results.failed("non-finite state", 0.0)
     y, counts = y0.copy(), np.zeros(3, dtype=np.int64)
-    Jinv = np.ascontiguousarray(newmark_matrix(b, nq, 0.0, y0, dt, 1.0 / 12.0, 0.5))
+    Jinv = np.ascontiguousarray(newmark_matrix(ev, nq, 0.0, y0, dt, 1.0 / 12.0, 0.5))
     counts[2] += y0.size + 2
-    return _in_chunks(lambda k, k1: fox_goodwin(b, nq, y, acc, t_out[k:k1 + 1], Y[k:k1 + 1], dt, rtol, atol,
+    return _in_chunks(lambda k, k1: fox_goodwin(ev, nq, y, acc, t_out[k:k1 + 1], Y[k:k1 + 1], dt, rtol, atol,
                                                 Jinv, counts), t_out, counts, bar, chunk)
 
 
-def warm_up(model: Model) -> None:
-    """Compile (or load from the cache) the right-hand side and the compiled integrator for this
-    model's types, so that no compilation lands inside a timed run."""
+def warm_up(model: Model, method: str | None = None) -> None:
+    """Compile (or load from the cache) the kernel's entry and the compiled integrator of `method`
+    (every one when None), so that no compilation lands inside a timed run."""
     b, nq = bind(model, make_data(model)), model.nq
+    ev = handle(b)
     y0 = np.concatenate([model.q0, model.v0])
     rhs_function(model)[0](0.0, y0)
     t, Y, counts = np.zeros(2), np.zeros((2, y0.size)), np.zeros(3, dtype=np.int64)
-    dopri5(b, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts)
-    if model.nq == model.nv:
-        newmark_matrix(b, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
-        fox_goodwin(b, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
+    if method in (None, "dopri5"):
+        dopri5(ev, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts)
+    if method in (None, "fox-goodwin") and model.nq == model.nv:
+        newmark_matrix(ev, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
+        fox_goodwin(ev, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
 
 
 def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
     """Drive the compiled `dopri5` over chunks of output instants (progress and failures between)."""
     b, nq = bind(model, make_data(model)), model.nq
-    f0 = rhs(b, 0.0, y0, nq)
+    ev = handle(b)
+    f0 = rhs(ev, 0.0, y0, nq)
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(f0))):
         return 0, 0, 1, results.failed("non-finite state", 0.0)
     w = atol + rtol * np.abs(y0)
@@ -353,7 +333,7 @@ def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
     step = [h]
 
     def advance(k, k1):
-        j, step[0], code, t = dopri5(b, nq, y, t_out[k:k1 + 1], Y[k:k1 + 1], step[0], rtol, atol, max_step,
+        j, step[0], code, t = dopri5(ev, nq, y, t_out[k:k1 + 1], Y[k:k1 + 1], step[0], rtol, atol, max_step,
                                      counts)
         return j, code, t
 

@@ -10,8 +10,10 @@ from typing import NamedTuple
 import numpy as np
 
 import flexmbd
-from flexmbd import channels, dynamics, flexbody, integrate, jit, results
-from flexmbd.model import Model, bind, from_case, make_data
+from flexmbd import channels, dynamics, flexbody, integrate, results
+from flexmbd.build import from_case
+from flexmbd.kernel import entry, jit
+from flexmbd.model import Model, make_data
 from flexmbd.results import Result
 
 SETTINGS = {}           # the case's [integrator] table holds this solver's settings
@@ -32,13 +34,13 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
 
     # compile (or load from the cache) before the clock starts
     if not jit.is_cached():
-        print("flexmbd: compiling the solver's kernels once for this source version "
-              "(a few minutes; cached afterwards)", file=sys.stderr, flush=True)
+        print("flexmbd: compiling the solver's kernel once for this source version "
+              "(about a minute; cached afterwards)", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
-    integrate.warm_up(model)
+    ig = case["integrator"]
+    integrate.warm_up(model, ig["method"] if ig["method"] in ("dopri5", "fox-goodwin") else "")
     compile_s = time.perf_counter() - t0
 
-    ig = case["integrator"]
     sim = integrate.simulate(model, t_end, method=ig["method"], rtol=ig["rtol"], atol=ig["atol"],
                              max_step=ig["max_step"], dt=ig["dt"], output_dt=ig["output_dt"],
                              progress=progress, label=f"{case.name} / flexmbd")
@@ -81,11 +83,11 @@ class Evaluated(NamedTuple):
 
 def evaluate(model: Model, t, Q, V) -> Evaluated:
     """One forward-dynamics evaluation at every state, keeping what the channels need."""
-    data = make_data(model)
-    b, tau = bind(model, data), np.zeros(model.nv)
+    data, tau = make_data(model), np.zeros(model.nv)
     rows = []
     for tk, q, v in zip(t, Q, V):
-        dynamics.forward(b, float(tk), np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float), tau)
+        entry.forward(model, data, float(tk), np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float),
+                      tau)
         rows.append([data.f.copy(), data.v.copy(), data.a.copy(), data.Xup.copy(), data.X0.copy(),
                      data.scale.copy(), data.qdd.copy()])
     return Evaluated(*(np.array([r[k] for r in rows]).reshape((len(t),) + x.shape)

@@ -3,7 +3,7 @@
 import numpy as np
 
 from flexmbd import bench
-from flexmbd.model import from_case
+from flexmbd.build import from_case
 
 
 def test_chains_are_valid_trees():

@@ -10,8 +10,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import flexmbd
-from flexmbd import cases, channels, dynamics, flexbody, solver
-from flexmbd import model as M
+from flexmbd import cases, channels, flexbody, solver
+from flexmbd.build import from_case
+from flexmbd.kernel.entry import forward_dynamics
+from flexmbd.model import make_data
 
 
 def deflection(fb, p, axis, eta):
@@ -91,7 +93,7 @@ def test_chord_frame_turns_x_onto_the_chord():
 def test_clamp_reactions_are_the_rate_of_momentum_less_the_applied_loads():
     """Clamp reactions against Newton-Euler over the nodes (node accelerations, gravity, tip load at t)."""
     case = cases.load("cantilever_step", ["gravity=[0.0, -9.81, 2.0]", 'loads.tip_force.profile={type="step", t0=0.5}'])
-    m = M.from_case(case)
+    m = from_case(case)
     fb, i = m.bodies["beam"], m.index("beam")
     a, n = m.body_madr[i], m.body_nm[i]
     rng = np.random.default_rng(5)
@@ -100,7 +102,7 @@ def test_clamp_reactions_are_the_rate_of_momentum_less_the_applied_loads():
     f = solver.reactions(m, t, Q, V)
     g, F = np.array(case["gravity"]), np.array([0.0, -12.0, 0.0]) * (t >= 0.5)[:, None]
     for k in range(3):
-        eta_dd = dynamics.forward_dynamics(m, M.make_data(m), Q[k], V[k], t=t[k])[a:a + n]
+        eta_dd = forward_dynamics(m, make_data(m), Q[k], V[k], t=t[k])[a:a + n]
         r = fb.x0 + fb.Phi[:, 3:] @ Q[k, a:a + n]
         ma = fb.m[:, None] * (fb.Phi[:, 3:] @ eta_dd - g)                   # m_p (a_p - g)
         force = ma.sum(axis=0) - F[k]
@@ -142,7 +144,7 @@ def root_stress(overrides, t, angle, rate):
     """stress_vm at the pendulum's stress section (x = 0.03 m) in the state joint angle, joint
     rate, modes at rest."""
     case = cases.load("pendulum", overrides)
-    m = M.from_case(case)
+    m = from_case(case)
     q, v = np.zeros(m.nq), np.zeros(m.nv)
     q[0], v[0] = angle, rate
     out = channels.channels(case, solver.trajectory(case, m, np.array([t]), q[None], v[None]))

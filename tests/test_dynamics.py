@@ -4,7 +4,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from flexmbd import dynamics, model as M, spatial
+from flexmbd import joints, spatial
+from flexmbd.build import from_case
+from flexmbd.kernel.entry import forward_dynamics
+from flexmbd.model import make_data
 from flexmbd.adapters import pinocchio_model
 from trees import random_case, random_state
 
@@ -15,14 +18,14 @@ ALL_JOINTS = ["revolute", "prismatic", "fixed", "spherical", "free"]
 def test_rigid_tree_matches_pinocchio_aba(seed):
     rng = np.random.default_rng(seed)
     case = random_case(rng, 12, ALL_JOINTS)
-    model = M.from_case(case)
-    data = M.make_data(model)
+    model = from_case(case)
+    data = make_data(model)
     pm, _ = pinocchio_model.build(model)
     pd = pm.createData()
     for _ in range(3):
         q, v = random_state(rng, model)
         tau = rng.normal(size=model.nv)
-        qdd = dynamics.forward_dynamics(model, data, q, v, tau)
+        qdd = forward_dynamics(model, data, q, v, tau)
         ref = pin.aba(pm, pd, pinocchio_model.to_pin_q(model, q), pinocchio_model.to_pin_v(model, v),
                       pinocchio_model.to_pin_v(model, tau))
         ref = pinocchio_model.from_pin_v(model, ref)
@@ -31,7 +34,7 @@ def test_rigid_tree_matches_pinocchio_aba(seed):
 
 def test_pinocchio_conventions_roundtrip():
     rng = np.random.default_rng(7)
-    model = M.from_case(random_case(rng, 6, ALL_JOINTS))
+    model = from_case(random_case(rng, 6, ALL_JOINTS))
     v = rng.normal(size=model.nv)
     assert np.array_equal(pinocchio_model.from_pin_v(model, pinocchio_model.to_pin_v(model, v)), v)
     pm, _ = pinocchio_model.build(model)
@@ -49,7 +52,7 @@ def oracle_tree(model):
     bodies = []
     for i in range(1, model.nb + 1):
         pos, rot = spatial.plux_parts(model.jnt_Xtriad[i])
-        jt = {M.REVOLUTE: "revolute", M.PRISMATIC: "prismatic", M.FIXED: "fixed"}[int(model.jnt_type[i])]
+        jt = {joints.REVOLUTE: "revolute", joints.PRISMATIC: "prismatic", joints.FIXED: "fixed"}[int(model.jnt_type[i])]
         b = {"parent": int(model.parent[i]) - 1, "joint": jt, "axis": model.jnt_axis[i],
              "node": None if model.jnt_node[i] < 0 else int(model.jnt_node[i]),
              "triad_pos": pos, "triad_rot": rot}
@@ -67,15 +70,15 @@ def oracle_tree(model):
 def test_flexible_tree_matches_lagrangian_oracle(seed):
     rng = np.random.default_rng(100 + seed)
     case = random_case(rng, 6, ["revolute", "prismatic", "fixed"], flexible=0.5)
-    model = M.from_case(case)
-    data = M.make_data(model)
+    model = from_case(case)
+    data = make_data(model)
     tree = oracle_tree(model)
     q, v = random_state(rng, model, scale_eta=0.2)
     tau = rng.normal(size=model.nv)
     for i in range(1, model.nb + 1):               # torques on joints only; modes are unforced
         a, n = model.body_madr[i], model.body_nm[i]
         tau[a:a + n] = 0.0
-    qdd = dynamics.forward_dynamics(model, data, q, v, tau)
+    qdd = forward_dynamics(model, data, q, v, tau)
     ref = ol.accelerations(tree, q, v, tau)
     assert np.abs(qdd - ref).max() <= 1e-6 * np.abs(ref).max(), (np.abs(qdd - ref).max(), np.abs(ref).max())
 
@@ -84,12 +87,12 @@ def test_flexible_tree_matches_lagrangian_oracle(seed):
 def test_joint_reactions_match_pinocchio_rnea(seed):
     rng = np.random.default_rng(50 + seed)
     case = random_case(rng, 8, ["revolute", "prismatic", "spherical", "free"])
-    model = M.from_case(case)
-    data = M.make_data(model)
+    model = from_case(case)
+    data = make_data(model)
     pm, jid = pinocchio_model.build(model)
     pd = pm.createData()
     q, v = random_state(rng, model)
-    qdd = dynamics.forward_dynamics(model, data, q, v, rng.normal(size=model.nv))
+    qdd = forward_dynamics(model, data, q, v, rng.normal(size=model.nv))
     pin.rnea(pm, pd, pinocchio_model.to_pin_q(model, q), pinocchio_model.to_pin_v(model, v),
              pinocchio_model.to_pin_v(model, qdd))
     for i in range(1, model.nb + 1):
@@ -101,25 +104,12 @@ def test_joint_reactions_match_pinocchio_rnea(seed):
 
 def test_flexible_reactions_project_to_joint_forces():
     rng = np.random.default_rng(60)
-    model = M.from_case(random_case(rng, 5, ["revolute", "prismatic"], flexible=0.6))
-    data = M.make_data(model)
+    model = from_case(random_case(rng, 5, ["revolute", "prismatic"], flexible=0.6))
+    data = make_data(model)
     q, v = random_state(rng, model, scale_eta=0.1)
     tau = rng.normal(size=model.nv)
-    dynamics.forward_dynamics(model, data, q, v, tau)
+    forward_dynamics(model, data, q, v, tau)
     for i in range(1, model.nb + 1):
         k = model.jnt_vadr[i]
         # S^T f = tau is a cancellation of forces of size |f| (elastic forces reach 1e6 N here)
         assert abs(data.S[i, :, 0] @ data.f[i] - tau[k]) <= 1e-12 * np.abs(data.f[i]).max()
-
-
-def test_bound_call_is_the_same_evaluation():
-    """`forward` on `bind(model, data)` is `forward_dynamics`, shares data's arrays and returns
-    data.qdd itself."""
-    from flexmbd import bench
-    m = M.from_case(bench.chain_case(3, flexible=True))
-    rng = np.random.default_rng(3)
-    q, v, tau = rng.normal(size=m.nq) * 0.1, rng.normal(size=m.nv), rng.normal(size=m.nv)
-    data = M.make_data(m)
-    a = dynamics.forward(M.bind(m, data), 0.3, q, v, tau)
-    assert np.array_equal(a, dynamics.forward_dynamics(m, M.make_data(m), q, v, tau, t=0.3))
-    assert a is data.qdd and np.abs(data.f[1:]).max() > 0

@@ -9,7 +9,8 @@ from scipy.integrate import solve_ivp
 
 from flexmbd import cases, dynamics, flexbody, integrate, solvers
 from flexmbd.adapters import pinocchio_model
-from flexmbd.model import from_case, make_data
+from flexmbd.build import from_case
+from flexmbd.model import make_data
 
 
 def energies(model, sim):

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from flexmbd import cases, channels, dynamics, solvers, spatial
-from flexmbd.model import from_case, make_data
+from flexmbd.build import from_case
+from flexmbd.kernel.entry import forward_dynamics
+from flexmbd.model import make_data
 
 pin = pytest.importorskip("pinocchio")
 mujoco = pytest.importorskip("mujoco")
@@ -142,7 +144,7 @@ def test_pinocchio_accelerations_with_loads_match_flexmbd(tree):
     q = pinocchio_model.to_pin_q(model, model.q0)
     v = pinocchio_model.to_pin_v(model, model.v0)
     a, _, _ = eng.qdd(0.0, q, v)
-    ref = dynamics.forward_dynamics(model, make_data(model), model.q0, model.v0)
+    ref = forward_dynamics(model, make_data(model), model.q0, model.v0)
     assert np.allclose(pinocchio_model.from_pin_v(model, a), ref, rtol=1e-10, atol=1e-10)
 
 
@@ -200,7 +202,7 @@ def test_mujoco_accelerations_with_loads_match_flexmbd(tree):
     d.qpos[:], d.qvel[:] = mujoco_rigid.to_mj_state(model, m, model.q0, model.v0)
     mujoco_rigid.apply_loads(model, m, d)
     mujoco.mj_forward(m, d)
-    ref = dynamics.forward_dynamics(model, make_data(model), model.q0, model.v0)
+    ref = forward_dynamics(model, make_data(model), model.q0, model.v0)
     # MuJoCo's free-joint acceleration is [dv_world/dt; dw/dt]: compare the other joints
     k = model.jnt_vadr[model.index("arm")]
     assert np.allclose(d.qacc[6:], ref[k:], rtol=1e-9, atol=1e-9)

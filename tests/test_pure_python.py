@@ -9,8 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, dynamics
-from flexmbd.model import from_case, make_data
+from flexmbd import cases
+from flexmbd.build import from_case
+from flexmbd.kernel.entry import forward_dynamics
+from flexmbd.model import make_data
 
 ROOT = Path(__file__).resolve().parent.parent
 SMALL = ["bodies.beam1.elements=8", "bodies.beam1.modes.count=3", "bodies.beam2.elements=8",
@@ -18,12 +20,15 @@ SMALL = ["bodies.beam1.elements=8", "bodies.beam1.modes.count=3", "bodies.beam2.
 STATE = """
 import json, sys
 import numpy as np
-from flexmbd import cases, dynamics, jit
-from flexmbd.model import from_case, make_data
+from flexmbd import cases
+from flexmbd.build import from_case
+from flexmbd.kernel import jit
+from flexmbd.kernel.entry import forward_dynamics
+from flexmbd.model import make_data
 m = from_case(cases.load("double_pendulum", json.loads(sys.argv[1])))
 rng = np.random.default_rng(3)
 q, v = m.q0 + 0.1 * rng.standard_normal(m.nq), 0.5 * rng.standard_normal(m.nv)
-print(json.dumps({"pure": jit.PURE_PYTHON, "qdd": dynamics.forward_dynamics(m, make_data(m), q, v, t=0.1).tolist()}))
+print(json.dumps({"pure": jit.PURE_PYTHON, "qdd": forward_dynamics(m, make_data(m), q, v, t=0.1).tolist()}))
 """
 
 
@@ -48,5 +53,5 @@ def test_uncompiled_forward_dynamics_gives_the_compiled_numbers():
     m = from_case(cases.load("double_pendulum", SMALL))
     rng = np.random.default_rng(3)
     q, v = m.q0 + 0.1 * rng.standard_normal(m.nq), 0.5 * rng.standard_normal(m.nv)
-    ref = dynamics.forward_dynamics(m, make_data(m), q, v, t=0.1)
+    ref = forward_dynamics(m, make_data(m), q, v, t=0.1)
     np.testing.assert_allclose(got["qdd"], ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())

@@ -43,7 +43,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from flexmbd import channels, flexbody, profiles, results
+from flexmbd import channels, flexbody, invariants, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
@@ -134,7 +134,7 @@ def ffrf_interface(fb: flexbody.FlexBody, rotary: bool) -> ObjectFFRFreducedOrde
                                           roundMassMatrix=0.0, roundStiffnessMatrix=0.0)
     cms.stiffnessMatrixReduced = np.array(fb.Km, dtype=float)
     if rotary:
-        inv = flexbody.invariants(fb)
+        inv = invariants.invariants(fb)
         cms.massMatrixReduced = np.array(inv.I9[0])                     # sum Phi_r'J Phi_r + m Phi_t'Phi_t
         cms.inertiaLocal = cms.inertiaLocal + fb.J.sum(axis=0)          # sum J_p
         cms.mXRefTildePsi = cms.mXRefTildePsi - inv.I10[0]              # Mrf = G'(I6 + I10)
@@ -622,9 +622,8 @@ def energy(case, fbs, X) -> np.ndarray:
 
 def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
     """(SystemContainer, mbs, items by body name, sensors) of the case."""
-    from flexmbd.model import topological_order
     SC, mbs = xc.system()
-    order = topological_order(case)
+    order = case.resolved.order
     states = initial_states(case, order, fbs)
     items = {"ground": mbs.AddObject(eii.ObjectGround())}
     for name in order:

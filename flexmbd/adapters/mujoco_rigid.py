@@ -23,7 +23,8 @@ from flexmbd import cases, channels, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, quat_to_rot, rot_to_quat
 from flexmbd.spatial import inertia_parts, plux_parts
-from flexmbd.model import FIXED, FREE, PRISMATIC, REVOLUTE, SPHERICAL, from_case
+from flexmbd.build import from_case
+from flexmbd.joints import FIXED, FREE, PRISMATIC, REVOLUTE, SPHERICAL
 
 RIGID = True                        # every beam rigid: deformation channels are zero, not compared
 SETTINGS = {"dt": ("float+", 1e-4)}         # s, RK4 step (rounded so that it divides output_dt)

@@ -13,7 +13,8 @@ import numpy as np
 import pinocchio as pin
 
 from flexmbd import spatial
-from flexmbd.model import FIXED, FREE, PRISMATIC, REVOLUTE, SPHERICAL, Model
+from flexmbd.joints import FIXED, FREE, PRISMATIC, REVOLUTE, SPHERICAL
+from flexmbd.model import Model
 
 
 def se3(X) -> "pin.SE3":

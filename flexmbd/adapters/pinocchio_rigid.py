@@ -22,7 +22,7 @@ from scipy.integrate import DOP853, RK45, Radau
 
 from flexmbd import cases, channels, profiles, results
 from flexmbd.adapters import common, pinocchio_model
-from flexmbd.model import from_case
+from flexmbd.build import from_case
 
 RIGID = True                        # every beam rigid: deformation channels are zero, not compared
 SETTINGS = {

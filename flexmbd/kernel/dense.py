@@ -1,4 +1,4 @@
-"""Small dense linear algebra as plain compiled loops.
+"""Small dense linear algebra as plain compiled loops (part of the kernel: it exists for numba).
 
 The recursion works on matrices of size 6 to 6+nm (nm ~ 12). For these numba's `@` and
 `np.linalg` go through BLAS/LAPACK, whose call overhead and result allocation cost more than the
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.jit import njit
+from flexmbd.kernel.jit import njit
 
 
 @njit(inline="always")
@@ -47,7 +47,7 @@ def mv_add_into(A, x, out):
         out[i] += s
 
 
-@njit(inline="always")
+@njit
 def mm(A, B):
     """A B: (m, k) (k, n) -> (m, n)."""
     C = np.empty((A.shape[0], B.shape[1]))
@@ -55,13 +55,13 @@ def mm(A, B):
     return C
 
 
-@njit(inline="always")
+@njit
 def mtm(A, B):
     """A^T B: (k, m) (k, n) -> (m, n)."""
     return mm(A.T, B)
 
 
-@njit(inline="always")
+@njit
 def mv(A, x):
     """A x: (m, k) (k,) -> (m,)."""
     y = np.empty(A.shape[0])
@@ -69,7 +69,7 @@ def mv(A, x):
     return y
 
 
-@njit(inline="always")
+@njit
 def mtv(A, x):
     """A^T x: (k, m) (k,) -> (m,)."""
     return mv(A.T, x)
@@ -99,15 +99,14 @@ def congruence_add_into(G, I, out, IG):
 
 @njit
 def cholesky(A):
-    """Lower-triangular L (n, n) with L L^T = A, A symmetric positive definite."""
+    """Lower-triangular L (n, n) with L L^T = A, A symmetric positive definite (otherwise L
+    holds nan or inf, which the integrators report as a non-finite state)."""
     n = A.shape[0]
     L = np.zeros((n, n))
     for j in range(n):
         s = A[j, j]
         for k in range(j):
             s -= L[j, k] * L[j, k]
-        if s <= 0.0:
-            raise ValueError("matrix is not positive definite")
         d = np.sqrt(s)
         L[j, j] = d
         for i in range(j + 1, n):

@@ -1,0 +1,139 @@
+"""Case -> Model: the Model arrays (model.Arrays) of a case's bodies, joints and loads."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from flexmbd import flexbody, invariants, profiles, spatial
+from flexmbd.joints import JOINT_CODES, NQ, NV, initial_q
+from flexmbd.model import Arrays, Model, empty_arrays, empty_loads
+
+
+def from_case(case, bodies: dict | None = None) -> Model:
+    """Build the Model of a case; `bodies`: reduced flexible bodies by name (built when None)."""
+    if bodies is None:
+        bodies = flexbody.for_case(case)
+    order = case.resolved.order
+    index = {name: k + 1 for k, name in enumerate(order)}
+    by_child = {j["child"]: (jn, j) for jn, j in case["joints"].items()}
+    nb = len(order)
+    nm = max([fb.n_modes for fb in bodies.values()] + [0])
+
+    A = {k: x for k, x in empty_arrays(nb, nm).items() if not k.startswith("jnt_motion") and k != "jnt_q0"}
+    invs = [None] * (nb + 1)
+    motion, jnames, q0, v0 = [None] * (nb + 1), [""] * (nb + 1), [], []
+    nq = nv = 0
+    for name in order:
+        i = index[name]
+        jname, j = by_child[name]
+        jnames[i], motion[i] = jname, j["motion"]
+        A["jnt_prescribed"][i] = j["motion"] is not None
+        A["parent"][i] = 0 if j["parent"] == "ground" else index[j["parent"]]
+        t = JOINT_CODES[j["type"]]
+        A["jnt_type"][i], A["jnt_nv"][i] = t, NV[t]
+        A["jnt_axis"][i] = np.asarray(j["axis"]) / np.linalg.norm(j["axis"])
+        attach(A, i, j, case["bodies"].get(j["parent"]), bodies.get(j["parent"]))
+        A["jnt_qadr"][i], A["jnt_vadr"][i] = nq, nv
+        q0.extend(initial_q(t, j["q0"]))
+        v0.extend(j["qd0"])
+        nq, nv = nq + NQ[t], nv + NV[t]
+
+        body = case["bodies"][name]
+        if body["type"] == "rigid":
+            A["body_inertia"][i] = spatial.inertia(body["mass"], np.asarray(body["com"], dtype=float),
+                                                   inertia_matrix(body["inertia"]))
+            A["body_mass"][i] = body["mass"]
+        elif body["rigid"]:
+            fb = flexbody.undeformed(name, body,
+                                case["materials"][body["material"]])
+            A["body_inertia"][i] = rigid_inertia_of_beam(fb)
+            A["body_mass"][i] = fb.m.sum()
+        else:
+            fb = bodies[name]
+            k = fb.n_modes
+            invs[i] = invariants.invariants(fb)
+            A["body_mass"][i] = fb.m.sum()
+            A["body_madr"][i], A["body_nm"][i] = nq, k
+            A["flex_K"][i, :k, :k], A["flex_C"][i, :k, :k] = fb.Km, fb.Cm
+            q0.extend([0.0] * k)
+            v0.extend([0.0] * k)
+            nq, nv = nq + k, nv + k
+
+    A.update(motion_arrays(motion, A["jnt_qadr"], A["jnt_nv"], q0))
+    loads = point_loads(case, index, bodies, nm)
+    arrays = Arrays(**A, inv=invariants.stack(invs, nm), **loads[0],
+                    gravity=np.asarray(case["gravity"], dtype=float))
+    return Model(nb=nb, nq=nq, nv=nv, arrays=arrays, names=("ground",) + tuple(order),
+                 jnt_names=tuple(jnames), jnt_motion=tuple(motion), load_profiles=loads[1],
+                 bodies=dict(bodies), q0=np.array(q0, dtype=float), v0=np.array(v0, dtype=float))
+
+
+def attach(A: dict, i: int, j: dict, pbody: dict | None, fb: flexbody.FlexBody | None) -> None:
+    """Input triad of joint i: on ground or a rigid body at a point; on a beam at its snapped node."""
+    R = spatial.rotation_rpy(j["rpy"])
+    if pbody is None or pbody["type"] == "rigid":
+        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.asarray(j["at"], dtype=float))
+    elif pbody["rigid"]:          # a beam declared rigid: the snapped node's undeformed position
+        x = flexbody.snapped(pbody["length"], pbody["elements"], j["at"])
+        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.array([x, 0.0, 0.0]))
+    else:
+        p = fb.node_at(j["at"])
+        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.zeros(3))
+        A["jnt_node"][i], A["jnt_x0"][i] = p, fb.x0[p]
+        A["jnt_Phi"][i, :, :fb.n_modes] = fb.Phi[p]
+
+
+def motion_arrays(motion: list, qadr, nv, q0: list) -> dict:
+    """The jnt_motion_* arrays and jnt_q0 from the joints' motion profiles (None: free joint)."""
+    codes = [profiles.encode_motion(p) if p is not None else None for p in motion]
+    nt = max([c[2].size for c in codes if c is not None] + [2])
+    M = {k: x for k, x in empty_arrays(len(motion) - 1, 0, nt).items() if k.startswith("jnt_motion") or k == "jnt_q0"}
+    for i, c in enumerate(codes):
+        if nv[i] == 1:
+            M["jnt_q0"][i] = q0[qadr[i]]
+        if c is not None:
+            kind, par, tx, tc = c
+            M["jnt_motion_kind"][i], M["jnt_motion_par"][i] = kind, par
+            M["jnt_motion_n"][i] = tx.size
+            M["jnt_motion_x"][i, :tx.size], M["jnt_motion_c"][i, :, :tc.shape[1]] = tx, tc
+    return M
+
+
+def point_loads(case, index: dict, bodies: dict, nm: int):
+    """Load arrays (see Arrays.load_*) and their time profiles."""
+    loads = list(case["loads"].values())
+    nl = len(loads)
+    L = empty_loads(nl, nm)
+    for k, ld in enumerate(loads):
+        L["load_body"][k] = index[ld["body"]]
+        L["load_force"][k] = ld["force"]
+        L["load_global"][k] = ld["frame"] == "global"
+        L["load_kind"][k], L["load_par"][k] = profiles.encode_load(ld["profile"])
+        body = case["bodies"][ld["body"]]
+        if body["type"] == "rigid":
+            L["load_point"][k] = ld["at"]
+        elif body["rigid"]:
+            L["load_point"][k] = [flexbody.snapped(body["length"], body["elements"], ld["at"]), 0.0, 0.0]
+        else:
+            fb = bodies[ld["body"]]
+            p = fb.node_at(ld["at"])
+            L["load_point"][k] = fb.x0[p]
+            L["load_Phi"][k, :, :fb.n_modes] = fb.Phi[p]
+    return L, tuple(ld["profile"] for ld in loads)
+
+
+def rigid_inertia_of_beam(fb: flexbody.FlexBody) -> np.ndarray:
+    """Spatial inertia (6, 6) at the body origin of a beam declared rigid: the undeformed invariants."""
+    inv = invariants.invariants(fb)
+    I = np.zeros((6, 6))
+    I[:3, :3] = inv.I1[0]
+    I[:3, 3:] = spatial.skew(inv.I4[0])
+    I[3:, :3] = spatial.skew(inv.I4[0]).T
+    I[3:, 3:] = inv.I8[0] * np.eye(3)
+    return I
+
+
+def inertia_matrix(six) -> np.ndarray:
+    """[Ixx, Iyy, Izz, Ixy, Ixz, Iyz] -> symmetric (3, 3)."""
+    xx, yy, zz, xy, xz, yz = six
+    return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])

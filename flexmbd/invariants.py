@@ -1,0 +1,245 @@
+"""The inertia shape invariants of a reduced flexible body (docs/formulation.md §3): the
+precompute `invariants(fb)` (node sums, once per body), `stack` (several bodies on one leading
+axis, as the Model holds them), and the runtime terms rebuilt from them at every evaluation in
+O(nm^2), with no loop over nodes: the contractions, the mass matrix M(eta) and the centrifugal
+and Coriolis forces.
+
+Node p of the deformed body sits at r_p = x0_p + Phi_t,p eta (body frame); its kinetic energy
+is 1/2 m_p |v + w x r_p + Phi_t,p eta_d|^2 + 1/2 (w + Phi_r,p eta_d)^T J_p (w + Phi_r,p eta_d).
+a~ is the skew matrix of a, and Phi_k = Phi_t,p[:, k] the translation of node p in mode k.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from flexmbd.flexbody import FlexBody
+from flexmbd.kernel.jit import njit
+from flexmbd.spatial import cross_force_into, skew
+
+
+class Invariants(NamedTuple):
+    """Invariants of one or more bodies, stacked on a leading body axis b and zero-padded to the
+    largest mode count nm; in the formulas below the body index is dropped."""
+
+    I1: np.ndarray     # (nb, 3, 3)          sum J_p - m_p x0~ x0~: rotational inertia of the undeformed body
+    I2: np.ndarray     # (nb, nm, 3, 3)      -sum m_p (x0~ Phi_k~ + Phi_k~ x0~): its first-order change per mode
+    I3: np.ndarray     # (nb, nm, nm, 3, 3)  -sum m_p Phi_k~ Phi_l~: its second-order change
+    I4: np.ndarray     # (nb, 3)             sum m_p x0_p: first moment of mass of the undeformed body
+    I5: np.ndarray     # (nb, 3, nm)         sum m_p Phi_t,p: change of the first moment per mode
+    I6: np.ndarray     # (nb, 3, nm)         sum m_p x0~ Phi_t,p: rotation-mode coupling, translational part
+    I7: np.ndarray     # (nb, nm, 3, nm)     sum m_p Phi_k~ Phi_t,p: change of the coupling (column k is zero)
+    I8: np.ndarray     # (nb,)               sum m_p: mass
+    I9: np.ndarray     # (nb, nm, nm)        sum Phi_r^T J_p Phi_r + m_p Phi_t^T Phi_t: modal mass
+    I10: np.ndarray    # (nb, 3, nm)         sum J_p Phi_r,p: rotation-mode coupling, rotary part
+
+
+def invariants(fb: FlexBody) -> Invariants:
+    """The inertia shape invariants I1..I10 of one reduced body (leading axis of size 1)."""
+    m, x0, J = fb.m, fb.x0, fb.J
+    Pr, Pt = fb.Phi[:, :3, :], fb.Phi[:, 3:, :]                     # (N, 3, nm)
+    eye = np.eye(3)
+
+    # second moments of the node masses: x0 x0, x0 Phi_k, Phi_k Phi_l
+    Q0 = np.einsum("p,pa,pb->ab", m, x0, x0)
+    Q1 = np.einsum("p,pa,pbk->kab", m, x0, Pt)                      # (nm, 3, 3): sum m x0 Phi_k^T
+    Q2 = np.einsum("p,pak,pbl->klab", m, Pt, Pt)                    # (nm, nm, 3, 3): sum m Phi_k Phi_l^T
+
+    # a~ b~ = b a^T - (a . b) I turns the skew products into second moments
+    I1 = J.sum(axis=0) + np.trace(Q0) * eye - Q0
+    tr1 = np.trace(Q1, axis1=1, axis2=2)
+    I2 = 2.0 * tr1[:, None, None] * eye - Q1 - Q1.transpose(0, 2, 1)
+    tr2 = np.trace(Q2, axis1=2, axis2=3)
+    I3 = tr2[:, :, None, None] * eye - Q2.transpose(1, 0, 2, 3)
+
+    I4 = m @ x0
+    I5 = np.einsum("p,pak->ak", m, Pt)
+    I6 = np.einsum("p,pab,pbk->ak", m, _skew_rows(x0), Pt)
+    I7 = np.einsum("p,pkab,pbl->kal", m, _skew_rows(Pt.transpose(0, 2, 1)), Pt)
+    I9 = np.einsum("pak,pab,pbl->kl", Pr, J, Pr) + np.einsum("p,pak,pal->kl", m, Pt, Pt)
+    I10 = np.einsum("pab,pbk->ak", J, Pr)
+    one = lambda a: np.ascontiguousarray(a, dtype=float)[None]
+    return Invariants(I1=one(I1), I2=one(I2), I3=one(I3), I4=one(I4), I5=one(I5), I6=one(I6),
+                      I7=one(I7), I8=np.array([m.sum()]), I9=one(0.5 * (I9 + I9.T)), I10=one(I10))
+
+
+def stack(invs: list, nm: int) -> Invariants:
+    """Stack single-body invariants (None for a rigid body) into one, zero-padded to nm modes."""
+    out = []
+    for name, shape in zip(Invariants._fields, INV_SHAPES):
+        full = np.zeros((len(invs),) + tuple(nm if d == "m" else d for d in shape))
+        for b, inv in enumerate(invs):
+            if inv is not None:
+                x = getattr(inv, name)[0]
+                full[(b,) + tuple(slice(0, n) for n in np.shape(x))] = x
+        out.append(full)
+    return Invariants(*out)
+
+
+INV_SHAPES = [(3, 3), ("m", 3, 3), ("m", "m", 3, 3), (3,), (3, "m"), (3, "m"), ("m", 3, "m"), (),
+              ("m", "m"), (3, "m")]
+
+
+def _skew_rows(a: np.ndarray) -> np.ndarray:
+    """Skew matrices of the last axis: (..., 3) -> (..., 3, 3)."""
+    S = np.zeros(a.shape + (3,))
+    S[..., 0, 1], S[..., 0, 2] = -a[..., 2], a[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = a[..., 2], -a[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -a[..., 1], a[..., 0]
+    return S
+
+
+# ---------------------------------------------------------------------------------------------
+# the body-level terms, rebuilt from the invariants each evaluation (compiled; no node loops)
+
+
+@njit(inline="always")
+def contractions(inv, j, eta, eta_d, w):
+    """The O(nm^2) contractions of I3 and I7 that the mass matrix, its rate and the quadratic
+    forces share, for body j at modal state (eta, eta_d) and angular velocity w (3,).
+
+    P_k = sum_l eta_l I3_kl; since I3_lk = I3_kl^T (I3_kl = sum_p m_p Phi_t,k~^T Phi_t,l~),
+        I_O(eta)   = I1 + sum_k eta_k (I2_k + P_k)        rotational inertia about the origin (3, 3)
+        N2_k(eta)  = dI_O/deta_k = I2_k + P_k + P_k^T
+        I_O'       = sum_k eta_d_k N2_k                   (3, 3)
+        wN2w_k     = w^T N2_k w                           (nm,)
+        N1(eta)    = I6 + I10 + sum_k eta_k I7_k          rotation-mode block (3, nm)
+        N1'        = sum_k eta_d_k I7_k                   (3, nm)
+        wI7e_k     = w^T I7_k eta_d                       (nm,)
+    """
+    nm = eta.size
+    P = np.empty((nm, 3, 3))
+    for k in range(nm):
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                for l in range(nm):
+                    s += eta[l] * inv.I3[j, k, l, a, b]
+                P[k, a, b] = s
+    IO = np.empty((3, 3))
+    IOd = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            s, sd = inv.I1[j, a, b], 0.0
+            for k in range(nm):
+                s += eta[k] * (inv.I2[j, k, a, b] + P[k, a, b])
+                sd += eta_d[k] * (inv.I2[j, k, a, b] + P[k, a, b] + P[k, b, a])
+            IO[a, b], IOd[a, b] = s, sd
+    wN2w = np.empty(nm)
+    wI7e = np.empty(nm)
+    for k in range(nm):
+        s, s7 = 0.0, 0.0
+        for a in range(3):
+            for b in range(3):
+                s += w[a] * (inv.I2[j, k, a, b] + P[k, a, b] + P[k, b, a]) * w[b]
+            for l in range(nm):
+                s7 += w[a] * inv.I7[j, k, a, l] * eta_d[l]
+        wN2w[k], wI7e[k] = s, s7
+    N1 = np.empty((3, nm))
+    N1d = np.empty((3, nm))
+    for a in range(3):
+        for l in range(nm):
+            s, sd = inv.I6[j, a, l] + inv.I10[j, a, l], 0.0
+            for k in range(nm):
+                s += eta[k] * inv.I7[j, k, a, l]
+                sd += eta_d[k] * inv.I7[j, k, a, l]
+            N1[a, l], N1d[a, l] = s, sd
+    return IO, IOd, wN2w, N1, N1d, wI7e
+
+
+@njit(inline="always")
+def first_moment(inv, j, eta):
+    """c = I4 + I5 eta (3,): the body's mass times its centre of mass, body frame."""
+    c = inv.I4[j].copy()
+    for a in range(3):
+        for k in range(eta.size):
+            c[a] += inv.I5[j, a, k] * eta[k]
+    return c
+
+
+@njit(inline="always")
+def mass_matrix_into(inv, j, IO, c, N1, M):
+    """Assemble M (6+nm, 6+nm) over [w; v; eta_d] from I_O, c and N1, into M:
+
+        M = [ I_O(eta)   c~        N1(eta) ]
+            [ c~^T       I8 1      I5      ]
+            [ N1^T       I5^T      I9      ]
+    """
+    nm = N1.shape[1]
+    C = skew(c)
+    for a in range(3):
+        for b in range(3):
+            M[a, b] = IO[a, b]
+            M[a, 3 + b] = C[a, b]
+            M[3 + b, a] = C[a, b]
+            M[3 + a, 3 + b] = inv.I8[j] if a == b else 0.0
+        for l in range(nm):
+            M[a, 6 + l] = N1[a, l]
+            M[6 + l, a] = N1[a, l]
+            M[3 + a, 6 + l] = inv.I5[j, a, l]
+            M[6 + l, 3 + a] = inv.I5[j, a, l]
+    for k in range(nm):
+        for l in range(nm):
+            M[6 + k, 6 + l] = inv.I9[j, k, l]
+
+
+@njit
+def mass_matrix(inv, j, eta):
+    """M(eta) (6+nm, 6+nm) over [w; v; eta_d] in the body frame (v: velocity of the body origin)."""
+    z = np.zeros(eta.size)
+    IO, _, _, N1, _, _ = contractions(inv, j, eta, z, np.zeros(3))
+    M = np.empty((6 + eta.size, 6 + eta.size))
+    mass_matrix_into(inv, j, IO, first_moment(inv, j, eta), N1, M)
+    return M
+
+
+@njit
+def inertia_and_forces_into(inv, j, eta, v, eta_d, M, h):
+    """M(eta) (6+nm, 6+nm) and the centrifugal and Coriolis forces h (6+nm,) of the free body,
+    from Lagrange's equations, sharing one set of contractions; written into M and h.
+
+    Reference rows:  v x* (M_r. [v; eta_d]) + (dM_r./dt) [v; eta_d]      (momentum form)
+    Modal rows:      N1'^T w - dT/deta,  dT/deta_k = 1/2 w^T N2_k w + w . (I5_k x u) + w^T I7_k eta_d
+    """
+    nm = eta.size
+    w, u = v[:3], v[3:]
+    IO, IOd, wN2w, N1, N1d, wI7e = contractions(inv, j, eta, eta_d, w)
+    c = first_moment(inv, j, eta)
+    cd = first_moment(inv, j, eta_d) - inv.I4[j]
+    mass_matrix_into(inv, j, IO, c, N1, M)
+    # momentum p = M_r. [v; eta_d] and its rate through M only: pd = (dM_r./dt) [v; eta_d]
+    p = np.empty(6)
+    pd = np.empty(6)
+    for a in range(6):
+        s = 0.0
+        for b in range(6):
+            s += M[a, b] * v[b]
+        for l in range(nm):
+            s += M[a, 6 + l] * eta_d[l]
+        p[a] = s
+    for a in range(3):
+        s = 0.0
+        for b in range(3):
+            s += IOd[a, b] * w[b]
+        for l in range(nm):
+            s += N1d[a, l] * eta_d[l]
+        pd[a] = s
+    pd[0] += cd[1] * u[2] - cd[2] * u[1]                # c~' u = c' x u
+    pd[1] += cd[2] * u[0] - cd[0] * u[2]
+    pd[2] += cd[0] * u[1] - cd[1] * u[0]
+    pd[3] = w[1] * cd[2] - w[2] * cd[1]                 # c~'^T w = w x c'
+    pd[4] = w[2] * cd[0] - w[0] * cd[2]
+    pd[5] = w[0] * cd[1] - w[1] * cd[0]
+    cross_force_into(v, p, h)
+    for a in range(6):
+        h[a] += pd[a]
+    wxu = np.cross(w, u)
+    for k in range(nm):
+        dT = 0.5 * wN2w[k] + wI7e[k]
+        n1dw = 0.0
+        for a in range(3):
+            dT -= inv.I5[j, a, k] * wxu[a]              # w . (I5_k x u) = -I5_k . (w x u)
+            n1dw += N1d[a, k] * w[a]
+        h[6 + k] = n1dw - dT

@@ -1,0 +1,115 @@
+"""The kernel's one compiled entry, `evaluate`, and the calls into it: `forward` from Python,
+`rhs` from the compiled integrators.
+
+`evaluate` is a C function (numba cfunc): the profiles at time t, the coordinate rates and the
+articulated-body algorithm (`dynamics`) for the Bound at an address. It is compiled once; the
+Python call and the integrators call it through its address, so its body, the bulk of the
+compiled code, is never linked into (and optimized again inside) each caller.
+
+In the pure-Python mode (NUMBA_DISABLE_JIT=1, `jit.PURE_PYTHON`) the same functions run on the
+NamedTuples: `bind` gives a PlainBound and `rhs` and `forward` call `dynamics` directly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import carray, types
+
+from flexmbd.dynamics import aba, prescribed
+from flexmbd.joints import qdot
+from flexmbd.kernel.bound import Bound, bind, bound_at, call_entry
+from flexmbd.kernel.jit import PURE_PYTHON, cfunc, njit
+from flexmbd.model import Data, Model
+
+_P = types.CPointer(types.float64)
+SIGNATURE = types.void(types.intp, types.float64, _P, _P, _P, _P, types.intp, types.intp, types.intp)
+
+
+def evaluate(address, t, q_ptr, v_ptr, tau_ptr, out_ptr, nq, nv, want_qdot):
+    """For the Bound at `address`, at time t, state q (nq,), v (nv,) and joint forces tau (nv,):
+    the accelerations into its data.qdd and, if want_qdot, [dq/dt; qdd] into out (nq+nv,)."""
+    b = bound_at(address)
+    model, data = b.model, b.data
+    q, v = prescribed(model, data, t, carray(q_ptr, nq), carray(v_ptr, nv))
+    qdd = aba(model, data, q, v, carray(tau_ptr, nv))
+    if want_qdot:
+        out = carray(out_ptr, nq + nv)
+        qdot(model, q, v, out[:nq])
+        out[nq:] = qdd
+
+
+_entry = []
+
+
+def entry_address() -> int:
+    """The address of the compiled `evaluate` (compiled, or loaded from the cache, on first use)."""
+    if not _entry:
+        _entry.append(cfunc(SIGNATURE, evaluate).address)
+    return _entry[0]
+
+
+def handle(b: Bound):
+    """What the compiled integrators pass to `rhs` for the Bound b (which the caller keeps alive):
+    (entry address, b.address); b itself in the pure-Python mode."""
+    return b if PURE_PYTHON else (entry_address(), b.address)
+
+
+@njit
+def rhs(k, t, y, nq):
+    """dy/dt (nq+nv,) for y = [q; v] at time t, through the entry `k` (`handle`); prescribed
+    joints follow their profiles, no joint forces."""
+    out = np.empty(y.size)
+    call_entry(k[0], k[1], t, y[:nq], y[nq:], np.zeros(y.size - nq), out, 1)
+    return out
+
+
+@njit
+def _forward_at(fn, address, t, q, v, tau):
+    call_entry(fn, address, t, q, v, tau, q, 0)
+
+
+_bound = {}
+
+
+def _bound_of(model: Model, data: Data):
+    """(Bound, entry address) for (model, data), bound once: kept for the last few Data used."""
+    hit = _bound.get(id(data))
+    if hit is None or hit[0] is not model or hit[1] is not data:
+        if len(_bound) >= 16:
+            del _bound[next(iter(_bound))]
+        b = bind(model, data)
+        hit = _bound[id(data)] = (model, data, b, entry_address())
+    return hit[2], hit[3]
+
+
+def forward(model: Model, data: Data, t: float, q, v, tau) -> np.ndarray:
+    """Generalized accelerations (nv,) at time t: profiles applied, then `dynamics.aba`. The cheap
+    call from Python: q, v, tau C-contiguous float arrays, t a float. Returns data.qdd itself, as
+    Pinocchio's `aba` returns `data.ddq`: copy it to keep it."""
+    b, fn = _bound_of(model, data)
+    _forward_at(fn, b.address, t, q, v, tau)
+    return data.qdd
+
+
+if PURE_PYTHON:                                         # no addresses: the same passes, uncompiled
+    def rhs(k, t, y, nq):                               # noqa: F811
+        """`rhs` uncompiled: k is a PlainBound."""
+        model, data = k.model, k.data
+        q, v = prescribed(model, data, t, y[:nq], y[nq:])
+        out = np.empty(y.size)
+        qdot(model, q, v, out[:nq])
+        out[nq:] = aba(model, data, q, v, np.zeros(v.size))
+        return out
+
+    def forward(model: Model, data: Data, t: float, q, v, tau) -> np.ndarray:  # noqa: F811
+        """`forward` uncompiled: the same passes on the NamedTuples."""
+        q, v = prescribed(model.arrays, data, t, q, v)
+        return aba(model.arrays, data, q, v, tau)
+
+
+def forward_dynamics(model: Model, data: Data, q, v, tau=None, t: float = 0.0) -> np.ndarray:
+    """Generalized accelerations (nv,) at time t (profiles of loads and prescribed joints applied),
+    a copy of data.qdd."""
+    tau = np.zeros(model.nv) if tau is None else np.asarray(tau, dtype=float)
+    return forward(model, data, float(t), np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float),
+                   np.ascontiguousarray(tau)).copy()
