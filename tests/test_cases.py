@@ -154,7 +154,7 @@ def test_motion_table_file_is_checked(tmp_path):
 def test_the_resolved_case_of_the_double_pendulum():
     """Tree order, kinds, parents, the joint on beam1's snapped tip node, stress sections keyed by
     channel, and nq / nv equal to the Model's (built separately, from the dict)."""
-    from flexmbd.model import from_case
+    from flexmbd.build import from_case
     case = cases.load("double_pendulum", ["bodies.beam1.elements=10", "joints.pivot2.at=1.46"])
     r = case.resolved
     assert r.order == ["beam1", "beam2"]
