@@ -170,12 +170,14 @@ class Result:
 
 
 def git_commit() -> str:
-    """The commit of the source tree, with '+dirty' when it has uncommitted changes ('' outside git)."""
+    """The commit of the source tree, with '+dirty' when the code or the case files (flexmbd/,
+    cases/, pyproject.toml: what a result depends on) have uncommitted changes ('' outside git)."""
     root = Path(__file__).resolve().parent.parent
     try:
         rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True,
                              text=True, timeout=5).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--",
+                                "flexmbd", "cases", "pyproject.toml"], cwd=root,
                                capture_output=True, text=True, timeout=5).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return ""
