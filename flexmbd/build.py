@@ -31,8 +31,9 @@ def from_case(case, bodies: dict | None = None) -> Model:
         A["parent"][i] = 0 if j["parent"] == "ground" else index[j["parent"]]
         t = JOINT_CODES[j["type"]]
         A["jnt_type"][i], A["jnt_nv"][i] = t, NV[t]
-        A["jnt_axis"][i] = np.asarray(j["axis"]) / np.linalg.norm(j["axis"])
-        attach(A, i, j, case["bodies"].get(j["parent"]), bodies.get(j["parent"]))
+        A["jnt_axis"][i] = case.resolved.joints[jname].axis
+        attach(A, i, j, np.array(case.resolved.joints[jname].triad), case["bodies"].get(j["parent"]),
+               bodies.get(j["parent"]))
         A["jnt_qadr"][i], A["jnt_vadr"][i] = nq, nv
         q0.extend(initial_q(t, j["q0"]))
         v0.extend(j["qd0"])
@@ -68,9 +69,9 @@ def from_case(case, bodies: dict | None = None) -> Model:
                  bodies=dict(bodies), q0=np.array(q0, dtype=float), v0=np.array(v0, dtype=float))
 
 
-def attach(A: dict, i: int, j: dict, pbody: dict | None, fb: flexbody.FlexBody | None) -> None:
-    """Input triad of joint i: on ground or a rigid body at a point; on a beam at its snapped node."""
-    R = spatial.rotation_rpy(j["rpy"])
+def attach(A: dict, i: int, j: dict, R, pbody: dict | None, fb: flexbody.FlexBody | None) -> None:
+    """Input triad of joint i (rotation R (3, 3) in the parent frame): on ground or a rigid body at
+    a point; on a beam at its snapped node."""
     if pbody is None or pbody["type"] == "rigid":
         A["jnt_Xtriad"][i] = spatial.plux(R.T, np.asarray(j["at"], dtype=float))
     elif pbody["rigid"]:          # a beam declared rigid: the snapped node's undeformed position

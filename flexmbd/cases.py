@@ -27,6 +27,7 @@ from types import MappingProxyType
 
 from flexmbd import flexbody
 from flexmbd.errors import InputError
+from flexmbd.spatial import rotation_rpy
 
 CASES_DIR = Path(__file__).resolve().parent.parent / "cases"
 
@@ -178,6 +179,8 @@ class Joint:
     nv: int             # velocities: 1, 1, 3, 6
     node: int           # node of a beam parent it sits on (snapped), -1 otherwise
     x: float | None     # that node's position along the beam, m (None off a beam)
+    triad: tuple        # (3, 3) rotation of the input triad in the parent (or node) frame, rows
+    axis: tuple         # (3,) unit joint axis in the input triad
 
 
 @dataclass(frozen=True)
@@ -657,8 +660,11 @@ def resolve(data: dict) -> Resolved:
         on_beam = j["parent"] != "ground" and data["bodies"][j["parent"]]["type"] == "beam"
         p = beam_point(data, j["parent"], j["at"]) if on_beam else None
         jq, jv = JOINT_COORDS[j["type"]]
+        axis = [a / math.hypot(*j["axis"]) for a in j["axis"]] if math.hypot(*j["axis"]) > 0 else [0.0, 0.0, 0.0]
         joints[jn] = Joint(name=jn, type=j["type"], parent=index[j["parent"]], child=index[name], nq=jq, nv=jv,
-                           node=p.node if p else -1, x=p.x_node if p else None)
+                           node=p.node if p else -1, x=p.x_node if p else None,
+                           triad=tuple(tuple(float(x) for x in row) for row in rotation_rpy(j["rpy"])),
+                           axis=tuple(float(a) for a in axis))
         nq, nv = nq + jq + modes, nv + jv + modes
     points = {n: beam_point(data, c["body"], c["at"]) for n, c in data["channels"].items() if c["kind"] == "deflection"}
     stress = {n: (beam_point(data, c["body"], c["at"]), None if c["fibre"] is None else tuple(c["fibre"]))

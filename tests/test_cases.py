@@ -4,6 +4,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from flexmbd import cases
@@ -162,6 +163,10 @@ def test_the_resolved_case_of_the_double_pendulum():
     elbow = r.joints["pivot2"]
     assert (elbow.parent, elbow.child, elbow.node, elbow.x, elbow.nq, elbow.nv) == (1, 2, 10, 1.5, 1, 1)
     assert r.joints["pivot1"].node == -1 and r.joints["pivot1"].x is None
+    tilted = cases.load("double_pendulum", ["joints.pivot1.rpy=[0.0, 0.0, 0.5]", "joints.pivot1.axis=[0.0, 3.0, 4.0]"])
+    j = tilted.resolved.joints["pivot1"]
+    assert j.axis == (0.0, 0.6, 0.8)
+    assert np.allclose(j.triad, [[np.cos(0.5), -np.sin(0.5), 0.0], [np.sin(0.5), np.cos(0.5), 0.0], [0.0, 0.0, 1.0]])
     assert set(r.stress) == {n for n, c in case["channels"].items() if c["kind"] == "stress_vm"}
     assert all(p.node == round(p.x_node / 1.5 * (r.body(p.body).nodes - 1)) for p, _ in r.stress.values())
     m = from_case(case)
