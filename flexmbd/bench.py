@@ -35,13 +35,13 @@ BEAM = {"type": "beam", "material": "steel", "length": 1.5, "elements": 30,
         "section": {"shape": "rectangle", "b": 0.01, "h": 0.015}, "modes": {"count": 12}}
 
 
-def chain_case(n: int, flexible: bool) -> cases.Case:
-    """n links in a revolute chain (axis z) under gravity: rigid bars or 12-mode beams, each on
-    its parent's tip."""
+def chain_case(n: int, flexible: bool, stiffening: bool = True) -> cases.Case:
+    """n links in a revolute chain (axis z) under gravity: rigid bars or 12-mode beams (with or
+    without geometric stiffening), each on its parent's tip."""
     bodies, joints = {}, {}
     for k in range(n):
         if flexible:
-            bodies[f"b{k}"] = dict(BEAM)
+            bodies[f"b{k}"] = dict(BEAM, stiffening=stiffening)
         else:
             bodies[f"b{k}"] = {"type": "rigid", "mass": 1.0, "com": [0.25, 0.0, 0.0],
                                "inertia": [1e-4, 2e-2, 2e-2, 0.0, 0.0, 0.0]}

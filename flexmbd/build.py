@@ -52,7 +52,7 @@ def from_case(case, bodies: dict | None = None) -> Model:
         else:
             fb = bodies[name]
             k = fb.n_modes
-            invs[i] = invariants.invariants(fb)
+            invs[i] = invariants.invariants(fb, body["stiffening"])
             A["body_mass"][i] = fb.m.sum()
             A["body_madr"][i], A["body_nm"][i] = nq, k
             A["flex_K"][i, :k, :k], A["flex_C"][i, :k, :k] = fb.Km, fb.Cm
@@ -82,6 +82,8 @@ def attach(A: dict, i: int, j: dict, R, pbody: dict | None, fb: flexbody.FlexBod
         A["jnt_Xtriad"][i] = spatial.plux(R.T, np.zeros(3))
         A["jnt_node"][i], A["jnt_x0"][i] = p, fb.x0[p]
         A["jnt_Phi"][i, :, :fb.n_modes] = fb.Phi[p]
+        if pbody["stiffening"]:
+            A["jnt_D"][i, :fb.n_modes, :fb.n_modes] = fb.D[p]
 
 
 def motion_arrays(motion: list, qadr, nv, q0: list) -> dict:
@@ -120,6 +122,8 @@ def point_loads(case, index: dict, bodies: dict, nm: int):
             p = fb.node_at(ld["at"])
             L["load_point"][k] = fb.x0[p]
             L["load_Phi"][k, :, :fb.n_modes] = fb.Phi[p]
+            if body["stiffening"]:
+                L["load_D"][k, :fb.n_modes, :fb.n_modes] = fb.D[p]
     return L, tuple(ld["profile"] for ld in loads)
 
 

@@ -69,6 +69,7 @@ BEAM = {
     "mass": (("lumped", "consistent"), "lumped"),
     "shear": ("bool", False),
     "rigid": ("bool", False),
+    "stiffening": ("bool", True),   # geometric stiffening: the foreshortening of bent nodes (formulation §4b)
 }
 
 RIGID = {

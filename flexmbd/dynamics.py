@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.invariants import inertia_and_forces_into, mass_matrix
+from flexmbd.invariants import first_moment, inertia_and_forces_into, mass_matrix
 from flexmbd.joints import jcalc
 from flexmbd.kernel.dense import (back_subst_vec, cholesky, congruence_add_into, forward_subst, inv_spd, mm, mm_into,
                                   mtm, mtv, mtv_add_into, mv, mv_add_into, mv_into)
@@ -40,26 +40,37 @@ from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, 
 
 
 @njit
-def node_kinematics(Phi, x0, eta, eta_d):
-    """Deformed node with mode block Phi (6, nm) and undeformed position x0 (3,): Xn (6, 6) body ->
-    node frame, Sn (6, nm) modal motion subspace in the node frame, cn (6,) velocity product.
+def node_kinematics(Phi, D, x0, eta, eta_d):
+    """Deformed node with mode block Phi (6, nm), foreshortening matrix D (nm, nm) and undeformed
+    position x0 (3,) on the beam axis: Xn (6, 6) body -> node frame, Sn (6, nm) modal motion
+    subspace in the node frame, cn (6,) velocity product.
 
-    Node frame: origin r = x0 + Phi_t eta, rotation exp(theta~), theta = Phi_r eta. Relative
-    velocity (node frame): [E J(theta) theta_d; E Phi_t eta_d], E = exp(theta~)^T, J the left
-    Jacobian of exp; cn = [E J'(theta) theta_d; -E (w_rel x Phi_t eta_d)].
+    Node frame: origin r = x0 + Phi_t eta - 1/2 (eta^T D eta) e_x, rotation exp(theta~),
+    theta = Phi_r eta. The origin moves with T(eta) eta_d, T = Phi_t - e_x (D eta)^T. Relative
+    velocity (node frame): [E J(theta) theta_d; E T eta_d], E = exp(theta~)^T, J the left Jacobian
+    of exp; cn = [E J'(theta) theta_d; -E (w_rel x T eta_d) - E e_x (eta_d^T D eta_d)].
     """
-    Pr, Pt = Phi[:3], Phi[3:]
+    Pr = Phi[:3]
+    T = Phi[3:].copy()
+    De = mv(D, eta)
+    for l in range(eta.size):
+        T[0, l] -= De[l]
     theta, theta_d = mv(Pr, eta), mv(Pr, eta_d)
     E = expm_so3(theta).T
-    Xn = plux(E, x0 + mv(Pt, eta))
+    r = x0 + mv(Phi[3:], eta)
+    r[0] -= 0.5 * (eta @ De)
+    Xn = plux(E, r)
     Jl = jac_left_so3(theta)
     Sn = np.empty((6, eta.size))
     Sn[:3] = mm(E, mm(Jl, Pr))
-    Sn[3:] = mm(E, Pt)
+    Sn[3:] = mm(E, T)
     w_rel = mv(Jl, theta_d)
+    rd = mv(T, eta_d)
     cn = np.empty(6)
     cn[:3] = mv(E, jac_left_so3_dot(theta, theta_d))
-    cn[3:] = -mv(E, np.cross(w_rel, mv(Pt, eta_d)))
+    shorten = np.zeros(3)
+    shorten[0] = eta_d @ mv(D, eta_d)
+    cn[3:] = -mv(E, np.cross(w_rel, rd) + shorten)
     return Xn, Sn, cn
 
 
@@ -103,7 +114,8 @@ def forward_kinematics(model, data, q, v):
             XJT = mm(data.XJ[i], model.jnt_Xtriad[i])
             a, nm = model.body_madr[lam], model.body_nm[lam]
             eta_d = v[a:a + nm]
-            Xn, Sn, cn = node_kinematics(model.jnt_Phi[i, :, :nm], model.jnt_x0[i], q[a:a + nm], eta_d)
+            Xn, Sn, cn = node_kinematics(model.jnt_Phi[i, :, :nm], model.jnt_D[i, :nm, :nm], model.jnt_x0[i],
+                                         q[a:a + nm], eta_d)
             vn_rel = mv(Sn, eta_d)
             vn = mv(Xn, data.v[lam]) + vn_rel
             mm_into(XJT, Xn, data.Xup[i])
@@ -124,7 +136,8 @@ def external_forces(model, data, q):
     """data.F (nb+1, 6+nm) <- generalized external forces of the point loads at their factors
     data.scale, body frame; after pass 1.
 
-    A force f at the deformed point r = x0 + Phi_t eta: [r x f; f; Phi_t^T f].
+    A force f at the deformed point r = x0 + Phi_t eta - 1/2 (eta^T D eta) e_x:
+    [r x f; f; Phi_t^T f - f_x D eta].
     """
     F = data.F
     F[:] = 0.0
@@ -135,10 +148,13 @@ def external_forces(model, data, q):
         f = model.load_force[k] * data.scale[k]
         if model.load_global[k]:
             f = mv(data.X0[i, :3, :3], f)
-        r = model.load_point[k] + mv(Pt, q[a:a + nm])
+        eta = q[a:a + nm]
+        De = mv(model.load_D[k, :nm, :nm], eta)
+        r = model.load_point[k] + mv(Pt, eta)
+        r[0] -= 0.5 * (eta @ De)
         F[i, :3] += np.cross(r, f)
         F[i, 3:6] += f
-        F[i, 6:6 + nm] += mtv(Pt, f)
+        F[i, 6:6 + nm] += mtv(Pt, f) - f[0] * De
 
 
 @njit(inline="always")
@@ -336,7 +352,7 @@ def potential_energy(model, data, q):
             first = m * c
         else:
             eta = q[a:a + nm]
-            first = model.inv.I4[i] + model.inv.I5[i, :, :nm] @ eta
+            first = first_moment(model.inv, i, eta)
             V += 0.5 * eta @ (model.flex_K[i, :nm, :nm] @ eta)
         V -= model.gravity @ (model.body_mass[i] * p + R @ first)
     return V

@@ -14,6 +14,10 @@ need of it is kept here as plain arrays, in the body frame (beam along +x from t
     S_strain (ns, 4, nm)  modal section strains there, rows [eps, kappa_y, kappa_z, twist rate]
                           per unit modal coordinate (stresses at a section point:
                           `fe.stress.section_stresses`)
+    D       (N, nm, nm)   foreshortening of each node: bending moves node p along the beam by
+                          -1/2 eta^T D_p eta (D_p = sum over the elements between the root and p
+                          of Phi_e^T G_e Phi_e, G_e the element geometric stiffness per unit
+                          axial force; docs/formulation.md §4b)
 
 The node masses m_p, J_p are always the lumped ones: the floating-frame invariants are node sums,
 and their modal mass I9 = sum Phi_r^T J_p Phi_r + m_p Phi_t^T Phi_t is Phi^T M_lumped Phi. The
@@ -43,7 +47,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from flexmbd.fe import assembly, modes, section, stress
+from flexmbd.fe import assembly, element, modes, section, stress
 
 
 @dataclass(frozen=True)
@@ -61,6 +65,7 @@ class FlexBody:
     boundary: str
     stress_x: np.ndarray
     S_strain: np.ndarray
+    D: np.ndarray
 
     @property
     def n_nodes(self) -> int:
@@ -204,7 +209,20 @@ def build(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
         name=name, length=body["length"], x0=nodes, m=m, J=J, Phi=spatial_blocks(Phi_fe),
         freq_hz=np.asarray(freq), labels=np.array(modes.mode_labels(Phi_fe) if nm else [], dtype=str), Km=Km, Cm=Cm,
         boundary=body["modes"]["boundary"], stress_x=np.array(xs, dtype=float),
-        S_strain=np.array(S).reshape(len(xs), 4, nm))
+        S_strain=np.array(S).reshape(len(xs), 4, nm), D=foreshortening(nodes, elements, Phi_fe))
+
+
+def foreshortening(nodes, elements, Phi_fe) -> np.ndarray:
+    """(N, nm, nm) D_p = sum_{e < p} Phi_e^T G_e Phi_e, accumulated from the root (node 0) along the
+    elements in order (G_e: `fe.element.geometric_stiffness`; Phi_e the element's rows of the FE
+    mode matrix (6N, nm)). D_p is also the modal geometric stiffness of a unit axial force at p."""
+    nm = Phi_fe.shape[1]
+    D = np.zeros((nodes.shape[0], nm, nm))
+    for e, dofs in enumerate(assembly.element_dofs(elements)):
+        P = Phi_fe[dofs]
+        l = assembly.element_lengths(nodes, elements[e:e + 1])[0]
+        D[elements[e, 1]] = D[elements[e, 0]] + P.T @ element.geometric_stiffness(l) @ P
+    return 0.5 * (D + D.transpose(0, 2, 1))
 
 
 def for_case(case) -> dict:

@@ -34,10 +34,13 @@ class Invariants(NamedTuple):
     I8: np.ndarray     # (nb,)               sum m_p: mass
     I9: np.ndarray     # (nb, nm, nm)        sum Phi_r^T J_p Phi_r + m_p Phi_t^T Phi_t: modal mass
     I10: np.ndarray    # (nb, 3, nm)         sum J_p Phi_r,p: rotation-mode coupling, rotary part
+    Db: np.ndarray     # (nb, nm, nm)        sum m_p D_p: foreshortening of the first moment (zero: no stiffening)
+    Dh: np.ndarray     # (nb, nm, nm)        sum m_p x_p D_p: foreshortening of the inertia about y and z
 
 
-def invariants(fb: FlexBody) -> Invariants:
-    """The inertia shape invariants I1..I10 of one reduced body (leading axis of size 1)."""
+def invariants(fb: FlexBody, stiffening: bool = False) -> Invariants:
+    """The inertia shape invariants I1..I10 of one reduced body (leading axis of size 1), and with
+    `stiffening` the foreshortening sums Db, Dh (docs/formulation.md §4b; zero without)."""
     m, x0, J = fb.m, fb.x0, fb.J
     Pr, Pt = fb.Phi[:, :3, :], fb.Phi[:, 3:, :]                     # (N, 3, nm)
     eye = np.eye(3)
@@ -61,8 +64,11 @@ def invariants(fb: FlexBody) -> Invariants:
     I9 = np.einsum("pak,pab,pbl->kl", Pr, J, Pr) + np.einsum("p,pak,pal->kl", m, Pt, Pt)
     I10 = np.einsum("pab,pbk->ak", J, Pr)
     one = lambda a: np.ascontiguousarray(a, dtype=float)[None]
+    Db = np.einsum("p,pkl->kl", m, fb.D) if stiffening else np.zeros((fb.n_modes, fb.n_modes))
+    Dh = np.einsum("p,p,pkl->kl", m, x0[:, 0], fb.D) if stiffening else np.zeros((fb.n_modes, fb.n_modes))
     return Invariants(I1=one(I1), I2=one(I2), I3=one(I3), I4=one(I4), I5=one(I5), I6=one(I6),
-                      I7=one(I7), I8=np.array([m.sum()]), I9=one(0.5 * (I9 + I9.T)), I10=one(I10))
+                      I7=one(I7), I8=np.array([m.sum()]), I9=one(0.5 * (I9 + I9.T)), I10=one(I10),
+                      Db=one(Db), Dh=one(Dh))
 
 
 def stack(invs: list, nm: int) -> Invariants:
@@ -79,7 +85,7 @@ def stack(invs: list, nm: int) -> Invariants:
 
 
 INV_SHAPES = [(3, 3), ("m", 3, 3), ("m", "m", 3, 3), (3,), (3, "m"), (3, "m"), ("m", 3, "m"), (),
-              ("m", "m"), (3, "m")]
+              ("m", "m"), (3, "m"), ("m", "m"), ("m", "m")]
 
 
 def _skew_rows(a: np.ndarray) -> np.ndarray:
@@ -151,21 +157,49 @@ def contractions(inv, j, eta, eta_d, w):
 
 @njit(inline="always")
 def first_moment(inv, j, eta):
-    """c = I4 + I5 eta (3,): the body's mass times its centre of mass, body frame."""
+    """c = I4 + I5 eta - 1/2 (eta^T Db eta) e_x (3,): the body's mass times its centre of mass,
+    body frame (the last term: the foreshortening of the nodes, zero without stiffening)."""
     c = inv.I4[j].copy()
     for a in range(3):
         for k in range(eta.size):
             c[a] += inv.I5[j, a, k] * eta[k]
+    c[0] -= 0.5 * quadratic(inv.Db[j], eta, eta)
     return c
 
 
 @njit(inline="always")
-def mass_matrix_into(inv, j, IO, c, N1, M):
-    """Assemble M (6+nm, 6+nm) over [w; v; eta_d] from I_O, c and N1, into M:
+def quadratic(A, x, y):
+    """x^T A y for A (nm, nm) (a zero-padded block is read to x's length)."""
+    s = 0.0
+    for k in range(x.size):
+        for l in range(x.size):
+            s += x[k] * A[k, l] * y[l]
+    return s
 
-        M = [ I_O(eta)   c~        N1(eta) ]
-            [ c~^T       I8 1      I5      ]
-            [ N1^T       I5^T      I9      ]
+
+@njit(inline="always")
+def foreshortened(inv, j, eta, IO, N1x):
+    """Add the foreshortening terms of a straight beam (docs/formulation.md §4b) to I_O (3, 3) and
+    write the x row of dc/deta, I5_x - (Db eta)^T, into N1x (nm,): I_O gains
+    -(eta^T Dh eta) diag(0, 1, 1), the beam's inertia about y and z lost as it shortens."""
+    sh = quadratic(inv.Dh[j], eta, eta)
+    IO[1, 1] -= sh
+    IO[2, 2] -= sh
+    for l in range(eta.size):
+        s = inv.I5[j, 0, l]
+        for k in range(eta.size):
+            s -= inv.Db[j, l, k] * eta[k]
+        N1x[l] = s
+
+
+@njit(inline="always")
+def mass_matrix_into(inv, j, IO, c, N1, N1x, M):
+    """Assemble M (6+nm, 6+nm) over [w; v; eta_d] from I_O, c, N1 and the x row N1x of dc/deta
+    (I5 plus the foreshortening), into M:
+
+        M = [ I_O(eta)   c~        N1(eta)  ]
+            [ c~^T       I8 1      dc/deta  ]
+            [ N1^T       (.)^T     I9       ]
     """
     nm = N1.shape[1]
     C = skew(c)
@@ -178,8 +212,8 @@ def mass_matrix_into(inv, j, IO, c, N1, M):
         for l in range(nm):
             M[a, 6 + l] = N1[a, l]
             M[6 + l, a] = N1[a, l]
-            M[3 + a, 6 + l] = inv.I5[j, a, l]
-            M[6 + l, 3 + a] = inv.I5[j, a, l]
+            M[3 + a, 6 + l] = N1x[l] if a == 0 else inv.I5[j, a, l]
+            M[6 + l, 3 + a] = M[3 + a, 6 + l]
     for k in range(nm):
         for l in range(nm):
             M[6 + k, 6 + l] = inv.I9[j, k, l]
@@ -190,8 +224,10 @@ def mass_matrix(inv, j, eta):
     """M(eta) (6+nm, 6+nm) over [w; v; eta_d] in the body frame (v: velocity of the body origin)."""
     z = np.zeros(eta.size)
     IO, _, _, N1, _, _ = contractions(inv, j, eta, z, np.zeros(3))
+    N1x = np.empty(eta.size)
+    foreshortened(inv, j, eta, IO, N1x)
     M = np.empty((6 + eta.size, 6 + eta.size))
-    mass_matrix_into(inv, j, IO, first_moment(inv, j, eta), N1, M)
+    mass_matrix_into(inv, j, IO, first_moment(inv, j, eta), N1, N1x, M)
     return M
 
 
@@ -201,14 +237,32 @@ def inertia_and_forces_into(inv, j, eta, v, eta_d, M, h):
     from Lagrange's equations, sharing one set of contractions; written into M and h.
 
     Reference rows:  v x* (M_r. [v; eta_d]) + (dM_r./dt) [v; eta_d]      (momentum form)
-    Modal rows:      N1'^T w - dT/deta,  dT/deta_k = 1/2 w^T N2_k w + w . (I5_k x u) + w^T I7_k eta_d
+    Modal rows:      N1'^T w - dT/deta,  dT/deta_k = 1/2 w^T N2_k w + w . (c_k x u) + w^T I7_k eta_d
+    with c_k = dc/deta_k = I5_k - (Db eta)_k e_x; the (v_x, eta) block's rate -(Db eta_d)^T
+    contributes -(Db eta_d)_k u_x to both d/dt dT/deta_d and dT/deta and cancels.
     """
     nm = eta.size
     w, u = v[:3], v[3:]
     IO, IOd, wN2w, N1, N1d, wI7e = contractions(inv, j, eta, eta_d, w)
+    N1x = np.empty(nm)
+    foreshortened(inv, j, eta, IO, N1x)
     c = first_moment(inv, j, eta)
-    cd = first_moment(inv, j, eta_d) - inv.I4[j]
-    mass_matrix_into(inv, j, IO, c, N1, M)
+    cd = np.zeros(3)                                    # c' = (dc/deta) eta_d
+    for a in range(3):
+        for k in range(nm):
+            cd[a] += (N1x[k] if a == 0 else inv.I5[j, a, k]) * eta_d[k]
+    # foreshortening rates: I_O' gains -2 (eta^T Dh eta_d) diag(0, 1, 1); w^T N2_k w gains
+    # -2 (Dh eta)_k (w_y^2 + w_z^2); the (v_x, eta) block's rate adds -(eta_d^T Db eta_d) to p'_x
+    rh = quadratic(inv.Dh[j], eta, eta_d)
+    IOd[1, 1] -= 2.0 * rh
+    IOd[2, 2] -= 2.0 * rh
+    wyz = w[1] * w[1] + w[2] * w[2]
+    for k in range(nm):
+        s = 0.0
+        for l in range(nm):
+            s += inv.Dh[j, k, l] * eta[l]
+        wN2w[k] -= 2.0 * s * wyz
+    mass_matrix_into(inv, j, IO, c, N1, N1x, M)
     # momentum p = M_r. [v; eta_d] and its rate through M only: pd = (dM_r./dt) [v; eta_d]
     p = np.empty(6)
     pd = np.empty(6)
@@ -229,7 +283,7 @@ def inertia_and_forces_into(inv, j, eta, v, eta_d, M, h):
     pd[0] += cd[1] * u[2] - cd[2] * u[1]                # c~' u = c' x u
     pd[1] += cd[2] * u[0] - cd[0] * u[2]
     pd[2] += cd[0] * u[1] - cd[1] * u[0]
-    pd[3] = w[1] * cd[2] - w[2] * cd[1]                 # c~'^T w = w x c'
+    pd[3] = w[1] * cd[2] - w[2] * cd[1] - quadratic(inv.Db[j], eta_d, eta_d)   # c~'^T w = w x c'
     pd[4] = w[2] * cd[0] - w[0] * cd[2]
     pd[5] = w[0] * cd[1] - w[1] * cd[0]
     cross_force_into(v, p, h)
@@ -240,6 +294,6 @@ def inertia_and_forces_into(inv, j, eta, v, eta_d, M, h):
         dT = 0.5 * wN2w[k] + wI7e[k]
         n1dw = 0.0
         for a in range(3):
-            dT -= inv.I5[j, a, k] * wxu[a]              # w . (I5_k x u) = -I5_k . (w x u)
+            dT -= (N1x[k] if a == 0 else inv.I5[j, a, k]) * wxu[a]   # w . (c_k x u), c_k = dc/deta_k
             n1dw += N1d[a, k] * w[a]
         h[6 + k] = n1dw - dT

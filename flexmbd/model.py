@@ -36,6 +36,7 @@ class Arrays(NamedTuple):
     jnt_node: np.ndarray      # (nb+1,) node on a flexible parent, -1 otherwise
     jnt_x0: np.ndarray        # (nb+1, 3) undeformed position of that node, parent frame
     jnt_Phi: np.ndarray       # (nb+1, 6, nm) mode block of that node [rot; trans]
+    jnt_D: np.ndarray         # (nb+1, nm, nm) its foreshortening matrix D_p (zero without stiffening)
     jnt_qadr: np.ndarray      # (nb+1,) first joint coordinate in q
     jnt_vadr: np.ndarray      # (nb+1,) first joint velocity in v
     jnt_nv: np.ndarray        # (nb+1,) joint velocity count
@@ -56,6 +57,7 @@ class Arrays(NamedTuple):
     load_body: np.ndarray     # (nl,) body a point load acts on
     load_point: np.ndarray    # (nl, 3) undeformed point of application, body frame
     load_Phi: np.ndarray      # (nl, 6, nm) mode block of the loaded node (zeros on rigid bodies)
+    load_D: np.ndarray        # (nl, nm, nm) its foreshortening matrix D_p (zero without stiffening)
     load_force: np.ndarray    # (nl, 3) force at unit scale
     load_global: np.ndarray   # (nl,) True: force given in the global frame
     load_kind: np.ndarray     # (nl,) load profile code (profiles.LOAD_KINDS)
@@ -140,6 +142,7 @@ def empty_arrays(nb: int, nm: int, nt: int = 2) -> dict:
     return dict(parent=np.full(n, -1), jnt_type=np.zeros(n, dtype=np.int64),
                 jnt_axis=np.zeros((n, 3)), jnt_Xtriad=np.tile(np.eye(6), (n, 1, 1)),
                 jnt_node=np.full(n, -1), jnt_x0=np.zeros((n, 3)), jnt_Phi=np.zeros((n, 6, nm)),
+                jnt_D=np.zeros((n, nm, nm)),
                 jnt_qadr=np.zeros(n, dtype=np.int64), jnt_vadr=np.zeros(n, dtype=np.int64),
                 jnt_nv=np.zeros(n, dtype=np.int64), jnt_prescribed=np.zeros(n, dtype=bool),
                 jnt_motion_kind=np.full(n, -1), jnt_motion_par=np.zeros((n, 4)),
@@ -153,6 +156,6 @@ def empty_arrays(nb: int, nm: int, nt: int = 2) -> dict:
 def empty_loads(nl: int, nm: int) -> dict:
     """The point-load Model arrays (see Arrays.load_*), zeroed."""
     return dict(load_body=np.zeros(nl, dtype=np.int64), load_point=np.zeros((nl, 3)),
-                load_Phi=np.zeros((nl, 6, nm)), load_force=np.zeros((nl, 3)),
+                load_Phi=np.zeros((nl, 6, nm)), load_D=np.zeros((nl, nm, nm)), load_force=np.zeros((nl, 3)),
                 load_global=np.zeros(nl, dtype=bool), load_kind=np.zeros(nl, dtype=np.int64),
                 load_par=np.zeros((nl, 4)))

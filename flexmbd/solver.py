@@ -49,6 +49,8 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
     ch = channels.channels(case, traj)
     extent, outside = channels.validity(traj)
     status = sim.status if outside is None or not sim.status.ok else results.outside_validity(*outside)
+    if not status.ok and status.why.startswith("non-finite"):
+        status = results.failed(status.why + stiffening_hint(case, traj), status.t)
     modes = {n: {"count": fb.n_modes, "boundary": fb.boundary, "freq_hz": np.round(fb.freq_hz, 4).tolist()}
              for n, fb in model.bodies.items()}
     kinetic_max = float(E[:, 0].max()) if len(sim.t) else 0.0
@@ -57,6 +59,19 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
                   settings={**sim.settings, "modes": modes},
                   extra={"compile_s": compile_s, "kinetic_max_J": kinetic_max,
                          "validity": {"largest": extent, "limits": channels.LIMITS}})
+
+
+def stiffening_hint(case, traj) -> str:
+    """Why a run with geometric stiffening may have stopped: past moderate deflections of a
+    strongly bent beam its second-order mass matrix stops being positive definite (docs/formulation.md
+    §4b). '' when no stiffened beam was bent noticeably at the last sample."""
+    bent = {name: b.extent["deflection"][-1] for name, b in traj.beams.items()
+            if case["bodies"][name]["stiffening"] and len(b.extent.get("deflection", ()))}
+    name = max(bent, key=bent.get, default=None)
+    if name is None or bent[name] < 0.01:
+        return ""
+    return (f" (beam {name!r} bent {100 * bent[name]:.0f} % of its length at the last sample: the stiffened "
+            f"mass matrix holds for moderate deflections; split the beam with segments, or set stiffening = false)")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -149,8 +164,9 @@ def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
         sec = flexbody.beam_section(body)
         extent = channels.modal_extent(fb, eta, sec)
         F = node_forces(model, ev, i, Q, V)
-        extent["axial_load"] = channels.axial_load(channels.axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), mat["E"], sec,
-                                                   fb.length)
+        if not body["stiffening"]:                          # without stiffening the axial force is a limit
+            extent["axial_load"] = channels.axial_load(channels.axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), mat["E"],
+                                                       sec, fb.length)
         if name in stressed and not any(str(label).startswith("axial") for label in fb.labels):
             strains = channels.with_axial_strain(strains, {x: channels.axial_force(fb.x0, F, x) for x in strains},
                                                  mat["E"] * sec.A)

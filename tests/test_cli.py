@@ -49,9 +49,18 @@ def test_run_outside_linear_validity_warns_in_one_line(tmp_path, capsys):
     """The paper's printed E = 2.06e9 Pa: the pendulum bends far beyond a linear modal model's
     range; the run is ok, its status says so, and stderr carries exactly one warning line."""
     code = main(["run", "pendulum", "--solver", "flexmbd", "--set", "materials.steel.E=2.06e9", "--t-end", "0.4",
-                 "--out", str(tmp_path)])
+                 "--set", "bodies.beam.stiffening=false", "--out", str(tmp_path)])
     out, err = capsys.readouterr()
     warnings = [line for line in err.splitlines() if line.startswith("flexmbd: warning:")]
     assert code == 0 and len(warnings) == 1 and "linear validity" in warnings[0]
     status = json.loads((tmp_path / "pendulum" / "flexmbd.json").read_text())["status"]
     assert status.startswith("ok, outside linear validity (node rotation 0.52 rad")
+
+
+def test_a_stiffened_beam_bent_too_far_fails_saying_why(tmp_path, capsys):
+    """With stiffening, the E = 2.06e9 Pa pendulum stops once its mass matrix loses positive
+    definiteness; the failure names the beam, how far it was bent, and what to do."""
+    code = main(["run", "pendulum", "--solver", "flexmbd", "--set", "materials.steel.E=2.06e9", "--t-end", "0.4",
+                 "--out", str(tmp_path)])
+    status = json.loads((tmp_path / "pendulum" / "flexmbd.json").read_text())["status"]
+    assert code == 1 and status.startswith("failed: non-finite") and "segments" in status and "'beam' bent" in status

@@ -187,3 +187,28 @@ def test_snapping_is_the_nearest_node():
     h = length / n
     assert flexbody.node_index(length, n, 2.5 * h) == 2                 # half-way: the root side
     assert flexbody.snapped(length, n, 0.03) == pytest.approx(x0[1])
+
+
+# ---------------------------------------------------------------------------------------------
+# foreshortening (geometric stiffening)
+
+
+def test_foreshortening_gives_the_euler_buckling_load():
+    """D_tip is the modal geometric stiffness of a unit axial tip force: K_m - P D_tip turns
+    singular at the Euler load of the clamped-free beam, pi^2 E I / (4 L^2)."""
+    case = cases.load("cantilever_step")
+    fb = flexbody.for_case(case)["beam"]
+    sec, E = flexbody.beam_section(case["bodies"]["beam"]), case["materials"]["steel"]["E"]
+    lam = la.eigh(fb.Km, fb.D[-1], eigvals_only=True)
+    P_cr = np.pi ** 2 * E * min(sec.Iy, sec.Iz) / (4 * 1.5 ** 2)
+    assert lam[lam > 0].min() == pytest.approx(P_cr, rel=1e-3)           # 2e-4 with 100 elements
+
+
+def test_foreshortening_gives_southwell_coefficients():
+    """sum_p m_p x_p D_p projected on a mass-normalised bending mode is its Southwell coefficient
+    (omega^2 = omega_0^2 + K Omega^2, flapwise, hub radius 0): 1.1933, 6.4782, 17.8595 from the
+    continuous beam's Rayleigh quotients (benchmarks of docs/formulation.md §4b)."""
+    fb = flexbody.for_case(cases.load("cantilever_step"))["beam"]
+    Dh = np.einsum("p,p,pkl->kl", fb.m, fb.x0[:, 0], fb.D)
+    flap = [k for k, label in enumerate(fb.labels) if label.startswith("bending xz")][:3]
+    assert np.allclose(np.diag(Dh)[flap], [1.1933, 6.4782, 17.8595], rtol=2e-3)

@@ -24,7 +24,8 @@ def random_beam(rng, boundary=None, modes=None):
         modes["interfaces"] = [0.0, L]
     return {"type": "beam", "material": "steel", "length": L, "elements": int(rng.integers(6, 14)),
             "section": {"shape": "rectangle", "b": rng.uniform(0.02, 0.04), "h": rng.uniform(0.02, 0.05)},
-            "modes": modes, "damping_ratio": 0.0}
+            "modes": modes, "damping_ratio": 0.0,
+            "stiffening": False}          # the oracle's kinematics are the linear modal ones
 
 
 def random_case(rng, n_bodies, joint_types, flexible=0.0, gravity=(0.0, -9.81, 0.3)):

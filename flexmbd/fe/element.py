@@ -15,7 +15,7 @@ same block with the rotation rows and columns negated (``S B S``, ``S = diag(1, 
 import numpy as np
 
 __all__ = ["AXIAL", "TORSION", "BENDING_XY", "BENDING_XZ", "shear_parameters",
-           "stiffness", "mass_lumped", "mass_consistent"]
+           "stiffness", "mass_lumped", "mass_consistent", "geometric_stiffness"]
 
 # local DOF index sets of the four uncoupled families
 AXIAL = np.array([0, 6])
@@ -160,3 +160,16 @@ def mass_consistent(rho, sec, l):
     xy = _hermite_mass(m, l)
     xz = _S_XZ @ _hermite_mass(m, l) @ _S_XZ
     return _place(_bar_mass(m * l), _bar_mass(rho * sec.Ip * l), xy, xz)
+
+
+def geometric_stiffness(l):
+    """(12, 12) geometric stiffness of the element per unit axial force (tension positive), 1/m:
+    the Hessian of 1/2 int (uy'^2 + uz'^2) dx over the element DOFs with the cubic Hermite
+    interpolation of the transverse displacements (both planes; axial and torsion rows zero).
+    With a constant axial force N the element's geometric stiffness is N times this."""
+    B = np.array([[36.0, 3.0 * l, -36.0, 3.0 * l],
+                  [3.0 * l, 4.0 * l**2, -3.0 * l, -l**2],
+                  [-36.0, -3.0 * l, 36.0, -3.0 * l],
+                  [3.0 * l, -l**2, -3.0 * l, 4.0 * l**2]]) / (30.0 * l)
+    z = np.zeros((2, 2))
+    return _place(z, z, B, _S_XZ @ B @ _S_XZ)
