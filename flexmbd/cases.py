@@ -5,6 +5,11 @@ every point on a beam snapped to its node by the one rule (`flexbody.node_index`
 sections keyed by channel, nq and nv, and the reduced flexible bodies (computed on first use,
 cached by content: `flexbody.reduce`).
 
+A beam with `segments = N` is split, once, into N beams joined rigidly (`split_segments`):
+`Case.segmented` is the case of that expanded tree, which the modal solvers model, while
+`Case.data` and `Case.resolved` keep the whole beam, which the channels measure and the
+solvers that model the whole beam themselves read.
+
 Every key a case may hold is declared once, in the schema below (`cases/README.md` documents
 the same keys with units). Loading fills defaults, checks types, signs and ranges, resolves
 references between sections, and rejects unknown keys with a "did you mean" hint. Any failure
@@ -70,6 +75,7 @@ BEAM = {
     "shear": ("bool", False),
     "rigid": ("bool", False),
     "stiffening": ("bool", True),   # geometric stiffening: the foreshortening of bent nodes (formulation §4b)
+    "segments": ("int+", 1),        # modal solvers: N flexible beams of length L / N, joined rigidly
 }
 
 RIGID = {
@@ -202,7 +208,12 @@ class Resolved:
     stress: MappingProxyType    # stress channel -> (Point, fibre (y, z) or None)
     nq: int
     nv: int
+    segments: MappingProxyType  # split beam -> its segments' body names, root first (`split_segments`)
     _data: dict = field(repr=False)
+
+    def place(self, body: str, x: float) -> tuple[str, float]:
+        """(body, x) in the segmented tree of position x (m) along `body` (`place`)."""
+        return place(self._data, body, x)
 
     def body(self, name: str) -> Body:
         return next(b for b in self.bodies if b.name == name)
@@ -229,7 +240,8 @@ class Resolved:
 @dataclass(frozen=True)
 class Case:
     """A validated case: `data` is the case as nested dicts with every default filled in,
-    `resolved` what is derived from it once."""
+    `resolved` what is derived from it once, `segmented` the case of the tree the modal solvers
+    model (every beam split into its `segments`; the case itself when none is)."""
 
     name: str
     path: Path
@@ -237,10 +249,16 @@ class Case:
     sha256: str = ""
     overrides: tuple = field(default_factory=tuple)
     resolved: Resolved | None = field(default=None, repr=False, compare=False)
+    segmented: Case | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         if self.resolved is None:
             object.__setattr__(self, "resolved", resolve(self.data))
+        if self.segmented is None:
+            data = split_segments(self.data)
+            object.__setattr__(self, "segmented", self if data is self.data else
+                               Case(name=self.name, path=self.path, data=data, sha256=self.sha256,
+                                    overrides=self.overrides))
 
     def __getitem__(self, key):
         return self.data[key]
@@ -502,20 +520,25 @@ def _check_beam(b, d, where, k):
     for dim in ("b", "h", "d"):
         if dim not in need and s[dim] is not None:
             _fail(where, f"{k}.section.{dim}", f"not used by a {s['shape']} section")
+    n = b["segments"]
+    if b["elements"] % n:
+        _fail(where, f"{k}.segments",
+              f"{n} segments need a number of elements divisible by {n}, got elements = {b['elements']}")
     m = b["modes"]
-    n_nodes = b["elements"] + 1
+    elements, length = b["elements"] // n, b["length"] / n          # of one segment (the beam if n = 1)
+    mesh = f"the {elements}-element mesh" + (f" of each of the {n} segments" if n > 1 else "")
     fixed = {"clamped-free": 6, "hinged-hinged": 6, "free-free": 0, "craig-bampton": 0}[m["boundary"]]
-    free = 6 * n_nodes - fixed - (6 if m["boundary"] in ("free-free", "craig-bampton") else 0)
+    free = 6 * (elements + 1) - fixed - (6 if m["boundary"] in ("free-free", "craig-bampton") else 0)
     if m["count"] > free:
         _fail(where, f"{k}.modes.count",
-              f"{m['count']} modes requested but the {b['elements']}-element mesh with "
-              f"{m['boundary']} boundaries has only {free} free DOFs")
+              f"{m['count']} modes requested but {mesh} with {m['boundary']} boundaries has only {free} free DOFs")
     if m["boundary"] == "craig-bampton":
         if not m["interfaces"]:
             _fail(where, f"{k}.modes.interfaces", "craig-bampton needs interface positions along the beam (m)")
         for x in m["interfaces"]:
-            if not 0.0 <= x <= b["length"]:
-                _fail(where, f"{k}.modes.interfaces", f"position {x} m lies outside the beam [0, {b['length']}]")
+            if not 0.0 <= x <= length:
+                what = "each segment" if n > 1 else "the beam"
+                _fail(where, f"{k}.modes.interfaces", f"position {x} m lies outside {what} [0, {length}]")
     elif m["interfaces"] is not None:
         _fail(where, f"{k}.modes.interfaces", "only used with boundary = \"craig-bampton\"")
 
@@ -670,8 +693,83 @@ def resolve(data: dict) -> Resolved:
     points = {n: beam_point(data, c["body"], c["at"]) for n, c in data["channels"].items() if c["kind"] == "deflection"}
     stress = {n: (beam_point(data, c["body"], c["at"]), None if c["fibre"] is None else tuple(c["fibre"]))
               for n, c in data["channels"].items() if c["kind"] == "stress_vm"}
+    segments = {name: tuple(segment_name(name, k) for k in range(n)) for name, n in split(data).items()}
     return Resolved(bodies=tuple(bodies), joints=MappingProxyType(joints), points=MappingProxyType(points),
-                    stress=MappingProxyType(stress), nq=nq, nv=nv, _data=data)
+                    stress=MappingProxyType(stress), nq=nq, nv=nv, _data=data, segments=MappingProxyType(segments))
+
+
+# ---------------------------------------------------------------------------------------------
+# segments: a beam split into flexible beams joined rigidly (docs/formulation.md §9)
+
+
+def split(data: dict) -> dict:
+    """{beam: N} of the flexible beams with `segments` = N > 1 (a beam declared rigid is not split)."""
+    return {name: b["segments"] for name, b in data["bodies"].items()
+            if b["type"] == "beam" and not b["rigid"] and b["segments"] > 1}
+
+
+def segment_name(beam: str, k: int) -> str:
+    """Body name of segment k (0-based) of a split beam: 'beam:1' is its root segment."""
+    return f"{beam}:{k + 1}"
+
+
+def segment_of(length: float, n: int, x: float) -> tuple[int, float]:
+    """(k, x - k length / n): the segment (0-based) of a beam split in n that holds position x (m),
+    and x along that segment. A point on a boundary belongs to the segment that starts there
+    (within round-off), the beam's end to the last segment."""
+    s = x * n / length
+    k = min(round(s) if abs(s - round(s)) < 1e-9 else int(s), n - 1)
+    return k, max(x - k * length / n, 0.0)
+
+
+def place(data: dict, body: str, x):
+    """(body, x) in the segmented tree of position x along `body` (a point [x, y, z] on a body
+    that is not split is returned as it is)."""
+    n = split(data).get(body)
+    if n is None:
+        return body, x
+    k, local = segment_of(data["bodies"][body]["length"], n, x)
+    return segment_name(body, k), local
+
+
+def split_segments(data: dict) -> dict:
+    """The case data of the tree the modal solvers model: every flexible beam with `segments` = N
+    > 1 replaced by N beams `beam:1` .. `beam:N` of length L / N and elements / N elements, each
+    with the beam's `modes` table, joined by fixed joints `beam:k-k+1` at the end node of segment
+    k. Segment 1 takes the beam's joint (same name, same parent); joints on the beam, loads and
+    channels at position x go to the segment that holds x (`segment_of`). `data` itself when no
+    beam is split."""
+    parts = split(data)
+    if not parts:
+        return data
+    bodies, joints = {}, {}
+    for jn, j in data["joints"].items():
+        j = copy.deepcopy(j)
+        if j["child"] in parts:
+            j["child"] = segment_name(j["child"], 0)
+        j["parent"], j["at"] = place(data, j["parent"], j["at"])
+        joints[jn] = j
+    for name, b in data["bodies"].items():
+        n = parts.get(name)
+        if n is None:
+            bodies[name] = copy.deepcopy(b)
+            continue
+        seg = {**copy.deepcopy(b), "length": b["length"] / n, "elements": b["elements"] // n, "segments": 1}
+        for k in range(n):
+            bodies[segment_name(name, k)] = copy.deepcopy(seg)
+        for k in range(1, n):
+            j = check_table({"type": "fixed", "parent": segment_name(name, k - 1), "child": segment_name(name, k),
+                             "at": seg["length"]}, JOINT, "segments", "")
+            _check_joint_values(j, "segments", "")
+            joints[f"{name}:{k}-{k + 1}"] = j
+    loads = copy.deepcopy(data["loads"])
+    for ld in loads.values():
+        ld["body"], ld["at"] = place(data, ld["body"], ld["at"])
+    chans = copy.deepcopy(data["channels"])
+    for c in chans.values():
+        if c["kind"] in ("deflection", "stress_vm"):
+            c["body"], c["at"] = place(data, c["body"], c["at"])
+    return {**copy.deepcopy(data), "bodies": bodies, "joints": joints, "loads": loads, "channels": chans}
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,5 +1,7 @@
 """`flexmbd`, the in-house solver, behind the same interface as every other solver (solvers.py):
-the case's Model integrated in time, reported as a `channels.Trajectory` of its states."""
+the case's Model integrated in time, reported as a `channels.Trajectory` of its states. The Model
+is that of the segmented tree (`cases.Case.segmented`: a beam with `segments` is several bodies);
+the trajectory reports every beam of the case whole."""
 
 from __future__ import annotations
 
@@ -29,7 +31,7 @@ def applies(case) -> str:
 
 def run(case, t_end, settings, progress: bool = True) -> Result:
     t0 = time.perf_counter()
-    model = from_case(case, flexbody.for_case(case))
+    model = from_case(case.segmented, flexbody.for_case(case.segmented))
     setup_s = time.perf_counter() - t0
 
     # compile (or load from the cache) before the clock starts
@@ -143,24 +145,27 @@ def node_forces(model: Model, ev: Evaluated, i: int, Q, V) -> np.ndarray:
 
 
 def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
-    """The channels' view of states Q (n, nq), V (n, nv) at t (n,); E: `energies` if known."""
+    """The channels' view of states Q (n, nq), V (n, nv) at t (n,) of the Model of
+    `case.segmented`; E: `energies` if known. A beam split into segments is reported whole
+    (`joined`)."""
+    seg = case.segmented
     traj = channels.Trajectory(t=t)
     for jname in channels.joints_needed(case):
-        i = model.index(case["joints"][jname]["child"])
+        i = model.index(seg["joints"][jname]["child"])
         traj.joints[jname] = Q[:, model.jnt_qadr[i]].copy()
     if channels.wants_energy(case):
         E = energies(model, Q, V) if E is None else E
         traj.energy = {"kinetic": E[:, 0], "potential": E[:, 1]}
     asked = [c["joint"] for c in case["channels"].values() if c["kind"] in ("reaction_force", "reaction_moment")]
-    stressed = {c["body"] for c in case["channels"].values() if c["kind"] == "stress_vm"} & set(model.bodies)
+    stressed = {c["body"] for c in seg["channels"].values() if c["kind"] == "stress_vm"} & set(model.bodies)
     ev = evaluate(model, t, Q, V)
-    traj.reactions = {j: ev.f[:, model.index(case["joints"][j]["child"])] for j in asked}
+    traj.reactions = {j: ev.f[:, model.index(seg["joints"][j]["child"])] for j in asked}
     for name, fb in model.bodies.items():
         i = model.index(name)
         eta = Q[:, model.body_madr[i]:model.body_madr[i] + model.body_nm[i]]
-        points, x0 = channels.modal_points(fb, channels.points_needed(case, name), eta)
+        points, x0 = channels.modal_points(fb, channels.points_needed(seg, name), eta)
         strains = channels.modal_strains(fb, eta)
-        body, mat = case["bodies"][name], case["materials"][case["bodies"][name]["material"]]
+        body, mat = seg["bodies"][name], seg["materials"][seg["bodies"][name]["material"]]
         sec = flexbody.beam_section(body)
         extent = channels.modal_extent(fb, eta, sec)
         F = node_forces(model, ev, i, Q, V)
@@ -172,4 +177,38 @@ def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
                                                  mat["E"] * sec.A)
         traj.beams[name] = channels.Beam(length=fb.length, points=points, x0=x0, root=channels.modal_root(fb, eta),
                                          strains=strains, extent=extent)
+    for beam, parts in case.resolved.segments.items():
+        traj.beams[beam] = joined(case, model, ev, Q, beam, [traj.beams.pop(p) for p in parts])
     return traj
+
+
+def joined(case, model: Model, ev: Evaluated, Q, beam: str, parts: list) -> channels.Beam:
+    """The Beam of a beam split into segments, from its segments' Beams `parts` (root first):
+    points in the global frame, r_k + E_k^T (x0_p + Phi_t,p eta_k) with segment k's pose from X0,
+    the root rotation E_1^T R_1 of segment 1's root node (None with hinged-hinged modes: the
+    chord through the beam's ends), strains from the segment holding each stress section, and
+    per validity measure the largest over the segments (each against its own length)."""
+    L = case["bodies"][beam]["length"]
+    first = model.index(case.resolved.place(beam, 0.0)[0])
+    points, x0 = {}, {}
+    for x in channels.points_needed(case, beam):
+        name, local = case.resolved.place(beam, x)
+        i = model.index(name)
+        fb = model.bodies[name]
+        eta = Q[:, model.body_madr[i]:model.body_madr[i] + model.body_nm[i]]
+        p, p0 = channels.modal_points(fb, [local], eta)
+        X = ev.X0[:, i]
+        E = X[:, :3, :3]                                                     # global -> segment frame
+        rx = -np.einsum("nji,njk->nik", E, X[:, 3:, :3])                    # r~ of the segment origin
+        r = np.stack([rx[:, 2, 1], rx[:, 0, 2], rx[:, 1, 0]], axis=1)
+        points[x] = r + np.einsum("nji,nj->ni", E, p[local])
+        x0[x] = p0[local] + np.array([x - local, 0.0, 0.0])
+    root = parts[0].root
+    if root is not None:
+        root = np.einsum("nji,njk->nik", ev.X0[:, first, :3, :3], root)
+    strains = {}
+    for x in case.resolved.stress_sections(beam):
+        name, local = case.resolved.place(beam, x)
+        strains[x] = parts[case.resolved.segments[beam].index(name)].strains[local]
+    extent = {k: np.max([b.extent[k] for b in parts], axis=0) for k in parts[0].extent}
+    return channels.Beam(length=L, points=points, x0=x0, root=root, strains=strains, extent=extent)

@@ -72,6 +72,10 @@ def version() -> str:
 
 
 def applies(case) -> str:
+    if case.resolved.segments:
+        name = next(iter(case.resolved.segments))
+        return (f"body {name!r}: its segments are joined rigidly at a flexible node, whose rotation "
+                f"Exudyn's super-element markers cannot hold for a beam's collinear nodes")
     planar = xc.is_planar(case)
     for jn, j in case["joints"].items():
         parent = case["bodies"].get(j["parent"])
