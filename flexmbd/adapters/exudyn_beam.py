@@ -47,6 +47,7 @@ SETTINGS = {
     "solver": (tuple(xc.IMPLICIT), "generalized-alpha"),
     "spectral_radius": ("float0+", 0.9),
     "newton_rtol": ("float+", 1e-5),
+    "newton_atol": ("float+", None),         # absolute residual tolerance; None: newton_rtol / 100
     "adaptive": ("bool", False),
 }
 
@@ -387,6 +388,8 @@ def run(case, t_end, settings):
     with xc.quiet():
         SC, mbs, beams, S = build(case, opt["elements"])
     sim = xc.simulation_settings(case, t_end, dt, opt)
+    if opt["newton_atol"] is not None:
+        sim.timeIntegration.newton.absoluteTolerance = opt["newton_atol"]
     setup_s = time.perf_counter() - t_start
 
     status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"])
