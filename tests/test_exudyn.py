@@ -10,7 +10,7 @@ import pytest
 
 pytest.importorskip("exudyn")
 
-from flexmbd import cases, flexbody, invariants, solvers  # noqa: E402
+from flexmbd import cases, flexbody, invariants, profiles, solvers  # noqa: E402
 from flexmbd.adapters import exudyn_beam, exudyn_ffrf  # noqa: E402
 
 
@@ -206,3 +206,50 @@ def test_beam_pendulum_channels_short():
     assert np.abs(r.channels["energy"]).max() < 1e-3 * 12.9   # 0.1 % of the kinetic energy at the bottom
 
 
+
+
+# prescribed hub motion: the root node's rotation follows the profile
+
+HUB_PROFILES = {
+    "constant_rate": "{type='constant_rate', rate=4.0}",
+    "harmonic": "{type='harmonic', amplitude=0.3, frequency=0.7, phase=0.4, offset=0.1}",
+    "spin_up": "{type='spin_up', W=6.0, T=1.5}",
+    "table": None,                                  # written below, relative to tmp_path
+}
+
+
+@pytest.mark.parametrize("kind", list(HUB_PROFILES))
+def test_beam_hub_angle_follows_the_profile(kind, tmp_path):
+    """The hub angle channel is the joint's profile (profiles.motion, as flexmbd drives it) to 1e-9."""
+    motion = HUB_PROFILES[kind]
+    if motion is None:
+        f = tmp_path / "hub.csv"
+        f.write_text("t,q\n0,0\n0.5,0.2\n1,0.9\n1.5,1.0\n2,1.4\n")
+        motion = f"{{type='table', file='{f}'}}"
+    case = cases.load("spinup_beam", [f"joints.hub.motion={motion}", "joints.hub.q0=0.25",
+                                      "solvers.exudyn-beam.elements=8", "solvers.exudyn-beam.dt=1e-3"])
+    r = solvers.run(case, "exudyn-beam", 2.0)
+    assert r.ok, r.status
+    prof = case["joints"]["hub"]["motion"]
+    q = np.array([profiles.motion(prof, t, 0.25)[0] for t in r.t])
+    assert np.abs(r.channels["hub_angle"] - q).max() < 1e-9
+
+
+def test_beam_constant_rate_hub_carries_the_beam_rigidly():
+    """A beam clamped to a hub turning at constant rate from t = 0, starting straight and moving
+    with the hub, stays straight and on the hub's line: no transverse deflection beyond 1e-4 L,
+    the hub angle is rate t, and the tip's radial stretch averages the centrifugal
+    rho Omega^2 L^3 / (3 E) of the rotating rod."""
+    case = cases.load("rotating_cantilever", ["loads.kick.force=[0.0, 0.0, 0.0]",
+                                              "channels.tip_x={kind='deflection', body='beam', at=10.0, component='x'}"])
+    r = solvers.run(case, "exudyn-beam", 2.0)
+    assert r.ok, r.status
+    assert np.abs(r.channels["hub_angle"] - 4.0 * r.t).max() < 1e-9
+    assert np.abs(r.channels["tip_deflection"]).max() < 1e-4 * 10.0
+    stretch = 3000.0 * 4.0 ** 2 * 10.0 ** 3 / (3 * 7e10)
+    assert np.mean(r.channels["tip_x"]) == pytest.approx(stretch, rel=0.03)
+
+
+def test_beam_declines_motion_off_ground():
+    case = cases.load("double_pendulum", ["joints.pivot2.motion={type='constant_rate', rate=1.0}"])
+    assert "revolute joint to ground" in exudyn_beam.applies(case)

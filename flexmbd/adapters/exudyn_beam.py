@@ -10,8 +10,13 @@ tree puts it (joint q0 included), undeformed and at rest.
 Joints (planar only): a revolute joint about z is `ObjectJointRevolute2D` (a pin: the two node
 positions coincide) between ground and the root node or between a node of the parent beam (the
 one the case snaps `at` to) and the child's root node; a fixed joint to ground clamps the root
-node's three coordinates. Point loads are `LoadForceVector` on their node (a body-frame load
-turns with the root node); gravity is `LoadMassProportional` on every element.
+node's three coordinates. A revolute joint to ground with prescribed motion (the hub of a
+spin-up or slewing beam) is the same pin plus a `CoordinateConstraint` that holds the root
+node's rotation on the profile: its offset user functions are `profiles.motion` (angle and
+rate), so the root is clamped to a hub turning exactly as flexmbd's joint does. The beam starts
+undeformed on the profile's q(0), every node moving with the rigid rotation at its rate qd(0).
+Point loads are `LoadForceVector` on their node (a body-frame load turns with the root node);
+gravity is `LoadMassProportional` on every element.
 
 The trajectory (`flexmbd.channels`) from Exudyn's nodes and elements (DESIGN §2):
   deflection   clamped-root body: node displacement in the root node's frame (the cross-section
@@ -42,6 +47,7 @@ SETTINGS = {
     "solver": (tuple(xc.IMPLICIT), "generalized-alpha"),
     "spectral_radius": ("float0+", 0.9),
     "newton_rtol": ("float+", 1e-5),
+    "newton_atol": ("float+", None),         # absolute residual tolerance; None: newton_rtol / 100
     "adaptive": ("bool", False),
 }
 
@@ -66,9 +72,9 @@ def applies(case) -> str:
             return f"joint {jn!r}: only revolute (pin) and fixed joints"
         if j["type"] == "fixed" and j["parent"] != "ground":
             return f"joint {jn!r}: fixed joints only to ground"
-        if j["motion"] is not None:
-            return f"joint {jn!r}: prescribed motion is not modelled"
-        if any(abs(x) > 0 for x in j["qd0"]):
+        if j["motion"] is not None and (j["type"] != "revolute" or j["parent"] != "ground"):
+            return f"joint {jn!r}: prescribed motion only on a revolute joint to ground"
+        if j["motion"] is None and any(abs(x) > 0 for x in j["qd0"]):
             return f"joint {jn!r}: the beams start at rest"
     for cname, c in case["channels"].items():
         if c.get("component") == "z":
@@ -104,8 +110,31 @@ def initial_frames(case, n_el: dict) -> dict:
         else:
             off = np.array([snapped(case["bodies"][j["parent"]], at, n_el[j["parent"]]), 0.0])
         c, s = np.cos(a), np.sin(a)
-        q0 = j["q0"][0] if j["type"] == "revolute" else 0.0
-        out[name] = (a + j["rpy"][2] + q0, p + np.array([c * off[0] - s * off[1], s * off[0] + c * off[1]]))
+        out[name] = (a + j["rpy"][2] + start(j)[0], p + np.array([c * off[0] - s * off[1], s * off[0] + c * off[1]]))
+    return out
+
+
+def start(j: dict) -> tuple:
+    """(q, qd) of a joint at t = 0: its profile's for prescribed motion, else (q0, 0); (0, 0) fixed."""
+    if j["type"] != "revolute":
+        return 0.0, 0.0
+    q0 = float(j["q0"][0])
+    if j["motion"] is None:
+        return q0, 0.0
+    q, qd, _ = profiles.motion(j["motion"], 0.0, q0)
+    return q, qd
+
+
+def initial_rates(case, frames: dict) -> dict:
+    """Planar (angular rate, origin velocity (2,)) of every body frame at t = 0: the bodies move
+    rigidly with the prescribed joint rates qd(0) (zero on a joint that is not driven)."""
+    by_child = {j["child"]: j for j in case["joints"].values()}
+    out = {"ground": (0.0, np.zeros(2))}
+    for name in case.resolved.order:
+        j = by_child[name]
+        w, v = out[j["parent"]]
+        r = frames[name][1] - frames[j["parent"]][1]
+        out[name] = (w + start(j)[1], v + w * np.array([-r[1], r[0]]))
     return out
 
 
@@ -119,12 +148,15 @@ def node_index(body: dict, at, n: int) -> int:
     return flexbody.node_index(body["length"], n, at if not isinstance(at, list) else at[0])
 
 
-def add_beam(mbs, body: dict, mat: dict, n: int, angle: float, origin) -> dict:
-    """Nodes (n+1) and elements (n) of one beam along its frame's x axis."""
+def add_beam(mbs, body: dict, mat: dict, n: int, angle: float, origin, w: float = 0.0, v=(0.0, 0.0)) -> dict:
+    """Nodes (n+1) and elements (n) of one beam along its frame's x axis, moving rigidly with
+    the frame: angular rate w (rad/s), origin velocity v (2,) (m/s)."""
     k = section_constants(body, mat)
     l = body["length"] / n
     ex = np.array([np.cos(angle), np.sin(angle)])
+    ey = np.array([-ex[1], ex[0]])
     nodes = [mbs.AddNode(eii.NodeRigidBody2D(referenceCoordinates=[*(origin + i * l * ex), angle],
+                                             initialVelocities=[*(np.asarray(v) + w * i * l * ey), w],
                                              visualization=eii.VNodeRigidBody2D(show=False)))
              for i in range(n + 1)]
     elems = [mbs.AddObject(eii.ObjectBeamGeometricallyExact2D(
@@ -136,7 +168,8 @@ def add_beam(mbs, body: dict, mat: dict, n: int, angle: float, origin) -> dict:
 
 
 def add_joint(mbs, case, beams: dict, ground, j: dict) -> None:
-    """Pin (revolute about z) or clamp (fixed to ground) at the child's root node."""
+    """Pin (revolute about z) or clamp (fixed to ground) at the child's root node; a driven
+    revolute joint to ground clamps the root rotation to its profile."""
     child = beams[j["child"]]
     m1 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=child["nodes"][0]))
     if j["parent"] == "ground":
@@ -149,12 +182,30 @@ def add_joint(mbs, case, beams: dict, ground, j: dict) -> None:
         m0 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=par["nodes"][node_index(pb, j["at"], len(par["elems"]))]))
     mbs.AddObject(eii.ObjectJointRevolute2D(markerNumbers=[m0, m1],
                                             visualization=eii.VObjectJointRevolute2D(show=False)))
-    if j["type"] == "fixed":                     # lock the root rotation as well
+    if j["type"] == "fixed" or j["motion"] is not None:     # lock (or drive) the root rotation
         ng = mbs.AddNode(eii.NodePointGround(visualization=eii.VNodePointGround(show=False)))
         mg = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=ng, coordinate=0))
         mr = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=child["nodes"][0], coordinate=2))
-        mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[mg, mr],
+        kw = hub_offset(j) if j["motion"] is not None else {}
+        mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[mg, mr], **kw,
                                                visualization=eii.VCoordinateConstraint(show=False)))
+
+
+def hub_offset(j: dict) -> dict:
+    """Offset user functions of the root rotation's coordinate constraint on a driven joint.
+
+    The constraint holds the rotation coordinate, which Exudyn counts from the node's reference
+    angle (the profile's q(0)), so the offset is q(t) - q(0); its rate qd(t) serves the
+    velocity-level (index-2) solvers."""
+    prof, q0 = j["motion"], float(j["q0"][0])
+    q_start = profiles.motion(prof, 0.0, q0)[0]
+
+    def offset(mbs, t, itemNumber, lOffset):
+        return profiles.motion(prof, t, q0)[0] - q_start
+
+    def offset_t(mbs, t, itemNumber, lOffset):
+        return profiles.motion(prof, t, q0)[1]
+    return {"offsetUserFunction": offset, "offsetUserFunction_t": offset_t}
 
 
 def add_loads(mbs, case, beams: dict) -> None:
@@ -314,10 +365,11 @@ def build(case, n: int):
     SC, mbs = xc.system()
     ground = mbs.AddObject(eii.ObjectGround())
     frames = initial_frames(case, {name: n for name in case["bodies"]})
+    rates = initial_rates(case, frames)
     beams = {}
     for name, body in case["bodies"].items():
         a, p = frames[name]
-        beams[name] = add_beam(mbs, body, case["materials"][body["material"]], n, a, p)
+        beams[name] = add_beam(mbs, body, case["materials"][body["material"]], n, a, p, *rates[name])
         beams[name]["angle0"] = a
     for j in case["joints"].values():
         add_joint(mbs, case, beams, ground, j)
@@ -336,6 +388,8 @@ def run(case, t_end, settings):
     with xc.quiet():
         SC, mbs, beams, S = build(case, opt["elements"])
     sim = xc.simulation_settings(case, t_end, dt, opt)
+    if opt["newton_atol"] is not None:
+        sim.timeIntegration.newton.absoluteTolerance = opt["newton_atol"]
     setup_s = time.perf_counter() - t_start
 
     status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"])
