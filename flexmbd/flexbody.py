@@ -80,6 +80,12 @@ class FlexBody:
         return node_index(self.length, self.n_nodes - 1, x)
 
 
+def axial_free(fb: FlexBody) -> bool:
+    """True when no retained mode is axial: the beam's axial force is then recovered
+    quasi-statically (docs/formulation.md §7)."""
+    return not any(str(label).startswith("axial") for label in fb.labels)
+
+
 def node_index(length: float, elements: int, x: float) -> int:
     """The node nearest to position x (m) along a beam meshed in `elements` equal elements: the
     one snapping rule of every solver (half-way between two nodes goes to the root side)."""

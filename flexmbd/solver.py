@@ -158,7 +158,9 @@ def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
         traj.energy = {"kinetic": E[:, 0], "potential": E[:, 1]}
     asked = [c["joint"] for c in case["channels"].values() if c["kind"] in ("reaction_force", "reaction_moment")]
     stressed = {c["body"] for c in seg["channels"].values() if c["kind"] == "stress_vm"} & set(model.bodies)
-    ev = evaluate(model, t, Q, V)
+    axial = {name for name, fb in model.bodies.items()
+             if not seg["bodies"][name]["stiffening"] or (name in stressed and flexbody.axial_free(fb))}
+    ev = evaluate(model, t, Q, V) if asked or axial or case.resolved.segments else None
     traj.reactions = {j: ev.f[:, model.index(seg["joints"][j]["child"])] for j in asked}
     for name, fb in model.bodies.items():
         i = model.index(name)
@@ -168,11 +170,11 @@ def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
         body, mat = seg["bodies"][name], seg["materials"][seg["bodies"][name]["material"]]
         sec = flexbody.beam_section(body)
         extent = channels.modal_extent(fb, eta, sec)
-        F = node_forces(model, ev, i, Q, V)
+        F = node_forces(model, ev, i, Q, V) if name in axial else None
         if not body["stiffening"]:                          # without stiffening the axial force is a limit
             extent["axial_load"] = channels.axial_load(channels.axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), mat["E"],
                                                        sec, fb.length)
-        if name in stressed and not any(str(label).startswith("axial") for label in fb.labels):
+        if name in stressed and flexbody.axial_free(fb):
             strains = channels.with_axial_strain(strains, {x: channels.axial_force(fb.x0, F, x) for x in strains},
                                                  mat["E"] * sec.A)
         traj.beams[name] = channels.Beam(length=fb.length, points=points, x0=x0, root=channels.modal_root(fb, eta),

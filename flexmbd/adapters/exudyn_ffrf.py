@@ -408,8 +408,7 @@ def axial_bodies(case, fbs) -> list:
     """Names of the flexible beams whose stress takes the quasi-static axial force: a stress_vm
     channel on the beam and no axial retained mode (as flexmbd, docs/formulation.md §7)."""
     stressed = {c["body"] for c in case["channels"].values() if c["kind"] == "stress_vm"}
-    return [n for n, fb in fbs.items()
-            if n in stressed and not any(str(label).startswith("axial") for label in fb.labels)]
+    return [n for n, fb in fbs.items() if n in stressed and flexbody.axial_free(fb)]
 
 
 def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
