@@ -367,3 +367,26 @@ def _energy(model, data, q, v):
 def energy(model: Model, data: Data, q, v) -> tuple[float, float]:
     """(kinetic, potential) energy of the state."""
     return _energy(model.arrays, data, q, v)
+
+
+def free_velocities(model: Model) -> np.ndarray:
+    """Indices into v of the coordinates that are not prescribed: free joints' and all modal."""
+    keep = np.ones(model.nv, dtype=bool)
+    for i in range(1, model.nb + 1):
+        if model.jnt_prescribed[i]:
+            keep[model.jnt_vadr[i]:model.jnt_vadr[i] + model.jnt_nv[i]] = False
+    return np.flatnonzero(keep)
+
+
+def mass_matrix_system(model: Model, data: Data, q) -> np.ndarray:
+    """M(q) (nv, nv) of the whole tree, from the kinetic energy T = 1/2 v^T M v by polarization:
+    M_ii = 2 T(e_i), M_ij = T(e_i + e_j) - T(e_i) - T(e_j). For diagnosis and linearization,
+    not for time stepping (nv^2 / 2 energy evaluations)."""
+    E = np.eye(model.nv)
+    T = [energy(model, data, q, E[i])[0] for i in range(model.nv)]
+    M = np.diag(2.0 * np.array(T))
+    for i in range(model.nv):
+        for j in range(i):
+            M[i, j] = M[j, i] = energy(model, data, q, E[i] + E[j])[0] - T[i] - T[j]
+    return M
+

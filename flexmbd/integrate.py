@@ -382,7 +382,10 @@ def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq):
     r.set_initial_value(y0, 0.0)
     k = 0
     for k in range(1, t_out.size):
-        y = r.integrate(t_out[k])
+        try:
+            y = r.integrate(t_out[k])
+        except Stop as e:                       # raised by f: keep VODE's step count
+            return k - 1, int(r._integrator.iwork[10]), e.args[0]
         if not r.successful():
             return k - 1, int(r._integrator.iwork[10]), \
                 results.failed(f"VODE return code {r.get_return_code()}", r.t)

@@ -52,7 +52,7 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
     extent, outside = channels.validity(traj)
     status = sim.status if outside is None or not sim.status.ok else results.outside_validity(*outside)
     if not status.ok and status.why.startswith("non-finite"):
-        status = results.failed(status.why + stiffening_hint(case, traj), status.t)
+        status = stiffening_limit(case, model, sim, traj) or status
     modes = {n: {"count": fb.n_modes, "boundary": fb.boundary, "freq_hz": np.round(fb.freq_hz, 4).tolist()}
              for n, fb in model.bodies.items()}
     kinetic_max = float(E[:, 0].max()) if len(sim.t) else 0.0
@@ -63,17 +63,31 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
                          "validity": {"largest": extent, "limits": channels.LIMITS}})
 
 
-def stiffening_hint(case, traj) -> str:
-    """Why a run with geometric stiffening may have stopped: past moderate deflections of a
-    strongly bent beam its second-order mass matrix stops being positive definite (docs/formulation.md
-    §4b). '' when no stiffened beam was bent noticeably at the last sample."""
-    bent = {name: b.extent["deflection"][-1] for name, b in traj.beams.items()
-            if case["bodies"][name]["stiffening"] and len(b.extent.get("deflection", ()))}
-    name = max(bent, key=bent.get, default=None)
-    if name is None or bent[name] < 0.01:
-        return ""
-    return (f" (beam {name!r} bent {100 * bent[name]:.0f} % of its length at the last sample: the stiffened "
-            f"mass matrix holds for moderate deflections; split the beam with segments, or set stiffening = false)")
+SINGULAR = 0.1     # smallest eigenvalue of M at the last sample, relative to the start: M is singular
+
+
+def stiffening_limit(case, model: Model, sim, traj) -> results.Status | None:
+    """Why a run with geometric stiffening that ended in non-finite values stopped, when it is the
+    model's own limit: past moderate deflections of a strongly bent beam the second-order mass
+    matrix stops being positive definite (docs/formulation.md §4b). Diagnosed from the system mass
+    matrix over the free coordinates at the last finite sample: its smallest eigenvalue has fallen
+    below SINGULAR times its value at the start. None when not (or no beam is stiffened)."""
+    stiff = [n for n, b in traj.beams.items() if case["bodies"][n]["stiffening"]]
+    finite = np.flatnonzero(np.all(np.isfinite(sim.q), axis=1) & np.all(np.isfinite(sim.v), axis=1))
+    if not stiff or finite.size < 2:
+        return None
+    free, data = dynamics.free_velocities(model), make_data(model)
+    lam = [np.linalg.eigvalsh(dynamics.mass_matrix_system(model, data, sim.q[k])[np.ix_(free, free)])[0]
+           for k in (0, finite[-1])]
+    if lam[1] >= SINGULAR * lam[0]:
+        return None
+    bent = {n: traj.beams[n].extent["deflection"][finite[-1]] for n in stiff}
+    name = max(bent, key=bent.get)
+    return results.failed(
+        f"outside linear validity: the stiffened mass matrix stops being positive definite (beam {name!r} bent "
+        f"{100 * bent[name]:.1f} % of its length, smallest eigenvalue {lam[1] / lam[0]:.2g} of its initial value at "
+        f"t = {sim.t[finite[-1]]:.6g} s; docs/formulation.md §4b: split the beam with segments, or set stiffening "
+        f"= false)", sim.status.t)
 
 
 # ---------------------------------------------------------------------------------------------
