@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import matplotlib
@@ -13,23 +11,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from flexmbd import metrics  # noqa: E402
+from flexmbd.files import atomic_write  # noqa: E402
 
 UNITS = {"deflection": ("mm", 1e3), "stress_vm": ("MPa", 1e-6), "joint_angle": ("rad", 1.0),
          "energy": ("J", 1.0), "reaction_force": ("N", 1.0), "reaction_moment": ("N m", 1.0)}
 
 
 def save(fig, path: Path) -> str:
-    """Write the figure atomically; return its file name (pages link relatively)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".png")
-    os.close(fd)
+    """Write the figure atomically (`files.atomic_write`); return its file name (pages link
+    relatively)."""
     try:
-        fig.savefig(tmp, dpi=90)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
+        atomic_write(path, lambda f: fig.savefig(f, dpi=90, format="png"))
     finally:
         plt.close(fig)
-        Path(tmp).unlink(missing_ok=True)
     return path.name
 
 
