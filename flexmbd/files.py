@@ -18,7 +18,7 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 
-from flexmbd.errors import InputError
+from flexmbd.errors import InputError, Interrupted
 
 REASONS = {
     errno.ENOSPC: "no space left on the device",
@@ -88,6 +88,30 @@ def signals_held():
             signal.signal(s, handler if handler is not None else signal.SIG_DFL)
         if got:
             signal.raise_signal(got[0])
+
+
+@contextmanager
+def signals_kept():
+    """For native code that runs Python's signal handlers but turns their exception into its own
+    failure (Exudyn's solver does): a SIGINT or SIGTERM raises Interrupted as usual, and is raised
+    again when the block ends, whatever the native code made of it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got = []
+
+    def note(signum, frame):
+        got.append(signum)
+        raise Interrupted(signum)
+
+    old = {s: signal.signal(s, note) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        if got:
+            raise Interrupted(got[0])
 
 
 def temporary(path, content) -> str:

@@ -19,7 +19,7 @@ import numpy as np
 import exudyn as exu                     # ImportError here: the adapters are 'unavailable'
 import exudyn.itemInterface as eii       # noqa: F401  (used by the adapters)
 
-from flexmbd import results
+from flexmbd import files, results
 from flexmbd.adapters import common
 
 from flexmbd.spatial import expm_so3
@@ -107,7 +107,7 @@ def solve(mbs, settings, solver_type: str):
     t0 = time.perf_counter()
     status = results.Status()
     try:
-        with quiet():
+        with files.signals_kept(), quiet():
             ok = mbs.SolveDynamic(settings, solverType=IMPLICIT[solver_type], showHints=False,
                                   showCausingItems=False)
         if not ok:
