@@ -27,6 +27,12 @@ def save(fig, path: Path) -> str:
     return path.name
 
 
+def legend(ax, **kw) -> None:
+    """The axes' legend, when anything drawn carries a label."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(**kw)
+
+
 def channel(case, name: str, results: dict, reference: str, path: Path) -> str:
     """Overlay of one channel for every solver, and each solver's difference from the reference."""
     kind = case["channels"][name]["kind"]
@@ -42,13 +48,12 @@ def channel(case, name: str, results: dict, reference: str, path: Path) -> str:
             bottom.plot(ref.t, (metrics.on_grid(ref.t, r.t, r.channels[name]) - ref.channels[name]) * k,
                         lw=1.0, label=f"{s} - {reference}")
     top.set_ylabel(f"{name} [{unit}]")
-    top.legend(fontsize=8, ncol=3)
+    legend(top, fontsize=8, ncol=3)
     top.grid(alpha=0.3)
     bottom.set_ylabel(f"difference [{unit}]")
     bottom.set_xlabel("t [s]")
     bottom.grid(alpha=0.3)
-    if bottom.lines:
-        bottom.legend(fontsize=8, ncol=3)
+    legend(bottom, fontsize=8, ncol=3)
     fig.tight_layout()
     return save(fig, path)
 
@@ -68,7 +73,7 @@ def spectra(case, name: str, results: dict, fe_hz, path: Path) -> str:
     ax.set_xlabel("frequency [Hz]  (dotted: FE natural frequencies of the retained modes)")
     ax.set_ylabel(f"|FFT| of {name} [mm]")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, ncol=3)
+    legend(ax, fontsize=8, ncol=3)
     fig.tight_layout()
     return save(fig, path)
 
@@ -83,6 +88,6 @@ def elasticity(case, flexible, rigid, rigid_name: str, path: Path) -> str:
     ax.set_xlabel("t [s]")
     ax.set_ylabel("angle difference [rad]")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    legend(ax, fontsize=8)
     fig.tight_layout()
     return save(fig, path)
