@@ -291,6 +291,12 @@ def test_regress_update_past_the_file_size_limit_keeps_the_old_baseline(base, re
     no_leftovers(base)
 
 
+def test_modes_save_past_the_file_size_limit_leaves_no_part(tmp_path):
+    process(["modes", CASE, "--save", tmp_path, "--json"], 2, fsize=8 * 1024,
+            names=[tmp_path / f"{CASE}_beam.npz", "file too large"])
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_full_disk_during_a_report_keeps_the_old_report(report, monkeypatch):
     """ENOSPC on the third file written (a full file system, planted in the one writer)."""
     from flexmbd import files
@@ -351,6 +357,15 @@ def test_sigint_while_a_page_is_written_leaves_the_old_report(report, monkeypatc
     before = snapshot(report)
     cli(["report", *ONE, "--out", report, "--no-run"], 130, names=["interrupted (SIGINT)"])
     assert snapshot(report) == before
+    no_leftovers(report)
+
+
+def test_sigterm_while_compare_draws_leaves_the_old_page(report, monkeypatch):
+    from flexmbd.report import figures
+    plant_signal(monkeypatch, figures.plt.Figure, "savefig", signal.SIGTERM)
+    before = snapshot(report / CASE)
+    cli(["compare", CASE, "--solvers", SOLVER, "--out", report], 143, names=["interrupted (SIGTERM)"])
+    assert snapshot(report / CASE) == before
     no_leftovers(report)
 
 
@@ -531,3 +546,22 @@ def test_report_with_a_missing_case_path_runs_nothing(tmp_path):
     cli(["report", "--cases", f"{CASE},{tmp_path / 'no' / 'case.toml'}", "--solvers", SOLVER,
          "--out", tmp_path / "rep"], 2, names=["case.toml"])
     assert not (tmp_path / "rep").exists()
+
+
+@pytest.mark.slow
+def test_sigterm_ends_an_exudyn_solve_within_a_second(tmp_path):
+    """Exudyn's solver is native code; it runs Python's signal handlers between steps and would
+    turn the exception into a failed result (files.signals_kept raises it again)."""
+    pytest.importorskip("exudyn")
+    p = subprocess.Popen([sys.executable, "-m", "flexmbd.cli", "run", "pendulum", "--solver", "exudyn-beam",
+                          "--out", str(tmp_path)], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+                         env=ENV)
+    time.sleep(1.8)                                   # imported, set up, solving (until about 3.5 s)
+    sent = time.perf_counter()
+    p.send_signal(signal.SIGTERM)
+    err = p.stderr.read()
+    p.wait(timeout=10)
+    check(p.returncode, err, 143, 1, ["interrupted (SIGTERM)"])
+    assert time.perf_counter() - sent < 1.0
+    assert not (tmp_path / "pendulum" / "exudyn-beam.json").exists()
+    no_leftovers(tmp_path)
