@@ -98,7 +98,7 @@ def cmd_run(args) -> int:
     why = solvers.status_for(case, args.solver)
     if why:
         raise InputError(f"{case.path}: solver {args.solver}: {why}")
-    files.writable_dir(args.out, "--out")
+    files.writable_dir(Path(args.out) / case.name, "--out")
     r = solvers.run(case, args.solver, args.t_end)
     csv, js = results.write(r, Path(args.out))
     if r.status.outside:
@@ -188,6 +188,8 @@ def cmd_regress(args) -> int:
     stored, fresh = {}, {}
     if args.update:
         files.writable_dir(base, "--baseline")
+        for c, s in pairs:
+            files.writable_dir(regress.known(base, c, s).parent, "--baseline")
     else:
         for c, s in pairs:
             stored[c, s], why = regress.baseline(base, loaded[c], s)

@@ -215,7 +215,9 @@ def test_run_out_lies_under_a_file(tmp_path):
     cli(["run", CASE, "--solver", SOLVER, "--out", tmp_path / "f" / "sub"], 2, names=[tmp_path / "f" / "sub"])
 
 
-def test_run_out_case_folder_is_a_file(tmp_path):
+def test_run_out_case_folder_is_a_file(tmp_path, monkeypatch):
+    from flexmbd import solvers
+    monkeypatch.setattr(solvers, "run", lambda *a, **k: pytest.fail("a solver ran"))
     (tmp_path / CASE).write_text("keep")
     cli(["run", CASE, "--solver", SOLVER, "--out", tmp_path], 2, names=[tmp_path / CASE])
     assert (tmp_path / CASE).read_text() == "keep"
@@ -443,6 +445,14 @@ def test_a_baseline_for_an_unknown_solver(base, results):
     shutil.copy(base / CASE / f"{SOLVER}.csv", base / CASE / "nosuch.csv")
     cli(["regress", "--baseline", base, "--results", results, "--cases", CASE], 2,
         names=[base / CASE / "nosuch.csv", "unknown solver"])
+
+
+def test_regress_update_of_a_baseline_for_an_unknown_solver(base, results):
+    shutil.copy(base / CASE / f"{SOLVER}.csv", base / CASE / "nosuch.csv")
+    before = snapshot(base)
+    cli(["regress", "--update", "--baseline", base, "--results", results], 2,
+        names=[base / CASE / "nosuch.csv", "unknown solver"])
+    assert snapshot(base) == before
 
 
 def test_a_baseline_with_a_channel_the_case_lacks(base, results):

@@ -74,13 +74,19 @@ def samples(case) -> int:
     return int(round(case["duration"] / case["integrator"]["output_dt"])) + 1
 
 
+def known(base: Path, case: str, solver: str) -> Path:
+    """The path of the baseline of (case, solver); an InputError naming it when the solver is unknown."""
+    path = Path(base) / case / f"{solver}.csv"
+    if solver not in solvers.NAMES:
+        raise InputError(f"{path}: a baseline for an unknown solver {solver!r} (known: {', '.join(solvers.NAMES)})")
+    return path
+
+
 def baseline(base: Path, case, solver: str) -> tuple[pd.DataFrame, str]:
     """The baseline of (case, solver) checked against the case: a known solver, the solver its
     header names, only the case's channels, a full run's samples. (table, why it is stale or
     ''); an InputError naming the file otherwise."""
-    path = Path(base) / case.name / f"{solver}.csv"
-    if solver not in solvers.NAMES:
-        raise InputError(f"{path}: a baseline for an unknown solver {solver!r} (known: {', '.join(solvers.NAMES)})")
+    path = known(base, case.name, solver)
     df = read(base, case.name, solver)
     named = df.attrs.get("solver", "").split(" ")[0]
     if named and named != solver:
