@@ -147,7 +147,7 @@ def cmd_report(args) -> int:
     chosen = _solver_list(args.solvers, "--solvers")
     loaded = [_case(n) for n in names]                      # every name and path, before any work
     files.writable_dir(out, "--out")
-    jobs = [(c, s) for c in loaded for s in chosen if not c["report"]["solvers"] or s in c["report"]["solvers"]]
+    jobs = [(c, s) for c in loaded for s in build.jobs(c, chosen)]
     if not args.no_run:
         run_all(jobs, out)
     index, summary, acc = build.write(out, loaded, chosen, warn)

@@ -519,6 +519,19 @@ def test_report_no_run_shows_a_result_whose_csv_was_deleted_as_unusable(report):
     no_leftovers(report)
 
 
+def test_report_no_run_shows_a_missing_result_as_unusable(report):
+    (report / "results" / CASE / f"{SOLVER}.json").unlink()
+    cli(["report", *ONE, "--out", report, "--no-run"], 0, names=["warning", f"{SOLVER}.json", "missing"])
+    assert summary_status(report).startswith("unavailable: stored result unusable")
+
+
+def test_report_no_run_shows_a_truncated_result_as_unusable(report):
+    csv = report / "results" / CASE / f"{SOLVER}.csv"
+    csv.write_text(csv.read_text()[:3000])
+    cli(["report", *ONE, "--out", report, "--no-run"], 0, names=["warning", f"{SOLVER}.csv", "does not belong"])
+    assert summary_status(report).startswith("unavailable: stored result unusable")
+
+
 def test_report_no_run_shows_a_garbage_result_as_unusable(report):
     edit_result(report / "results", change_csv=lambda rows: rows[:10] + ["0.009,nan,1"] + rows[11:])
     cli(["report", *ONE, "--out", report, "--no-run"], 0, names=["warning", "finite"])

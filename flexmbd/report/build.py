@@ -26,20 +26,22 @@ th{background:#eee}td:first-child,th:first-child{text-align:left}.pass,.ok{backg
 .bad{background:#fed;text-align:left}.outside{background:#ffe9a8;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
 
 
+def jobs(case, names) -> list:
+    """The solvers of `names` that the case's report runs (its `report.solvers`, when given)."""
+    return [s for s in names if not case["report"]["solvers"] or s in case["report"]["solvers"]]
+
+
 def load_results(out: Path, case, names, warn=None) -> dict:
-    """Stored results of one case, by solver (those with a sidecar). A stored result that cannot
-    be used (broken, truncated, its CSV gone) or that was run for another version of the case
-    (stale) is kept as an unavailable result saying why, never as ok; `warn(line)` is told."""
+    """Stored results of one case, by solver. A stored result that is missing or cannot be used
+    (broken, truncated, its CSV gone) or that was run for another version of the case (stale) is
+    kept as an unavailable result saying why, never as ok; `warn(line)` is told."""
     got = {}
     for s in names:
-        js = out / "results" / case.name / f"{s}.json"
-        if not js.exists():
-            continue
         try:
             r = results.read(out / "results", case.name, s)
             why = results.stale(r, case.sha256, case["channels"])
             if why:
-                note = f"{js}: stale: {why}"
+                note = f"{out / 'results' / case.name / (s + '.json')}: stale: {why}"
                 r = Result(solver=s, case=case.name, status=results.unavailable(f"stale stored result: {why}"),
                            solver_version=r.solver_version, settings=r.settings, case_sha256=r.case_sha256)
         except InputError as e:
@@ -181,7 +183,7 @@ def write(out: Path, chosen_cases, names, warn=None) -> tuple[Path, list, list]:
 def _write(out: Path, stage: Path, chosen_cases, names, warn) -> tuple[list, list]:
     all_acc, summary = [], []
     for case in chosen_cases:
-        got = _case_page(out, stage, case, names, warn)
+        got = _case_page(out, stage, case, jobs(case, names), warn)
         all_acc += got["accuracy"]
         summary += got["summary"]
     tables.write_accuracy(stage, all_acc)
