@@ -66,3 +66,10 @@ def test_a_stiffened_beam_bent_too_far_fails_saying_why(tmp_path, capsys):
     status = json.loads((tmp_path / "pendulum" / "flexmbd.json").read_text())["status"]
     assert code == 1 and status.startswith("failed: outside linear validity: the stiffened mass matrix stops being positive "
                                      "definite (beam 'beam' bent 3.7 % of its length") and "segments" in status
+
+
+def test_modes_system_json(capsys):
+    assert main(["modes", "pendulum", "--system", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    inplane = [m for m in out["modes"] if "xy" in m["label"]]
+    assert out["about"] == "initial" and inplane[0]["freq_hz"] == pytest.approx(24.23, abs=0.01)
