@@ -70,6 +70,8 @@ def cmd_list(args) -> int:
 def cmd_modes(args) -> int:
     from flexmbd import flexbody
     case = _load(args)
+    if args.system:
+        return system_modes(case, args.about, args.json)
     if args.save:
         files.writable_dir(args.save, "--save")
     bodies = flexbody.for_case(case)
@@ -88,6 +90,22 @@ def cmd_modes(args) -> int:
         print(f"{case.name} / {name}: {b['boundary']}, {b['nodes']} nodes")
         for m in b["modes"]:
             print(f"  {m['index']:3d}  {m['freq_hz']:12.4f} Hz  {m['label']}")
+    return 0
+
+
+def system_modes(case, about: str, as_json: bool) -> int:
+    """The assembled system's frequencies, damping and labels (linearize.py)."""
+    from flexmbd import linearize
+    modes = linearize.for_case(case, about)
+    rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping if abs(m.damping) > 1e-9 else 0.0,
+             "label": m.label, "share": m.share} for k, m in enumerate(modes)]
+    if as_json:
+        print(json.dumps({"case": case.name, "about": about, "modes": rows}, indent=2))
+        return 0
+    print(f"{case.name}: system modes about the {'initial state' if about == 'initial' else 'static equilibrium'}")
+    for r in rows:
+        print(f"  {r['index']:3d}  {r['freq_hz']:12.4f} Hz  damping {r['damping']:.3g}  {r['label']} "
+              f"({100 * r['share']:.0f} % of the kinetic energy)")
     return 0
 
 
@@ -297,6 +315,11 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("case")
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
     s.add_argument("--save", metavar="DIR", help="also write each reduced body as DIR/CASE_BODY.npz")
+    s.add_argument("--system", action="store_true",
+                   help="the assembled system's frequencies (joint and modal coordinates, linearized)")
+    s.add_argument("--about", choices=["initial", "equilibrium"], default="initial",
+                   help="with --system: linearize about the initial state or the static equilibrium "
+                        "(default: %(default)s)")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_modes)
 

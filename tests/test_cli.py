@@ -69,3 +69,10 @@ def test_a_stiffened_beam_bent_too_far_fails_saying_why(tmp_path, capsys):
     strict = main(["run", "pendulum", "--solver", "flexmbd", "--set", "materials.steel.E=2.06e9", "--t-end", "0.4",
                    "--out", str(tmp_path), "--strict"])
     assert strict == 1, "with --strict a failed solver is exit status 1"
+
+
+def test_modes_system_json(capsys):
+    assert main(["modes", "pendulum", "--system", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    inplane = [m for m in out["modes"] if "xy" in m["label"]]
+    assert out["about"] == "initial" and inplane[0]["freq_hz"] == pytest.approx(24.23, abs=0.01)
