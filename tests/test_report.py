@@ -51,17 +51,68 @@ def test_unavailable_and_inapplicable_solvers_show_their_reason(report):
 
 
 def test_same_numbers_in_csv_markdown_latex_and_html(report):
-    rows = list(csv.DictReader((report / "accuracy.csv").open()))
+    rows = list(csv.DictReader((report / "accuracy.csv").open(newline="")))
     assert rows
     md = (report / "accuracy.md").read_text()
     tex = (report / "accuracy.tex").read_text()
     page = (report / "cantilever_step" / "index.html").read_text()
     for r in rows:
-        for key in ("rms", "max", "peak", "envelope", "slow"):
-            if r[key] == "nan":
-                continue
-            s = tables.fmt(float(r[key]))
-            assert s in md and s in page and s.replace("-", "-") in tex, (key, s)
+        if r["metric"] not in ("rms", "max", "peak", "envelope", "slow") or not r["value"]:
+            continue
+        s = tables.fmt(float(r["value"]))
+        assert s in md and s in page, (r, s)
+        if r["metric"] in ("rms", "max"):
+            assert tables.tex_number(float(r["value"]), "e") in tex, r
+
+
+def test_accuracy_csv_is_tidy(report):
+    raw = (report / "accuracy.csv").read_bytes()
+    assert b"\r" not in raw and b"nan" not in raw.lower()
+    rows = list(csv.DictReader(raw.decode().splitlines()))
+    assert list(rows[0]) == ["case", "solver", "reference", "channel", "metric", "value", "unit"]
+    units = {r["metric"]: r["unit"] for r in rows}
+    assert units["rms"] == "1" and units["f_ref"] == "Hz" and units["pass"] == ""
+    per_row = {(r["case"], r["solver"], r["channel"], r["metric"]) for r in rows}
+    assert len(per_row) == len(rows)                                  # one row per case, solver, channel, metric
+
+
+def markdown_tables(text: str) -> list:
+    """Blocks of consecutive lines starting with '|': the tables a Markdown page means to have."""
+    blocks, cur = [], []
+    for line in text.splitlines() + [""]:
+        if line.startswith("|"):
+            cur.append(line)
+        elif cur:
+            blocks.append(cur)
+            cur = []
+    return blocks
+
+
+def test_every_markdown_page_renders_its_tables(report):
+    """Rendered by markdown-it-py (CommonMark with GitHub's tables): each table of a page comes out
+    as an HTML table with as many header cells as the Markdown header has."""
+    from markdown_it import MarkdownIt
+    md = MarkdownIt("commonmark").enable("table")
+    pages = [report / "index.md", report / "accuracy.md", report / "cantilever_step" / "index.md"]
+    for page in pages:
+        text = page.read_text()
+        html = md.render(text)
+        blocks = markdown_tables(text)
+        assert blocks and html.count("<table>") == len(blocks), page
+        heads = re.findall(r"<thead>(.*?)</thead>", html, re.S)
+        for block, head in zip(blocks, heads):
+            assert head.count("<th") == len(re.findall(r"(?<!\\)\|", block[0])) - 1, (page, block[0])
+
+
+@pytest.mark.skipif(shutil.which("pdflatex") is None, reason="no TeX engine on this machine")
+def test_accuracy_tex_compiles_and_fits_the_page(report, tmp_path):
+    import subprocess
+    shutil.copy(report / "accuracy.tex", tmp_path / "accuracy.tex")
+    r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "accuracy.tex"], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=120)
+    log = (tmp_path / "accuracy.log").read_text(errors="replace")
+    assert r.returncode == 0, log[-2000:]
+    assert "Overfull \\hbox" not in log
 
 
 def test_fft_peaks_match_fe_frequencies_on_cantilever_step():

@@ -1,4 +1,4 @@
-"""Tables in Markdown, HTML and LaTeX (booktabs), and the reviewer files accuracy.{csv,md,tex}.
+"""Tables in Markdown, HTML and LaTeX (booktabs, siunitx), and the reviewer files accuracy.{csv,md,tex}.
 
 Every number in every format goes through `fmt`, so the pages and the three reviewer files
 show the same digits.
@@ -36,9 +36,15 @@ def fmt(v) -> str:
     return f"{x:.3g}"
 
 
+def md_cell(c) -> str:
+    """A Markdown table cell: pipes escaped, line breaks as spaces."""
+    return fmt(c).replace("|", "\\|").replace("\r", " ").replace("\n", " ")
+
+
 def markdown(head: list, rows: list[list]) -> str:
-    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    out += ["| " + " | ".join(fmt(c).replace("|", "\\|") for c in r) + " |" for r in rows]
+    """A GitHub-flavoured Markdown table (header and cells escaped)."""
+    out = ["| " + " | ".join(md_cell(h) for h in head) + " |", "|" + "---|" * len(head)]
+    out += ["| " + " | ".join(md_cell(c) for c in r) + " |" for r in rows]
     return "\n".join(out) + "\n"
 
 
@@ -61,16 +67,81 @@ def html_table(head: list, rows: list[list], raw_cols: tuple = ()) -> str:
     return f"<table><thead><tr>{th}</tr></thead><tbody>{''.join(body)}</tbody></table>"
 
 
-def latex(head: list, rows: list[list], caption: str) -> str:
-    """A booktabs table."""
-    esc = lambda s: (s.replace("\\", "\\textbackslash{}").replace("_", "\\_").replace("%", "\\%")
-                     .replace("&", "\\&").replace("#", "\\#").replace("|", "$|$").replace("—", "--"))
-    lines = ["\\begin{table}", "\\centering", f"\\caption{{{esc(caption)}}}",
-             "\\begin{tabular}{" + "l" * 4 + "r" * (len(head) - 4) + "}", "\\toprule",
-             " & ".join(esc(h) for h in head) + " \\\\", "\\midrule"]
-    lines += [" & ".join(esc(fmt(c)) for c in r) + " \\\\" for r in rows]
-    lines += ["\\bottomrule", "\\end{tabular}", "\\end{table}"]
+# the LaTeX table of one case: (key, header, siunitx column, number format) -- fits a 345 pt (A4
+# article) text width
+SCI = "S[table-format=1.2e-1]"
+LATEX_COLUMNS = [("solver", "solver", "l", None), ("channel", "channel", "l", None),
+                 ("rms", "RMS", SCI, "e"), ("max", "max", SCI, "e"),
+                 ("f_ref", "{$f_\\mathrm{ref}$ [Hz]}", "S[table-format=4.1]", "f"),
+                 ("f_solver", "{$f$ [Hz]}", "S[table-format=4.1]", "f"), ("tolerance", "{tol.}", SCI, "e"),
+                 ("pass", "result", "l", None)]
+
+
+def tex_number(v, kind: str) -> str:
+    """A number for an siunitx S column: 'e' three significant digits as 1.23e-2, 'f' one
+    decimal; {--} for a missing one."""
+    if v is None or not math.isfinite(float(v)):
+        return "{--}"
+    if kind == "f":
+        return f"{float(v):.1f}"
+    m, e = f"{float(v):.2e}".split("e")
+    return f"{m}e{int(e)}"
+
+
+def tex(s: str) -> str:
+    """Text escaped for LaTeX."""
+    return (s.replace("\\", "\\textbackslash{}").replace("_", "\\_").replace("%", "\\%").replace("&", "\\&")
+            .replace("#", "\\#").replace("$", "\\$").replace("{", "\\{").replace("}", "\\}")
+            .replace("|", "\\textbar{}").replace("—", "--"))
+
+
+def latex_case(case: str, rows_: list[dict]) -> str:
+    """One case's accuracy table (needs PREAMBLE's packages): differences over the reference's
+    largest magnitude, dominant frequencies, tolerance and result; scaled down only if it would be
+    wider than the text."""
+    ref = rows_[0]["reference"] if rows_ else ""
+    lines = ["\\begin{table}[htbp]", "\\centering", "\\footnotesize", "\\setlength{\\tabcolsep}{2.5pt}",
+             f"\\caption{{{tex(case)}: accuracy against {tex(ref)} (RMS and largest difference over the "
+             f"reference's largest magnitude; dominant frequencies of the vibration)}}",
+             "\\begin{adjustbox}{max width=\\linewidth}",
+             "\\begin{tabular}{" + "".join(c for _, _, c, _ in LATEX_COLUMNS) + "}", "\\toprule",
+             " & ".join(h for _, h, _, _ in LATEX_COLUMNS) + " \\\\", "\\midrule"]
+    for r in rows_:
+        lines.append(" & ".join(tex_number(r[k], n) if n else tex(fmt(r[k])) for k, _, _, n in LATEX_COLUMNS)
+                     + " \\\\")
+    lines += ["\\bottomrule", "\\end{tabular}", "\\end{adjustbox}", "\\end{table}"]
     return "\n".join(lines) + "\n"
+
+
+PREAMBLE = ("\\usepackage{booktabs}\n\\usepackage{siunitx}\n\\usepackage{adjustbox}\n"
+            "\\sisetup{output-exponent-marker=\\ensuremath{\\mathrm{e}}}\n")
+
+
+def latex_document(rows_: list[dict]) -> str:
+    """A compilable document with one accuracy table per case."""
+    cases = list(dict.fromkeys(r["case"] for r in rows_))
+    body = [latex_case(c, [r for r in rows_ if r["case"] == c]) for c in cases]
+    return ("\\documentclass[a4paper]{article}\n" + PREAMBLE + "\\begin{document}\n" + "\n".join(body) + "\\end{document}\n")
+
+
+# the tidy accuracy.csv: one row per (case, solver, channel, metric), with its unit
+TIDY_METRICS = [("rms", "1"), ("max", "1"), ("peak", "1"), ("f_ref", "Hz"), ("f_solver", "Hz"), ("envelope", "1"),
+                ("slow", "1"), ("tolerance", "1"), ("pass", "")]
+
+
+def tidy_csv(rows_: list[dict]) -> str:
+    """Long-format CSV, LF line endings, an empty cell for a missing value; differences are
+    normalised by the reference's largest magnitude (unit 1)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["case", "solver", "reference", "channel", "metric", "value", "unit"])
+    for r in rows_:
+        for k, unit in TIDY_METRICS:
+            v = r[k]
+            value = "" if v is None or (isinstance(v, float) and math.isnan(v)) else (
+                f"{v:.6g}" if isinstance(v, float) else str(v))
+            w.writerow([r["case"], r["solver"], r["reference"], r["channel"], k, value, unit])
+    return buf.getvalue()
 
 
 def accuracy_rows(rows_: list[dict]) -> tuple[list, list[list]]:
@@ -79,15 +150,9 @@ def accuracy_rows(rows_: list[dict]) -> tuple[list, list[list]]:
 
 
 def write_accuracy(out: Path, rows_: list[dict]) -> None:
-    """reports/accuracy.csv (full precision), accuracy.md and accuracy.tex (3 significant digits)."""
-    buf = io.StringIO()
-    w = csv.writer(buf)
-    w.writerow([k for k, _ in ACCURACY_COLUMNS])
-    for r in rows_:
-        w.writerow([f"{r[k]:.6g}" if isinstance(r[k], float) else r[k] for k, _ in ACCURACY_COLUMNS])
-    atomic_write(out / "accuracy.csv", buf.getvalue())
+    """reports/accuracy.csv (tidy, full precision), accuracy.md and accuracy.tex (3 significant
+    digits; a document with one table per case)."""
+    atomic_write(out / "accuracy.csv", tidy_csv(rows_))
     head, body = accuracy_rows(rows_)
     atomic_write(out / "accuracy.md", "# Accuracy against each case's reference solver\n\n" + markdown(head, body))
-    atomic_write(out / "accuracy.tex", latex(head, body, "Accuracy of each solver against the case's "
-                                                          "reference solver (differences normalised by the "
-                                                          "reference's maximum magnitude)"))
+    atomic_write(out / "accuracy.tex", latex_document(rows_))
