@@ -165,7 +165,9 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
     start = time.perf_counter()
     status, steps, k = results.Status(), 0, 0
     try:
-        if method == "fox-goodwin":
+        if y0.size == 0:                # nothing moves (every joint fixed, no modes): every sample is the start
+            k = t_out.size - 1
+        elif method == "fox-goodwin":
             k, steps, evals, status = _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar)
             count[0] += evals
         elif method == "dopri5":
@@ -314,7 +316,7 @@ def warm_up(model: Model, method: str | None = None) -> None:
     t, Y, counts = np.zeros(2), np.zeros((2, y0.size)), np.zeros(3, dtype=np.int64)
     if method in (None, "dopri5"):
         dopri5(ev, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts)
-    if method in (None, "fox-goodwin") and model.nq == model.nv:
+    if method in (None, "fox-goodwin") and model.nq == model.nv and model.nv:   # nothing to compile for: no states
         newmark_matrix(ev, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
         fox_goodwin(ev, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
 
