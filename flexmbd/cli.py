@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from flexmbd import cases, solvers
+from flexmbd import cases, cost, solvers
 from flexmbd.errors import InputError
 
 
@@ -56,6 +56,7 @@ def cmd_list(args) -> int:
 def cmd_modes(args) -> int:
     from flexmbd import flexbody
     case = _load(args)
+    cost.check([(case, None)], allow_large=args.allow_large)
     bodies = flexbody.for_case(case)
     out = {"case": case.name, "bodies": {}}
     for name, fb in bodies.items():
@@ -84,6 +85,7 @@ def cmd_run(args) -> int:
     why = solvers.status_for(case, args.solver)
     if why:
         raise InputError(f"{case.path}: solver {args.solver}: {why}")
+    cost.check([(case, args.solver)], args.t_end, args.allow_large)
     r = solvers.run(case, args.solver, args.t_end)
     csv, js = results.write(r, Path(args.out))
     if r.status.outside:
@@ -104,9 +106,10 @@ def _solver_list(text: str | None, flag: str) -> list:
     return chosen
 
 
-def run_all(jobs: list, out: Path) -> None:
+def run_all(jobs: list, out: Path, allow_large: bool = False) -> None:
     """Run (case, solver) jobs into out/results with a progress bar; failures become results."""
     from flexmbd import results
+    cost.check(jobs, allow_large=allow_large)
     t0 = time.perf_counter()
     for k, (c, s) in enumerate(jobs, 1):
         progress(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
@@ -122,7 +125,7 @@ def cmd_report(args) -> int:
     loaded = [_case(n) for n in names]
     jobs = [(c, s) for c in loaded for s in chosen if not c["report"]["solvers"] or s in c["report"]["solvers"]]
     if not args.no_run:
-        run_all(jobs, out)
+        run_all(jobs, out, args.allow_large)
     index = build.write(out, [c.name for c in loaded], chosen)
     print(f"report: {index}")
     return 0
@@ -133,7 +136,7 @@ def cmd_compare(args) -> int:
     out = Path(args.out)
     case = _load(args)
     chosen = _solver_list(args.solvers, "--solvers")
-    run_all([(case, s) for s in chosen], out)
+    run_all([(case, s) for s in chosen], out, args.allow_large)
     build.case_page(out, case, chosen)
     print(f"page: {out / case.name / 'index.html'}")
     return 0
@@ -154,6 +157,8 @@ def cmd_regress(args) -> int:
         pairs = [p for p in pairs if p[1] in _solver_list(args.solvers, "--solvers")]
     if not pairs:
         raise InputError(f"--baseline {base}: no baselines (expected CASE/SOLVER.csv files)")
+    if not args.results:
+        cost.check([(_case(c), s) for c, s in pairs], allow_large=args.allow_large)
     rows = []
     t0 = time.perf_counter()
     for k, (case_name, solver) in enumerate(pairs, 1):
@@ -240,6 +245,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
     s.add_argument("--save", metavar="DIR", help="also write each reduced body as DIR/CASE_BODY.npz")
     s.add_argument("--json", action="store_true")
+    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.set_defaults(func=cmd_modes)
 
     s = sub.add_parser("run", help="one solver on one case")
@@ -249,6 +255,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--t-end", type=_positive, default=None)
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
     s.add_argument("--json", action="store_true")
+    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.set_defaults(func=cmd_run)
 
     s = sub.add_parser("report", help="every case on every available solver, and the report")
@@ -256,6 +263,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
     s.add_argument("--out", default="reports")
     s.add_argument("--no-run", action="store_true", help="rebuild the pages from the stored results only")
+    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.set_defaults(func=cmd_report)
 
     s = sub.add_parser("compare", help="run solvers on one case and write its report page")
@@ -263,6 +271,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
     s.add_argument("--out", default="reports")
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
+    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.set_defaults(func=cmd_compare)
 
     s = sub.add_parser("bench", help="timing and work-precision against peers on this machine")
@@ -278,6 +287,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--cases", default=None)
     s.add_argument("--solvers", default=None)
     s.add_argument("--update", action="store_true", help="rewrite the baselines from fresh results")
+    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.set_defaults(func=cmd_regress)
     return p
 
