@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import sys
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -384,13 +385,16 @@ def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq):
     r.set_initial_value(y0, 0.0)
     k = 0
     for k in range(1, t_out.size):
-        try:
-            y = r.integrate(t_out[k])
-        except Stop as e:                       # raised by f: keep VODE's step count
-            return k - 1, int(r._integrator.iwork[10]), e.args[0]
+        with warnings.catch_warnings(record=True) as said:     # VODE's own words go into the status
+            warnings.simplefilter("always")
+            try:
+                y = r.integrate(t_out[k])
+            except Stop as e:                   # raised by f: keep VODE's step count
+                return k - 1, int(r._integrator.iwork[10]), e.args[0]
         if not r.successful():
+            why = str(said[-1].message).removeprefix("vode: ").split(" (Perhaps")[0].rstrip(". ") if said else ""
             return k - 1, int(r._integrator.iwork[10]), \
-                results.failed(f"VODE return code {r.get_return_code()}", r.t)
+                results.failed(f"VODE return code {r.get_return_code()}{': ' + why if why else ''}", r.t)
         _check(y, t_out[k], nq)
         Y[k] = y
         if bar:
