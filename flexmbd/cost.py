@@ -16,10 +16,11 @@ may take up to PROGRESS_LIMIT seconds.
 
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import dataclass
 
-from flexmbd import solvers
+from flexmbd import flexbody, solvers
 from flexmbd.errors import InputError
 
 MEMORY_LIMIT = 3e9          # bytes, of one stage
@@ -161,11 +162,38 @@ def flexmbd(case, t_end: float) -> list:
         evals = steps * (4 if method == "rk4" else res.nv + 3)
         key, how = _time_key(case, t_end, "integrator.dt", ig["dt"], 1e-4), "duration / dt"
     else:
-        steps = t_end / ig["max_step"]
+        omega, beam = highest_frequency(case)
+        reach = {"adams": 1.0, "dopri5": 3.0, "rk45": 3.0, "dop853": 4.0}[method]     # stable h omega
+        steps = max(t_end / ig["max_step"], t_end * omega / reach)
         evals = steps * {"adams": 2, "dopri5": 7, "rk45": 7, "dop853": 13}[method]
         key, how = _time_key(case, t_end, "integrator.max_step", ig["max_step"], 1e-3), "at least duration / max_step"
+        if t_end * omega / reach > t_end / ig["max_step"]:
+            key = "duration" if t_end == case["duration"] else "--t-end"
+            how = f"at least duration x the highest retained frequency of beam {beam!r}, {omega / (2 * math.pi):.3g} Hz"
     return [Stage(f"integrating {steps:.3g} {method} steps ({how})", key, memory=0.0, seconds=evals * per_eval,
                   progress=method not in ("rk45", "dop853"))]
+
+
+def highest_frequency(case) -> tuple[float, str]:
+    """(omega, beam): an estimate of the highest retained natural frequency (rad/s) of the modal
+    model, which bounds an explicit method's step (h omega of order 1): the `count` lowest of the
+    continuous beam's bending (two planes), axial and torsion frequencies of each segment, at
+    most the highest frequency its elements can carry. (0, '') without flexible beams."""
+    best = (0.0, "")
+    for name, b in case["bodies"].items():
+        if b["type"] != "beam" or b["rigid"] or b["modes"]["count"] == 0:
+            continue
+        mat, sec = case["materials"][b["material"]], flexbody.beam_section(b)
+        E, rho, G = mat["E"], mat["rho"], flexbody.shear_modulus(mat)
+        Ls, le = b["length"] / b["segments"], b["length"] / b["elements"]
+        m = min(b["modes"]["count"], 10000)
+        waves = [(j - 0.5) * math.pi for j in range(1, m + 1)]
+        freqs = sorted([(w / Ls) ** 2 * math.sqrt(E * I / (rho * sec.A)) for w in waves for I in (sec.Iy, sec.Iz)]
+                       + [w / Ls * math.sqrt(E / rho) for w in waves]
+                       + [w / Ls * math.sqrt(G * sec.J / (rho * sec.Ip)) for w in waves])
+        mesh = max(2.0 * math.sqrt(12.0 * E * max(sec.Iy, sec.Iz) / (rho * sec.A * le ** 4)), 2.0 * math.sqrt(E / rho) / le)
+        best = max(best, (min(freqs[m - 1], mesh), name))
+    return best
 
 
 def fixed_step(case, t_end: float, dt: float, key: str, per_step: float) -> list:

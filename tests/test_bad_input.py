@@ -213,6 +213,10 @@ COSTLY = [
     ("rk45-silent", "pendulum", "flexmbd", ["integrator.method='rk45'", "integrator.max_step=1e-7"], [],
      ["integrator.max_step", "without progress shown"]),
     ("output-dt-1e-8", "pendulum", "flexmbd", ["integrator.output_dt=1e-8"], [], ["integrator.output_dt", "samples"]),
+    ("stiff-beam-adams", "cantilever_step", "flexmbd", ["materials.steel.E=1e90"], [],
+     ["duration", "highest retained frequency of beam 'beam'", "with progress shown"]),
+    ("many-short-segments", "pendulum", "flexmbd", ["bodies.beam.segments=50", "bodies.beam.modes.count=6",
+                                                     "duration=60"], [], ["duration", "highest retained frequency"]),
 ]
 
 
