@@ -122,8 +122,8 @@ def output(case, t_end: float) -> Stage:
 
 def beams(case, rigid: bool = False) -> list:
     """(name, elements, count, segments) of the beams the modal solvers reduce (a beam declared
-    rigid, or every beam with `rigid`, keeps its mesh and no modes)."""
-    return [(name, b["elements"], 0, 1) if b["rigid"] or rigid else
+    rigid or without modes, or every beam with `rigid`, keeps its mesh, whole, and no modes)."""
+    return [(name, b["elements"], 0, 1) if b["rigid"] or rigid or b["modes"]["count"] == 0 else
             (name, b["elements"], b["modes"]["count"], b["segments"])
             for name, b in case["bodies"].items() if b["type"] == "beam"]
 
@@ -264,8 +264,9 @@ def exudyn_ffrf(case, t_end: float, opt: dict) -> list:
 
 
 def mujoco_rod(case, t_end: float, opt: dict) -> list:
-    """MuJoCo's rod: steps x edges."""
+    """MuJoCo's rod: steps x edges, with progress shown."""
     edges = opt["edges"]
     st = fixed_step(case, t_end, opt["dt"], "solvers.mujoco-rod.dt", 1e-5 + 4e-6 * edges)[0]
     key = "solvers.mujoco-rod.edges" if edges > 1000 else st.key
-    return [Stage(f"{st.what} with a rod of {edges} edges", key, memory=8.0 * 2000 * edges, seconds=st.seconds)]
+    return [Stage(f"{st.what} with a rod of {edges} edges", key, memory=8.0 * 2000 * edges, seconds=st.seconds,
+                  progress=True)]

@@ -20,8 +20,8 @@ import exudyn as exu                     # ImportError here: the adapters are 'u
 import exudyn.itemInterface as eii       # noqa: F401  (used by the adapters)
 
 from flexmbd import results
-from flexmbd.integrate import Progress
 from flexmbd.adapters import common
+from flexmbd.integrate import Progress
 
 from flexmbd.spatial import expm_so3
 
