@@ -6,10 +6,11 @@ STAMP  := $(VENV)/.installed
 
 .PHONY: report test test-slow clean
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml examples/plugin_solver/pyproject.toml examples/plugin_solver/flexmbd_example_solver.py
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e .
+	$(BIN)/python -m pip install --quiet ./examples/plugin_solver   # the example solver plug-in (docs/plugins.md)
 	touch $(STAMP)
 
 report: $(STAMP)

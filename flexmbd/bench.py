@@ -250,7 +250,7 @@ def plots(result: dict, folder: Path) -> list[str]:
             "<p><a href='../index.html'>report</a></p><h1>flexmbd bench</h1>"
             + "".join(f"<p><img src='{n}' alt='{n}'></p>" for n in names)
             + f"<pre>{json.dumps(result, indent=1, default=float)}</pre></body></html>")
-    from flexmbd.results import _atomic_write
-    _atomic_write(folder / "index.html", page + "\n")
-    _atomic_write(folder / "bench.json", json.dumps(result, indent=1, default=float) + "\n")
+    from flexmbd.files import atomic_write
+    atomic_write(folder / "index.html", page + "\n")
+    atomic_write(folder / "bench.json", json.dumps(result, indent=1, default=float) + "\n")
     return names + ["index.html", "bench.json"]

@@ -1,15 +1,29 @@
-"""The `flexmbd` command (DESIGN.md §6). Bad input: one line on stderr, exit status 2."""
+"""The `flexmbd` command (DESIGN.md §6).
+
+Exit statuses, one meaning each (README.md): 0 success; 1 a comparison or regression found a
+difference (with --strict, also a failed solver); 2 bad input or an unusable file or location
+(one line on stderr naming it); 3 an internal error (one line on stderr, the traceback saved to
+a file; --debug shows it); 130 / 143 ended by SIGINT / SIGTERM.
+"""
 
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
+import os
+import signal
 import sys
+import tempfile
+import threading
 import time
+import traceback
 from pathlib import Path
 
-from flexmbd import cases, cost, solvers
-from flexmbd.errors import InputError
+from flexmbd import cases, cost, files, solvers
+from flexmbd.errors import InputError, Interrupted
+
+OK, DIFFERENT, BAD_INPUT, INTERNAL = 0, 1, 2, 3
 
 
 def _case(name: str, overrides=()) -> cases.Case:
@@ -57,6 +71,10 @@ def cmd_modes(args) -> int:
     from flexmbd import flexbody
     case = _load(args)
     cost.check([(case, None)], allow_large=args.allow_large)
+    if args.system:
+        return system_modes(case, args.about, args.json)
+    if args.save:
+        files.writable_dir(args.save, "--save")
     bodies = flexbody.for_case(case)
     out = {"case": case.name, "bodies": {}}
     for name, fb in bodies.items():
@@ -65,9 +83,7 @@ def cmd_modes(args) -> int:
             "modes": [{"index": i + 1, "freq_hz": float(f), "label": str(lab)}
                       for i, (f, lab) in enumerate(zip(fb.freq_hz, fb.labels))]}
         if args.save:
-            path = Path(args.save) / f"{case.name}_{name}.npz"
-            path.parent.mkdir(parents=True, exist_ok=True)
-            flexbody.save(fb, path)
+            flexbody.save(fb, Path(args.save) / f"{case.name}_{name}.npz")
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
@@ -75,6 +91,22 @@ def cmd_modes(args) -> int:
         print(f"{case.name} / {name}: {b['boundary']}, {b['nodes']} nodes")
         for m in b["modes"]:
             print(f"  {m['index']:3d}  {m['freq_hz']:12.4f} Hz  {m['label']}")
+    return 0
+
+
+def system_modes(case, about: str, as_json: bool) -> int:
+    """The assembled system's frequencies, damping and labels (linearize.py)."""
+    from flexmbd import linearize
+    modes = linearize.for_case(case, about)
+    rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping if abs(m.damping) > 1e-9 else 0.0,
+             "label": m.label, "share": m.share} for k, m in enumerate(modes)]
+    if as_json:
+        print(json.dumps({"case": case.name, "about": about, "modes": rows}, indent=2))
+        return 0
+    print(f"{case.name}: system modes about the {'initial state' if about == 'initial' else 'static equilibrium'}")
+    for r in rows:
+        print(f"  {r['index']:3d}  {r['freq_hz']:12.4f} Hz  damping {r['damping']:.3g}  {r['label']} "
+              f"({100 * r['share']:.0f} % of the kinetic energy)")
     return 0
 
 
@@ -86,6 +118,7 @@ def cmd_run(args) -> int:
     if why:
         raise InputError(f"{case.path}: solver {args.solver}: {why}")
     cost.check([(case, args.solver)], args.t_end, args.allow_large)
+    files.writable_dir(Path(args.out) / case.name, "--out")
     r = solvers.run(case, args.solver, args.t_end)
     csv, js = results.write(r, Path(args.out))
     if r.status.outside:
@@ -96,7 +129,7 @@ def cmd_run(args) -> int:
     else:
         print(f"{case.name} / {r.solver}: {r.status}; {r.steps} steps, solve {r.wall_s:.3f} s, "
               f"set-up {r.setup_s:.3f} s -> {js.parent}")
-    return 0 if r.ok else 1
+    return DIFFERENT if args.strict and r.status.kind == "failed" else OK
 
 
 def _solver_list(text: str | None, flag: str) -> list:
@@ -117,18 +150,30 @@ def run_all(jobs: list, out: Path, allow_large: bool = False) -> None:
     progress_done(len(jobs), time.perf_counter() - t0)
 
 
+def warn(line: str) -> None:
+    print(f"flexmbd: {line}", file=sys.stderr)
+
+
+def _verdict(args, summary: list, acc: list) -> int:
+    """With --strict, DIFFERENT when a solver failed or a comparison missed its tolerance."""
+    failed = any(str(row[2]).startswith(("failed", "unavailable: stored result", "unavailable: stale"))
+                 for row in summary)
+    return DIFFERENT if args.strict and (failed or any(a["pass"] == "fail" for a in acc)) else OK
+
+
 def cmd_report(args) -> int:
     from flexmbd.report import build
     out = Path(args.out)
     names = args.cases.split(",") if args.cases else cases.available()
     chosen = _solver_list(args.solvers, "--solvers")
-    loaded = [_case(n) for n in names]
-    jobs = [(c, s) for c in loaded for s in chosen if not c["report"]["solvers"] or s in c["report"]["solvers"]]
+    loaded = [_case(n) for n in names]                      # every name and path, before any work
+    files.writable_dir(out, "--out")
+    jobs = [(c, s) for c in loaded for s in build.jobs(c, chosen)]
     if not args.no_run:
         run_all(jobs, out, args.allow_large)
-    index = build.write(out, [c.name for c in loaded], chosen)
+    index, summary, acc = build.write(out, loaded, chosen, warn)
     print(f"report: {index}")
-    return 0
+    return _verdict(args, summary, acc)
 
 
 def cmd_compare(args) -> int:
@@ -136,10 +181,11 @@ def cmd_compare(args) -> int:
     out = Path(args.out)
     case = _load(args)
     chosen = _solver_list(args.solvers, "--solvers")
+    files.writable_dir(out, "--out")
     run_all([(case, s) for s in chosen], out, args.allow_large)
-    build.case_page(out, case, chosen)
+    got = build.case_page(out, case, chosen, warn)
     print(f"page: {out / case.name / 'index.html'}")
-    return 0
+    return _verdict(args, got["summary"], got["accuracy"])
 
 
 def cmd_regress(args) -> int:
@@ -147,36 +193,53 @@ def cmd_regress(args) -> int:
     from flexmbd import results
     base = Path(args.baseline)
     pairs = regress.listing(base)
+    chosen = _solver_list(args.solvers, "--solvers") if args.solvers else None
     if args.update and (args.cases or args.solvers):          # create baselines too, not only rewrite
         names = args.cases.split(",") if args.cases else cases.available()
-        pairs = [(c, s) for c in names for s in _solver_list(args.solvers, "--solvers")
-                 if not solvers.status_for(_case(c), s)]
+        pairs = [(c, s) for c in names for s in chosen or solvers.NAMES if not solvers.status_for(_case(c), s)]
     if args.cases:
         pairs = [p for p in pairs if p[0] in args.cases.split(",")]
-    if args.solvers:
-        pairs = [p for p in pairs if p[1] in _solver_list(args.solvers, "--solvers")]
+    if chosen:
+        pairs = [p for p in pairs if p[1] in chosen]
     if not pairs:
-        raise InputError(f"--baseline {base}: no baselines (expected CASE/SOLVER.csv files)")
+        raise InputError(f"{base}: --baseline: no baselines (expected CASE/SOLVER.csv files)")
+
+    # every case, baseline and stored result checked before any solver runs
+    loaded = {c: _case(c) for c in dict.fromkeys(c for c, _ in pairs)}
+    stored, fresh = {}, {}
+    if args.update:
+        files.writable_dir(base, "--baseline")
+        for c, s in pairs:
+            files.writable_dir(regress.known(base, c, s).parent, "--baseline")
+    else:
+        for c, s in pairs:
+            stored[c, s], why = regress.baseline(base, loaded[c], s)
+            if why:
+                warn(f"warning: {base / c / (s + '.csv')}: {why}")
+    if args.results:
+        for c, s in pairs:
+            fresh[c, s] = results.read(Path(args.results), c, s)
+            why = results.stale(fresh[c, s], loaded[c].sha256, loaded[c]["channels"])
+            if why:
+                warn(f"warning: {Path(args.results) / c / (s + '.json')}: stale: {why}")
     if not args.results:
-        cost.check([(_case(c), s) for c, s in pairs], allow_large=args.allow_large)
+        cost.check([(loaded[c], s) for c, s in pairs], allow_large=args.allow_large)
+
     rows = []
     t0 = time.perf_counter()
     for k, (case_name, solver) in enumerate(pairs, 1):
         progress(k, len(pairs), f"{case_name} / {solver}", time.perf_counter() - t0)
-        case = _case(case_name)
-        if args.results:
-            r = results.read(Path(args.results), case_name, solver)
-        else:
-            r = solvers.run(case, solver)
+        case = loaded[case_name]
+        r = fresh[case_name, solver] if args.results else solvers.run(case, solver)
         if args.update:
             if not r.ok:
                 raise InputError(f"{case_name} / {solver}: {r.status}; baseline not written")
             print(f"updated {regress.write(base, case, r)}")
             continue
-        rows += regress.compare(case, r, regress.read(base, case_name, solver))
+        rows += regress.compare(case, r, stored[case_name, solver])
     progress_done(len(pairs), time.perf_counter() - t0)
     if args.update:
-        return 0
+        return OK
     head = ["case", "solver", "channel", "RMS diff / max|baseline|", "tolerance", "moved", "note"]
     body = [[r["case"], r["solver"], r["channel"], r["rms"], r["tolerance"], "MOVED" if r["moved"] else "ok",
              r["why"]] for r in rows]
@@ -185,7 +248,7 @@ def cmd_regress(args) -> int:
     for r in moved:
         print(f"moved: {r['case']} / {r['solver']} / {r['channel']}: RMS difference {tables.fmt(r['rms'])} "
               f"> tolerance {tables.fmt(r['tolerance'])}", file=sys.stderr)
-    return 1 if moved else 0
+    return DIFFERENT if moved else OK
 
 
 def cmd_bench(args) -> int:
@@ -195,6 +258,7 @@ def cmd_bench(args) -> int:
         sys.stderr.write(f"bench: {row['case']} / {row['solver']} {row['scheme']} {row['setting']}: "
                          f"error {row['error']:.3g}, {row['wall_s']:.2f} s\n")
 
+    files.writable_dir(args.out, "--out")
     result = bench.run(quick=args.quick, with_work_precision=not args.no_work_precision, progress=show)
     bench.plots(result, Path(args.out))
     if args.json:
@@ -232,23 +296,40 @@ def progress_done(n: int, elapsed: float) -> None:
 # parser
 
 
-def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="flexmbd", description="Flexible multibody validation harness.")
-    sub = p.add_subparsers(dest="command", required=True)
+class Parser(argparse.ArgumentParser):
+    """argparse with its errors as one line naming the option (exit 2), not a usage block."""
 
-    s = sub.add_parser("list", help="the cases, with title, bodies and solvers")
+    def error(self, message):
+        where = self.prog.partition(" ")[2] or "command line"
+        raise InputError(f"{where}: {' '.join(message.split())} (see {self.prog} --help)")
+
+
+def parser() -> argparse.ArgumentParser:
+    debug = Parser(add_help=False)
+    debug.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                       help="show the traceback of an internal error on the terminal")
+    p = Parser(prog="flexmbd", description="Flexible multibody validation harness.", parents=[debug])
+    sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
+    strict = "exit 1 when a solver fails (and, for report / compare, when a result misses its tolerance)"
+
+    s = sub.add_parser("list", help="the cases, with title, bodies and solvers", parents=[debug])
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_list)
 
-    s = sub.add_parser("modes", help="retained mode frequencies (Hz) and labels per flexible body")
+    s = sub.add_parser("modes", help="retained mode frequencies (Hz) and labels per flexible body", parents=[debug])
     s.add_argument("case")
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
     s.add_argument("--save", metavar="DIR", help="also write each reduced body as DIR/CASE_BODY.npz")
+    s.add_argument("--system", action="store_true",
+                   help="the assembled system's frequencies (joint and modal coordinates, linearized)")
+    s.add_argument("--about", choices=["initial", "equilibrium"], default="initial",
+                   help="with --system: linearize about the initial state or the static equilibrium "
+                        "(default: %(default)s)")
     s.add_argument("--json", action="store_true")
     s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.set_defaults(func=cmd_modes)
 
-    s = sub.add_parser("run", help="one solver on one case")
+    s = sub.add_parser("run", help="one solver on one case", parents=[debug])
     s.add_argument("case")
     s.add_argument("--solver", required=True)
     s.add_argument("--out", default="results")
@@ -256,52 +337,105 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
     s.add_argument("--json", action="store_true")
     s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_run)
 
-    s = sub.add_parser("report", help="every case on every available solver, and the report")
-    s.add_argument("--cases", default=None, help="comma-separated case names (default: all)")
+    s = sub.add_parser("report", help="every case on every available solver, and the report", parents=[debug])
+    s.add_argument("--cases", default=None, help="comma-separated case names or paths (default: all)")
     s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
     s.add_argument("--out", default="reports")
     s.add_argument("--no-run", action="store_true", help="rebuild the pages from the stored results only")
     s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_report)
 
-    s = sub.add_parser("compare", help="run solvers on one case and write its report page")
+    s = sub.add_parser("compare", help="run solvers on one case and write its report page", parents=[debug])
     s.add_argument("case")
     s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
     s.add_argument("--out", default="reports")
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
     s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_compare)
 
-    s = sub.add_parser("bench", help="timing and work-precision against peers on this machine")
+    s = sub.add_parser("bench", help="timing and work-precision against peers on this machine", parents=[debug])
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--quick", action="store_true", help="fewer sizes and settings (a smoke run)")
     s.add_argument("--no-work-precision", action="store_true", help="skip the (long) work-precision sweeps")
     s.add_argument("--out", default="reports/bench")
     s.set_defaults(func=cmd_bench)
 
-    s = sub.add_parser("regress", help="compare fresh results with stored baselines (exit 1 if anything moved)")
+    s = sub.add_parser("regress", help="compare fresh results with stored baselines (exit 1 if anything moved)",
+                       parents=[debug])
     s.add_argument("--baseline", default=str(Path(__file__).resolve().parent.parent / "references" / "baselines"))
     s.add_argument("--results", default=None, help="compare these stored results instead of running the solvers")
     s.add_argument("--cases", default=None)
     s.add_argument("--solvers", default=None)
     s.add_argument("--update", action="store_true", help="rewrite the baselines from fresh results")
     s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("--strict", action="store_true", help="accepted for symmetry: a failed solver is always a difference")
     s.set_defaults(func=cmd_regress)
     return p
 
 
-def main(argv=None) -> int:
-    args = parser().parse_args(argv)
+def _terminate(signum, frame):
+    """SIGTERM (and SIGINT) as an exception, raised at the next safe point."""
+    raise Interrupted(signum)
+
+
+def save_traceback(e: BaseException) -> Path:
+    """The full traceback of an internal error in a file under the temporary folder; its path."""
+    folder = Path(tempfile.gettempdir()) / "flexmbd-errors"
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    path = folder / f"{stamp}-{os.getpid()}.txt"
+    text = f"flexmbd {' '.join(sys.argv[1:])}\n" + "".join(traceback.format_exception(e))
     try:
+        files.atomic_write(path, text)
+    except (InputError, OSError):
+        return Path("(not saved: " + str(folder) + " is not writable)")
+    return path
+
+
+def main(argv=None) -> int:
+    """Run one command; its exit status (module docstring)."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    debug = "--debug" in argv
+    handlers = {}
+    if threading.current_thread() is threading.main_thread():
+        handlers = {signal.SIGTERM: signal.signal(signal.SIGTERM, _terminate),
+                    signal.SIGXFSZ: signal.signal(signal.SIGXFSZ, signal.SIG_IGN)}   # EFBIG, not a kill
+    try:
+        args = parser().parse_args(argv)
         return args.func(args)
     except InputError as e:
-        print(f"flexmbd: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("flexmbd: interrupted", file=sys.stderr)
-        return 130
+        print(f"flexmbd: {' '.join(str(e).split())}", file=sys.stderr)
+        return BAD_INPUT
+    except KeyboardInterrupt as e:
+        signum = getattr(e, "signum", signal.SIGINT)
+        print(f"flexmbd: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
+        return 128 + signum
+    except OSError as e:
+        if e.filename is None:
+            return _internal(e, debug)
+        print(f"flexmbd: {files.unusable(e.filename, e)}", file=sys.stderr)
+        return BAD_INPUT
+    except Exception as e:                                  # noqa: BLE001 - the one place
+        return _internal(e, debug)
+    finally:
+        for sig, old in handlers.items():
+            signal.signal(sig, old if old is not None else signal.SIG_DFL)
+
+
+def _internal(e: BaseException, debug: bool) -> int:
+    """An internal error: one line naming it and where its traceback was saved (on the terminal
+    too with --debug)."""
+    if debug:
+        traceback.print_exception(e, file=sys.stderr)
+    where = save_traceback(e)
+    msg = " ".join(str(e).split())[:200]
+    print(f"flexmbd: internal error: {type(e).__name__}{': ' + msg if msg else ''} (traceback saved to {where})",
+          file=sys.stderr)
+    return INTERNAL
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""The one exception for bad input: the command line prints its message as one line, exit 2."""
+"""The one exception for bad input (the command line prints its message as one line, exit 2),
+and the one for a signal that ends a command."""
 
 
 class InputError(Exception):
@@ -25,3 +26,10 @@ def _escape(ch: str) -> str:
     if 0xDC80 <= code <= 0xDCFF:                        # os.fsdecode's stand-in for byte code - 0xDC00
         return f"\\x{code - 0xDC00:02x}"
     return ch.encode("unicode_escape", "backslashreplace").decode("ascii")
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM, raised at the next safe point: `signum` says which (exit 128 + signum)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum

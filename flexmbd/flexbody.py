@@ -48,6 +48,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from flexmbd.fe import assembly, element, modes, section, stress
+from flexmbd.files import atomic_write
 
 
 @dataclass(frozen=True)
@@ -261,8 +262,8 @@ def _reduced(key: str) -> FlexBody:
 
 
 def save(fb: FlexBody, path) -> None:
-    """Write the body to one .npz file."""
-    np.savez(path, **{f.name: np.asarray(getattr(fb, f.name)) for f in fields(fb)})
+    """Write the body to one .npz file (atomically: `files.atomic_write`)."""
+    atomic_write(path, lambda f: np.savez(f, **{f_.name: np.asarray(getattr(fb, f_.name)) for f_ in fields(fb)}))
 
 
 def load(path) -> FlexBody:

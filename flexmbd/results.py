@@ -17,12 +17,8 @@ import json
 import os
 import platform
 import re
-import signal
 import subprocess
 import sys
-import tempfile
-import threading
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -31,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from flexmbd.errors import InputError
+from flexmbd.files import signals_held, temporary, unusable
 
 DEPENDENCIES = ("numpy", "scipy", "pandas", "matplotlib", "numba", "exudyn", "pin", "mujoco")
 
@@ -214,53 +211,6 @@ def sha256(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-@contextmanager
-def signals_held():
-    """Hold SIGINT and SIGTERM back until the block is done, then deliver the first that came.
-
-    A handler that only records the signal (any thread may receive a process signal, so a
-    thread's signal mask is not enough); outside the main thread, where handlers cannot be
-    set, the block runs as it is."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    got = []
-    old = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
-    for s in old:
-        signal.signal(s, lambda signum, frame: got.append(signum))
-    try:
-        yield
-    finally:
-        for s, handler in old.items():
-            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
-        if got:
-            signal.raise_signal(got[0])
-
-
-def _temporary(path: Path, text: str) -> str:
-    """`text` in a new temporary file beside `path` (mode 644); its name."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.chmod(tmp, 0o644)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return tmp
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    """Replace `path` by a file holding `text`: readers see the old file or the new one."""
-    tmp = _temporary(path, text)
-    try:
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def write(r: Result, out_dir: Path) -> tuple[Path, Path]:
     """Write `out_dir/CASE/SOLVER.csv` and `.json` as a pair; return both paths. A run without
     samples (unavailable, or failed before the first output) has no CSV."""
@@ -270,7 +220,7 @@ def write(r: Result, out_dir: Path) -> tuple[Path, Path]:
     meta = json.dumps(sidecar(r, sha256(table) if table is not None else None), indent=2) + "\n"
     tmps = []
     try:
-        tmps = [_temporary(csv, table) if table is not None else None, _temporary(js, meta)]
+        tmps = [temporary(csv, table) if table is not None else None, temporary(js, meta)]
         with signals_held():
             if table is not None:
                 os.replace(tmps[0], csv)
@@ -284,30 +234,95 @@ def write(r: Result, out_dir: Path) -> tuple[Path, Path]:
     return csv, js
 
 
+def read_text(path: Path) -> str:
+    """A stored file's text; an InputError naming it when it is missing, unreadable or not text."""
+    try:
+        return Path(path).read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text file (undecodable bytes)") from None
+    except OSError as e:
+        raise unusable(path, e, "cannot be read") from None
+
+
+def read_table(path: Path, text: str, columns: list | None = None, samples: int | None = None,
+               comment: str | None = None) -> pd.DataFrame:
+    """A stored table (`t` and channels) from its text, checked: parseable, a `t` column
+    (and exactly `columns` when given), `samples` rows when given, every cell a finite number,
+    `t` increasing. An InputError naming `path` and the first problem otherwise."""
+    try:
+        df = pd.read_csv(io.StringIO(text), comment=comment)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as e:
+        raise InputError(f"{path}: not a table ({' '.join(str(e).split()) or type(e).__name__})") from None
+    if "t" not in df.columns:
+        raise InputError(f"{path}: no `t` column (columns: {', '.join(map(str, df.columns)) or 'none'})")
+    if columns is not None and list(df.columns) != list(columns):
+        raise InputError(f"{path}: columns {', '.join(map(str, df.columns))}, expected {', '.join(columns)}")
+    if samples is not None and len(df) != samples:
+        raise InputError(f"{path}: {len(df)} rows, expected {samples} (truncated or extended)")
+    for c in df.columns:
+        if not pd.api.types.is_numeric_dtype(df[c]) or pd.api.types.is_bool_dtype(df[c]):
+            bad = pd.to_numeric(df[c], errors="coerce").isna() & df[c].notna()
+            row = int(np.flatnonzero(bad.to_numpy())[0]) if bad.any() else 0
+            raise InputError(f"{path}: column {c}, row {row + 1}: not a number ({str(df[c].iloc[row])[:20]!r})")
+        y = df[c].to_numpy(dtype=float)
+        if not np.all(np.isfinite(y)):
+            row = int(np.flatnonzero(~np.isfinite(y))[0])
+            raise InputError(f"{path}: column {c}, row {row + 1}: {y[row]} (every value must be a finite number)")
+    if len(df) > 1 and not np.all(np.diff(df["t"].to_numpy(dtype=float)) > 0):
+        raise InputError(f"{path}: column t is not increasing")
+    return df
+
+
 def read(out_dir: Path, case: str, solver: str) -> Result:
-    """Read a stored result back; a CSV that does not belong to its JSON (another run's, or
-    missing where the JSON names one) is an InputError naming it."""
+    """Read a stored result back, checked: the JSON sidecar parses and belongs to (case,
+    solver), its CSV belongs to it (the SHA-256) and is a table of `t` and the sidecar's
+    channels with its number of samples, every value finite. Anything else is an InputError
+    naming the file."""
     base = Path(out_dir) / case
     js, csv = base / f"{solver}.json", base / f"{solver}.csv"
-    meta = json.loads(js.read_text())
+    if not js.is_file():
+        raise InputError(f"{js}: missing (no stored result of {solver} on {case})")
+    try:
+        meta = json.loads(read_text(js))
+    except json.JSONDecodeError as e:
+        raise InputError(f"{js}: not a result sidecar (JSON error: {e.msg}, line {e.lineno})") from None
+    if not isinstance(meta, dict) or not {"status", "solver", "case", "samples", "channels"} <= set(meta):
+        raise InputError(f"{js}: not a result sidecar (expected the keys status, solver, case, samples, channels)")
+    if (meta["case"], meta["solver"]) != (case, solver):
+        raise InputError(f"{js}: holds {meta['solver']} on {meta['case']}, not {solver} on {case}")
+    try:
+        status = Status.parse(str(meta["status"]))
+        samples, chans = int(meta["samples"]), [str(c) for c in meta["channels"]]
+    except (TypeError, ValueError) as e:
+        raise InputError(f"{js}: not a result sidecar ({e})") from None
     want = meta.get("csv_sha256")
-    if want is None and meta.get("samples", 0) == 0:
+    if want is None and samples == 0:
         df = pd.DataFrame({"t": []})
     else:
         if not csv.is_file():
-            raise InputError(f"{csv}: missing (its sidecar {js.name} lists {meta.get('samples')} samples)")
-        text = csv.read_text()
+            raise InputError(f"{csv}: missing (its sidecar {js.name} lists {samples} samples)")
+        text = read_text(csv)
         if want is not None and sha256(text) != want:
-            raise InputError(f"{csv}: does not belong to {js.name} (written by another run)")
-        df = pd.read_csv(io.StringIO(text))
+            raise InputError(f"{csv}: does not belong to {js.name} (written by another run, or changed)")
+        df = read_table(csv, text, ["t"] + chans, samples)
     known = SIDECAR_KEYS | {"python", "versions", "git_commit", "machine", "date"}
-    status = Status.parse(meta["status"])
     if status.kind == "failed" and meta.get("failed_at_s") is not None:
         status = Status("failed", status.why, float(meta["failed_at_s"]))
-    return Result(solver=solver, case=case, t=df["t"].to_numpy(),
-                  channels={c: df[c].to_numpy() for c in df.columns if c != "t"},
+    return Result(solver=solver, case=case, t=df["t"].to_numpy(dtype=float),
+                  channels={c: df[c].to_numpy(dtype=float) for c in df.columns if c != "t"},
                   status=status, solver_version=meta.get("solver_version", ""),
                   settings=meta.get("settings", {}), wall_s=meta.get("wall_s", 0.0),
                   setup_s=meta.get("setup_s", 0.0), steps=meta.get("steps", 0),
                   rhs_evals=meta.get("rhs_evals", 0), case_sha256=meta.get("case_sha256", ""),
                   extra={k: v for k, v in meta.items() if k not in known})
+
+
+def stale(r: Result, case_sha256: str, channels) -> str:
+    """Why a stored result does not belong to the current case ('' when it does): another case
+    hash (the case changed since the run), or a channel the case does not have."""
+    extra = [c for c in r.channels if c not in channels]
+    if extra:
+        return f"channel {extra[0]} is not one of the case's channels"
+    if r.case_sha256 != case_sha256:
+        return f"run for another version of the case (case sha256 {r.case_sha256 or 'none'}, now {case_sha256})"
+    return ""

@@ -6,7 +6,8 @@ A solver is a module with
     applies(case) -> str     '' when the solver can run the case, else why not
     run(case, t_end, settings) -> Result    fills t, channels, steps, rhs_evals, wall_s, setup_s
 Solvers that are not part of this build are listed (so case files may name them) and reported
-as unavailable.
+as unavailable. Other packages add solvers through the entry-point group `flexmbd.solvers`
+(docs/plugins.md).
 
 `run` is the one place where a solver's exception becomes a result, and where the divergence
 rule (`results.first_failure`) is applied to every solver's channels: a failed run keeps the
@@ -24,7 +25,7 @@ from flexmbd.errors import InputError
 from flexmbd.results import Result
 
 # registered name -> module (None: not part of this build)
-MODULES = {
+BUILT_IN = {
     "flexmbd": "flexmbd.solver",
     "fe-linear": "flexmbd.adapters.fe_linear",
     "analytic": "flexmbd.adapters.analytic",
@@ -34,6 +35,17 @@ MODULES = {
     "pinocchio": "flexmbd.adapters.pinocchio_rigid",
     "mujoco": "flexmbd.adapters.mujoco_rigid",
 }
+GROUP = "flexmbd.solvers"           # entry-point group of solver plug-ins (docs/plugins.md)
+
+
+def plugins() -> dict:
+    """Installed plug-in solvers: entry-point name -> module path (the value names a module). A
+    plug-in may not take a built-in name."""
+    from importlib.metadata import entry_points
+    return {ep.name: ep.value.partition(":")[0] for ep in entry_points(group=GROUP) if ep.name not in BUILT_IN}
+
+
+MODULES = {**BUILT_IN, **plugins()}
 NAMES = tuple(MODULES)
 
 

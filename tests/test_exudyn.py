@@ -49,6 +49,14 @@ def test_ffrf_cantilever_follows_flexmbd_short():
     assert r.settings["dt"] == pytest.approx(2.5e-5) and r.steps > 0 and r.wall_s > 0
 
 
+def test_ffrf_printed_modulus_pendulum_is_outside_linear_validity():
+    """The paper's printed E = 2.06e9 Pa: Exudyn's linear FFRF body swings past a node rotation of
+    0.1 rad within 0.4 s and says so, as flexmbd does (tests/test_cli.py)."""
+    case = cases.load("pendulum", ["materials.steel.E=2.06e9"])
+    r = solvers.run(case, "exudyn-ffrf", 0.4)
+    assert r.status.outside and str(r.status).startswith("ok, outside linear validity (node rotation"), r.status
+
+
 @pytest.mark.parametrize("name, over, expected", [
     ("pendulum", ["joints.pivot.q0=-1.5707963267948966"], {"stress_vm": 1.47}),
     ("double_pendulum", ["joints.pivot1.q0=-1.5707963267948966"], {"stress_vm_1": 1.47 + 1.5, "stress_vm_2": 1.47}),

@@ -13,12 +13,12 @@ ROOT = Path(flexmbd.__file__).resolve().parent
 # The kernel's numba plumbing below the algorithms (compiling, dense loops) sits at layer 1; the
 # Bound and the compiled entry sit above the algorithms they call (docs/architecture.md).
 LAYERS = {
-    "errors": 1, "kernel.jit": 1, "kernel.dense": 1, "spatial": 1, "fe": 1, "results": 1, "profiles": 1,
+    "errors": 1, "files": 1, "kernel.jit": 1, "kernel.dense": 1, "spatial": 1, "fe": 1, "results": 1, "profiles": 1,
     "metrics": 1,
     "cases": 2, "flexbody": 2,
     "invariants": 3, "joints": 3, "model": 3, "build": 3, "dynamics": 3,
     "kernel": 4, "integrate": 4,
-    "channels": 5, "solver": 5, "adapters": 5, "solvers": 5, "cost": 5,
+    "channels": 5, "solver": 5, "adapters": 5, "solvers": 5, "linearize": 5, "cost": 5,
     "report": 6, "bench": 6, "cli": 6, "__main__": 6, "__init__": 6,
 }
 

@@ -170,3 +170,24 @@ def test_side_lobes_are_not_peaks():
     y = 20 * np.sin(2 * np.pi * 5.527 * t) + 0.07 * np.sin(2 * np.pi * 96.94 * t)
     found = [f for f, _ in metrics.spectral_peaks(t, y, n=8, fmin=1.0)]
     assert len(found) == 2 and abs(found[0] - 5.527) < 0.01 and abs(found[1] - 96.94) < 0.05, found
+
+
+def test_verdicts_of_a_run():
+    from flexmbd import results
+    from flexmbd.report import accuracy
+    row = lambda s, ch, rms, tol: {"solver": s, "channel": ch, "rms": rms, "tolerance": tol}
+    rows = [row("a", "tip", 0.001, 0.01), row("a", "stress", 0.1, 0.05), row("a", "energy", 0.5, 0.1),
+            row("b", "tip", 0.004, 0.01), row("c", "tip", np.nan, 0.01), row("d", "tip", 0.1, np.nan)]
+    ok, out = results.Status(), results.outside_validity("deflection 12 % of length", 0.3)
+    v = lambda st, s: accuracy.verdict(st, s, "ref", rows)
+    assert v(ok, "a") == ("fail", "fail: energy 0.5 > 0.1 (5 x tolerance) and 1 more")
+    assert v(ok, "b") == ("pass", "pass: 1 channel within tolerance")
+    assert v(ok, "c").kind == "fail"                                    # a NaN difference is no pass
+    assert v(ok, "d").kind == "not compared"
+    assert v(out, "b") == ("outside validity", "outside validity: deflection 12 % of length")
+    assert v(out, "a").text.endswith("(outside linear validity: deflection 12 % of length)")
+    assert v(results.failed("non-finite state", 0.2), "a") == ("failed", "failed: non-finite state at t = 0.2 s")
+    assert v(results.not_applicable("fixed base"), "a").kind == "not applicable"
+    assert v(ok, "ref").kind == "reference"
+    verdicts = [v(ok, "a"), v(ok, "b"), v(out, "b"), v(results.failed("x"), "a")]
+    assert accuracy.summary(verdicts) == "4 runs: 1 pass, 1 fail, 1 outside validity, 1 failed"

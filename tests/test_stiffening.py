@@ -35,22 +35,15 @@ def test_spin_up_beam_stays_bounded_with_stiffening(W, peak):
 
 def rotating_frequencies_of_flexmbd(W: float) -> np.ndarray:
     """Frequencies (rad/s) of the paper's beam spun at a constant rate W (no gravity): the
-    eigenvalues of flexmbd's equations linearized about the steady rotation (central
-    differences of forward dynamics in the modal coordinates and their rates)."""
+    eigenvalues of flexmbd's equations linearized about the steady rotation (linearize.py)."""
+    from flexmbd import linearize
     from flexmbd.build import from_case
-    from flexmbd.kernel.entry import forward_dynamics
-    from flexmbd.model import make_data
     case = cases.load("pendulum", ["gravity=[0.0, 0.0, 0.0]", "bodies.beam.modes.count=8",
                                    f'joints.pivot.motion={{type="constant_rate", rate={W}}}'])
     m = from_case(case)
-    n, h = m.nv - 1, 1e-6
-    q, v = np.zeros(m.nq), np.zeros(m.nv)
+    v = np.zeros(m.nv)
     v[0] = W
-    f = lambda q, v: forward_dynamics(m, make_data(m), q, v, t=0.0)[1:]
-    Jq = np.array([(f(q + h * e, v) - f(q - h * e, v)) / (2 * h) for e in np.eye(m.nq)[1:]]).T
-    Jv = np.array([(f(q, v + h * e) - f(q, v - h * e)) / (2 * h) for e in np.eye(m.nv)[1:]]).T
-    lam = np.linalg.eigvals(np.block([[np.zeros((n, n)), np.eye(n)], [Jq, Jv]]))
-    return np.sort(lam.imag[lam.imag > 1e-9])
+    return np.array([2 * np.pi * s.freq_hz for s in linearize.system_modes(m, np.zeros(m.nq), v)])
 
 
 def test_rotating_cantilever_follows_the_southwell_curves():

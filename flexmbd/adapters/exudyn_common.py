@@ -19,7 +19,7 @@ import numpy as np
 import exudyn as exu                     # ImportError here: the adapters are 'unavailable'
 import exudyn.itemInterface as eii       # noqa: F401  (used by the adapters)
 
-from flexmbd import results
+from flexmbd import files, results
 from flexmbd.adapters import common
 from flexmbd.integrate import Progress
 
@@ -111,7 +111,7 @@ def solve(mbs, settings, solver_type: str, label: str = "exudyn"):
     bar = Progress(settings.timeIntegration.endTime, label)
     mbs.SetPreStepUserFunction(lambda mbs, t: bar.update(t) or True)
     try:
-        with quiet():
+        with files.signals_kept(), quiet():
             ok = mbs.SolveDynamic(settings, solverType=IMPLICIT[solver_type], showHints=False,
                                   showCausingItems=False)
         if not ok:

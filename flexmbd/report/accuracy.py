@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from flexmbd import metrics
@@ -63,6 +65,48 @@ def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
             row["pass"] = "" if np.isnan(row["tolerance"]) else ("pass" if row["rms"] <= row["tolerance"] else "fail")
             out.append(row)
     return out
+
+
+class Verdict(NamedTuple):
+    """One case x solver at a glance: `kind` one of VERDICTS, `text` the one line shown."""
+
+    kind: str
+    text: str
+
+
+VERDICTS = ("pass", "fail", "outside validity", "failed", "not applicable", "unavailable", "reference",
+            "not compared")
+
+
+def verdict(status, solver: str, reference: str, rows_: list[dict]) -> Verdict:
+    """The verdict of a solver's run (`status`: its results.Status) from its accuracy rows: failed /
+    not applicable / unavailable from the status; else fail when a channel's RMS difference exceeds
+    its tolerance (the worst one and by how much), outside validity when the run left its model's
+    linear validity, pass when every compared channel is within tolerance; the reference solver is
+    `reference`, a run with nothing compared `not compared`."""
+    if not status.ok:
+        return Verdict(status.kind, str(status))
+    outside = f" (outside linear validity: {status.why})" if status.outside else ""
+    if solver == reference:
+        return Verdict("reference", "reference" + outside)
+    mine = [r for r in rows_ if r["solver"] == solver and np.isfinite(r["tolerance"])]
+    bad = [r for r in mine if not r["rms"] <= r["tolerance"]]
+    if bad:
+        w = max(bad, key=lambda r: r["rms"] / r["tolerance"] if np.isfinite(r["rms"]) else np.inf)
+        more = f" and {len(bad) - 1} more" if len(bad) > 1 else ""
+        return Verdict("fail", f"fail: {w['channel']} {w['rms']:.3g} > {w['tolerance']:.3g} "
+                               f"({w['rms'] / w['tolerance']:.2g} x tolerance){more}{outside}")
+    if status.outside:
+        return Verdict("outside validity", f"outside validity: {status.why}")
+    if not mine:
+        return Verdict("not compared", "not compared: no channel with a tolerance against the reference")
+    return Verdict("pass", f"pass: {len(mine)} channel{'s' * (len(mine) != 1)} within tolerance")
+
+
+def summary(verdicts: list) -> str:
+    """One line: how many runs of each verdict, e.g. '36 runs: 20 pass, 5 fail, 2 failed'."""
+    counts = [(k, sum(v.kind == k for v in verdicts)) for k in VERDICTS]
+    return f"{len(verdicts)} runs: " + ", ".join(f"{n} {k}" for k, n in counts if n)
 
 
 def worst(rows_: list[dict], solver: str) -> float:

@@ -14,9 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, flexbody, metrics, results, solvers
+from flexmbd import files, flexbody, metrics, results, solvers
+from flexmbd.errors import InputError
+from flexmbd.files import atomic_write
 from flexmbd.report import accuracy, figures, tables
-from flexmbd.results import _atomic_write
+from flexmbd.results import Result
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
 table{border-collapse:collapse;margin:0.6em 0;font-size:13px}th,td{border:1px solid #bbb;padding:3px 7px;text-align:right}
@@ -24,12 +26,30 @@ th{background:#eee}td:first-child,th:first-child{text-align:left}.pass,.ok{backg
 .bad{background:#fed;text-align:left}.outside{background:#ffe9a8;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
 
 
-def load_results(out: Path, case_name: str, names) -> dict:
-    """Stored results of one case, by solver (those with a sidecar)."""
+def jobs(case, names) -> list:
+    """The solvers of `names` that the case's report runs (its `report.solvers`, when given)."""
+    return [s for s in names if not case["report"]["solvers"] or s in case["report"]["solvers"]]
+
+
+def load_results(out: Path, case, names, warn=None) -> dict:
+    """Stored results of one case, by solver. A stored result that is missing or cannot be used
+    (broken, truncated, its CSV gone) or that was run for another version of the case (stale) is
+    kept as an unavailable result saying why, never as ok; `warn(line)` is told."""
     got = {}
     for s in names:
-        if (out / "results" / case_name / f"{s}.json").exists():
-            got[s] = results.read(out / "results", case_name, s)
+        try:
+            r = results.read(out / "results", case.name, s)
+            why = results.stale(r, case.sha256, case["channels"])
+            if why:
+                note = f"{out / 'results' / case.name / (s + '.json')}: stale: {why}"
+                r = Result(solver=s, case=case.name, status=results.unavailable(f"stale stored result: {why}"),
+                           solver_version=r.solver_version, settings=r.settings, case_sha256=r.case_sha256)
+        except InputError as e:
+            note = str(e)
+            r = Result(solver=s, case=case.name, status=results.unavailable(f"stored result unusable: {e}"))
+        if not r.status.ok and r.status.why.startswith(("stored result unusable", "stale stored result")) and warn:
+            warn(f"warning: {note}")
+        got[s] = r
     return got
 
 
@@ -58,26 +78,28 @@ def timing_rows(res: dict, t_end: float) -> list[list]:
     return rows
 
 
-def provenance_rows(out: Path, case_name: str, res: dict) -> list[list]:
-    rows = []
-    for s in res:
-        meta = json.loads((out / "results" / case_name / f"{s}.json").read_text())
-        rows.append([s, meta.get("solver_version", ""), meta.get("case_sha256", ""), meta.get("git_commit", ""),
-                     meta.get("date", ""), meta.get("machine", ""),
-                     json.dumps(meta.get("settings", {}), sort_keys=True)[:300]])
-    return rows
+def provenance_rows(res: dict) -> list[list]:
+    return [[s, r.solver_version, r.case_sha256, r.extra.get("git_commit", ""), r.extra.get("date", ""),
+             r.extra.get("machine", ""), json.dumps(r.settings, sort_keys=True)[:300]] for s, r in res.items()]
 
 
-def case_page(out: Path, case, names) -> dict:
-    """Write one case's page; return its accuracy rows and summary rows."""
-    res = load_results(out, case.name, names)
+def case_page(out: Path, case, names, warn=None) -> dict:
+    """Write one case's page and figures (`out/CASE/`, swapped in whole: `files.generation`);
+    return its accuracy rows and summary rows."""
+    with files.generation(out) as stage:
+        return _case_page(out, stage, case, names, warn)
+
+
+def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
+    """One case's page from the results under `out`, written into `stage/CASE/`."""
+    res = load_results(out, case, names, warn)
     ok = {s: r for s, r in res.items() if r.ok}
     mods = {s: solvers.module(s) for s in res}
     freqs, modes = fe_modes(case)
     ref = case["report"]["reference"]
     acc = accuracy.rows(case, ok, mods, freqs)
     peaks = accuracy.peak_table(case, ok, modes)
-    d = out / case.name
+    d = stage / case.name
     sections = []                                             # (title, html, markdown)
 
     # channels, grouped as a reader looks for them
@@ -131,7 +153,7 @@ def case_page(out: Path, case, names) -> dict:
 
     # provenance
     head = ["solver", "version", "case sha256", "git commit", "date", "machine", "settings"]
-    rows = provenance_rows(out, case.name, res)
+    rows = provenance_rows(res)
     sections.append(("Provenance", tables.html_table(head, rows), tables.markdown(head, rows)))
 
     title = f"{case.name}: {case['title']}"
@@ -142,21 +164,29 @@ def case_page(out: Path, case, names) -> dict:
         page.append(f"<h2>{html.escape(t)}</h2>{h}")
         md.append(f"## {t}\n\n{m}")
     page.append("</body></html>")
-    _atomic_write(d / "index.html", "".join(page) + "\n")
-    _atomic_write(d / "index.md", "\n".join(md))
+    atomic_write(d / "index.html", "".join(page) + "\n")
+    atomic_write(d / "index.md", "\n".join(md))
     summary = [[case.name, s, str(r.status), accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s] for s, r in res.items()]
     return {"accuracy": acc, "summary": summary}
 
 
-def write(out: Path, case_names, names) -> Path:
-    """Every case page, the index and the reviewer tables; return the index path."""
+def write(out: Path, chosen_cases, names, warn=None) -> tuple[Path, list, list]:
+    """Every case page, the index and the reviewer tables, as one generation (built in a staging
+    folder and swapped in at the end: `files.generation`); (the index path, summary rows
+    [case, solver, status, worst, wall], accuracy rows)."""
     out = Path(out)
+    with files.generation(out) as stage:
+        all_acc, summary = _write(out, stage, chosen_cases, names, warn)
+    return out / "index.html", summary, all_acc
+
+
+def _write(out: Path, stage: Path, chosen_cases, names, warn) -> tuple[list, list]:
     all_acc, summary = [], []
-    for name in case_names:
-        got = case_page(out, cases.load(name), names)
+    for case in chosen_cases:
+        got = _case_page(out, stage, case, jobs(case, names), warn)
         all_acc += got["accuracy"]
         summary += got["summary"]
-    tables.write_accuracy(out, all_acc)
+    tables.write_accuracy(stage, all_acc)
     head = ["case", "solver", "status", "worst RMS diff / max|ref|", "wall [s]"]
     links_html = [[f"<a href='{r[0]}/index.html'>{html.escape(r[0])}</a>"] + r[1:] for r in summary]
     links_md = [[f"[{r[0]}]({r[0]}/index.md)"] + r[1:] for r in summary]
@@ -164,13 +194,13 @@ def write(out: Path, case_names, names) -> Path:
     intro = (f"Every case on every solver; the worst difference is the largest normalised RMS difference from "
              f"the case's reference solver over the channels compared. Generated {when}, commit "
              f"{results.git_commit() or 'unknown'}. Reviewer tables: ")
-    files = ["accuracy.csv", "accuracy.md", "accuracy.tex"]
+    pages = ["accuracy.csv", "accuracy.md", "accuracy.tex"]
     page = (f"<!doctype html><html><head><meta charset='utf-8'><title>flexmbd report</title><style>{CSS}</style>"
             f"</head><body><h1>flexmbd report</h1><p>{html.escape(intro)}"
-            + ", ".join(f"<a href='{f}'>{f}</a>" for f in files) + "."
+            + ", ".join(f"<a href='{f}'>{f}</a>" for f in pages) + "."
             + (" Benchmarks: <a href='bench/index.html'>bench</a>." if (out / "bench" / "index.html").exists() else "")
             + "</p>" + tables.html_table(head, links_html, raw_cols=(0,)) + "</body></html>")
-    _atomic_write(out / "index.html", page + "\n")
-    _atomic_write(out / "index.md", "# flexmbd report\n\n" + intro + ", ".join(f"[{f}]({f})" for f in files)
-                  + ".\n\n" + tables.markdown(head, links_md))
-    return out / "index.html"
+    atomic_write(stage / "index.html", page + "\n")
+    atomic_write(stage / "index.md", "# flexmbd report\n\n" + intro + ", ".join(f"[{f}]({f})" for f in pages)
+                 + ".\n\n" + tables.markdown(head, links_md))
+    return all_acc, summary

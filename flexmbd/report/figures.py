@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import matplotlib
@@ -13,24 +11,26 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from flexmbd import metrics  # noqa: E402
+from flexmbd.files import atomic_write  # noqa: E402
 
 UNITS = {"deflection": ("mm", 1e3), "stress_vm": ("MPa", 1e-6), "joint_angle": ("rad", 1.0),
          "energy": ("J", 1.0), "reaction_force": ("N", 1.0), "reaction_moment": ("N m", 1.0)}
 
 
 def save(fig, path: Path) -> str:
-    """Write the figure atomically; return its file name (pages link relatively)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".png")
-    os.close(fd)
+    """Write the figure atomically (`files.atomic_write`); return its file name (pages link
+    relatively)."""
     try:
-        fig.savefig(tmp, dpi=90)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
+        atomic_write(path, lambda f: fig.savefig(f, dpi=90, format="png"))
     finally:
         plt.close(fig)
-        Path(tmp).unlink(missing_ok=True)
     return path.name
+
+
+def legend(ax, **kw) -> None:
+    """The axes' legend, when anything drawn carries a label."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(**kw)
 
 
 def channel(case, name: str, results: dict, reference: str, path: Path) -> str:
@@ -48,13 +48,12 @@ def channel(case, name: str, results: dict, reference: str, path: Path) -> str:
             bottom.plot(ref.t, (metrics.on_grid(ref.t, r.t, r.channels[name]) - ref.channels[name]) * k,
                         lw=1.0, label=f"{s} - {reference}")
     top.set_ylabel(f"{name} [{unit}]")
-    top.legend(fontsize=8, ncol=3)
+    legend(top, fontsize=8, ncol=3)
     top.grid(alpha=0.3)
     bottom.set_ylabel(f"difference [{unit}]")
     bottom.set_xlabel("t [s]")
     bottom.grid(alpha=0.3)
-    if bottom.lines:
-        bottom.legend(fontsize=8, ncol=3)
+    legend(bottom, fontsize=8, ncol=3)
     fig.tight_layout()
     return save(fig, path)
 
@@ -74,7 +73,7 @@ def spectra(case, name: str, results: dict, fe_hz, path: Path) -> str:
     ax.set_xlabel("frequency [Hz]  (dotted: FE natural frequencies of the retained modes)")
     ax.set_ylabel(f"|FFT| of {name} [mm]")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, ncol=3)
+    legend(ax, fontsize=8, ncol=3)
     fig.tight_layout()
     return save(fig, path)
 
@@ -89,6 +88,6 @@ def elasticity(case, flexible, rigid, rigid_name: str, path: Path) -> str:
     ax.set_xlabel("t [s]")
     ax.set_ylabel("angle difference [rad]")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    legend(ax, fontsize=8)
     fig.tight_layout()
     return save(fig, path)

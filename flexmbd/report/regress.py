@@ -10,15 +10,17 @@ tolerance for that channel.
 
 from __future__ import annotations
 
-import io
 import json
+import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from flexmbd import metrics, results
-from flexmbd.results import Result, _atomic_write
+from flexmbd import metrics, results, solvers
+from flexmbd.errors import InputError
+from flexmbd.files import atomic_write
+from flexmbd.results import Result
 
 BASELINES = Path(__file__).resolve().parent.parent.parent / "references" / "baselines"
 UNITS = {"deflection": "m", "stress_vm": "Pa", "joint_angle": "rad", "energy": "J",
@@ -45,20 +47,59 @@ def write(base: Path, case, r: Result) -> Path:
         head.append(f"kinetic_max_J: {r.extra['kinetic_max_J']!r}")
     text = "".join(f"# {h}\n" for h in head) + r.table().to_csv(index=False, float_format="%.10g")
     path = Path(base) / case.name / f"{r.solver}.csv"
-    _atomic_write(path, text)
+    atomic_write(path, text)
     return path
 
 
 def read(base: Path, case: str, solver: str) -> pd.DataFrame:
-    """The baseline table; its header's fields (`# key: value` lines) in `.attrs`."""
-    text = (Path(base) / case / f"{solver}.csv").read_text()
-    df = pd.read_csv(io.StringIO(text), comment="#")
+    """The baseline table, checked as a stored table (`results.read_table`: a `t` column, the
+    columns its header lists, finite numbers); its header's fields (`# key: value` lines) in
+    `.attrs`. An InputError naming the file when it is missing or broken."""
+    path = Path(base) / case / f"{solver}.csv"
+    text = results.read_text(path)
+    attrs = {}
     for line in text.splitlines():
         if not line.startswith("#"):
             break
         key, _, value = line[1:].strip().partition(": ")
-        df.attrs[key] = value
+        attrs[key] = value
+    columns = [c.strip() for c in attrs["columns"].split(",")] if "columns" in attrs else None
+    df = results.read_table(path, text, columns, comment="#")
+    df.attrs.update(attrs)
     return df
+
+
+def samples(case) -> int:
+    """Output samples of a full run of the case."""
+    return int(round(case["duration"] / case["integrator"]["output_dt"])) + 1
+
+
+def known(base: Path, case: str, solver: str) -> Path:
+    """The path of the baseline of (case, solver); an InputError naming it when the solver is unknown."""
+    path = Path(base) / case / f"{solver}.csv"
+    if solver not in solvers.NAMES:
+        raise InputError(f"{path}: a baseline for an unknown solver {solver!r} (known: {', '.join(solvers.NAMES)})")
+    return path
+
+
+def baseline(base: Path, case, solver: str) -> tuple[pd.DataFrame, str]:
+    """The baseline of (case, solver) checked against the case: a known solver, the solver its
+    header names, only the case's channels, a full run's samples. (table, why it is stale or
+    ''); an InputError naming the file otherwise."""
+    path = known(base, case.name, solver)
+    df = read(base, case.name, solver)
+    named = df.attrs.get("solver", "").split(" ")[0]
+    if named and named != solver:
+        raise InputError(f"{path}: its header says solver {named}, not {solver}")
+    extra = [c for c in df.columns if c != "t" and c not in case["channels"]]
+    if extra:
+        raise InputError(f"{path}: column {extra[0]} is not a channel of {case.name}")
+    if len(df) != samples(case):
+        raise InputError(f"{path}: {len(df)} rows, expected {samples(case)} (a full run of {case.name}; truncated?)")
+    sha = re.search(r"sha256 ([0-9a-f]+)", df.attrs.get("source", ""))
+    why = "" if not sha or sha.group(1) == case.sha256 else \
+        f"made from another version of the case (case sha256 {sha.group(1)}, now {case.sha256})"
+    return df, why
 
 
 def compare(case, r: Result, baseline: pd.DataFrame) -> list[dict]:

@@ -12,7 +12,7 @@ import io
 import math
 from pathlib import Path
 
-from flexmbd.results import _atomic_write
+from flexmbd.files import atomic_write
 
 ACCURACY_COLUMNS = [
     ("case", "case"), ("solver", "solver"), ("reference", "reference"), ("channel", "channel"),
@@ -85,9 +85,9 @@ def write_accuracy(out: Path, rows_: list[dict]) -> None:
     w.writerow([k for k, _ in ACCURACY_COLUMNS])
     for r in rows_:
         w.writerow([f"{r[k]:.6g}" if isinstance(r[k], float) else r[k] for k, _ in ACCURACY_COLUMNS])
-    _atomic_write(out / "accuracy.csv", buf.getvalue())
+    atomic_write(out / "accuracy.csv", buf.getvalue())
     head, body = accuracy_rows(rows_)
-    _atomic_write(out / "accuracy.md", "# Accuracy against each case's reference solver\n\n" + markdown(head, body))
-    _atomic_write(out / "accuracy.tex", latex(head, body, "Accuracy of each solver against the case's "
+    atomic_write(out / "accuracy.md", "# Accuracy against each case's reference solver\n\n" + markdown(head, body))
+    atomic_write(out / "accuracy.tex", latex(head, body, "Accuracy of each solver against the case's "
                                                           "reference solver (differences normalised by the "
                                                           "reference's maximum magnitude)"))

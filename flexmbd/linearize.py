@@ -1,0 +1,127 @@
+"""The system's small vibrations: the assembled equations of a case (joint and modal coordinates,
+geometric stiffening included, as `flexmbd` integrates them) linearized about a state, and their
+eigenvalues. These are the frequencies a run's spectra show, unlike the mode set's own
+boundary-condition frequencies (`flexmbd modes`): a hinged pendulum vibrates at its pinned-free
+frequency, not at the clamped-free one of its modes (docs/formulation.md §10).
+
+Coordinates: the free ones, in v's order (`dynamics.free_velocities`); prescribed joints follow
+their profile at the linearization time. A state perturbation dq is taken along the joints'
+velocity map, q + h qdot(q, e_i), so quaternion joints need no special case."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy import optimize
+
+from flexmbd import dynamics, flexbody, joints
+from flexmbd.build import from_case
+from flexmbd.errors import InputError
+from flexmbd.kernel.entry import forward_dynamics
+from flexmbd.model import Model, make_data
+
+STEP = 1e-6          # central-difference step on q and v (coordinates are O(1) rad or mass-normalized)
+
+
+class SystemMode(NamedTuple):
+    freq_hz: float     # damped frequency |Im lambda| / 2 pi
+    damping: float     # ratio -Re lambda / |lambda|
+    label: str         # coordinate with the largest share of the mode's kinetic energy
+    share: float       # that share, 0..1
+
+
+def model_of(case) -> Model:
+    """The Model `flexmbd` integrates: the segmented tree (cases.Case.segmented)."""
+    return from_case(case.segmented, flexbody.for_case(case.segmented))
+
+
+def perturbed(model: Model, q, i: int, h: float) -> np.ndarray:
+    """q moved by h along velocity coordinate i (q + h qdot(q, e_i))."""
+    e = np.zeros(model.nv)
+    e[i] = 1.0
+    return q + h * joints.qdot(model.arrays, q, e, np.zeros(model.nq))
+
+
+def state_matrix(model: Model, q, v, t: float = 0.0) -> np.ndarray:
+    """A (2n, 2n) of d/dt [dq; dv] = A [dq; dv] over the n free coordinates, by central differences
+    of forward dynamics: A = [[0, I], [d qdd/dq, d qdd/dv]]."""
+    free, data = dynamics.free_velocities(model), make_data(model)
+
+    def qdd(q, v):
+        return forward_dynamics(model, data, q, v, t=t)[free]
+
+    n = free.size
+    Jq = np.empty((n, n))
+    Jv = np.empty((n, n))
+    for c, i in enumerate(free):
+        Jq[:, c] = (qdd(perturbed(model, q, i, STEP), v) - qdd(perturbed(model, q, i, -STEP), v)) / (2 * STEP)
+        dv = np.zeros(model.nv)
+        dv[i] = STEP
+        Jv[:, c] = (qdd(q, v + dv) - qdd(q, v - dv)) / (2 * STEP)
+    return np.block([[np.zeros((n, n)), np.eye(n)], [Jq, Jv]])
+
+
+def equilibrium(model: Model, q0) -> np.ndarray:
+    """The static equilibrium nearest q0 reached by descending the potential energy (gravity and
+    strain) over the free coordinates, at rest. Refused with prescribed joints (their reference
+    moves: linearize about the initial state) and for joints with quaternions."""
+    if model.jnt_prescribed[1:].any() or model.nq != model.nv:
+        raise InputError("modes --system --about equilibrium: needs a tree without prescribed joints "
+                         "or spherical/free joints; use --about initial")
+    free, data, zero = dynamics.free_velocities(model), make_data(model), np.zeros(model.nv)
+
+    def V(x):
+        q = np.array(q0, dtype=float)
+        q[free] = x
+        return dynamics.energy(model, data, q, zero)[1]
+
+    x = optimize.minimize(V, np.asarray(q0, dtype=float)[free], method="BFGS", options={"gtol": 1e-10}).x
+    q = np.array(q0, dtype=float)
+    q[free] = x
+    return q
+
+
+def coordinate_names(model: Model) -> list:
+    """A name per velocity coordinate: 'joint pivot', 'joint j.2', 'beam bending xy 1'."""
+    names = [""] * model.nv
+    for i in range(1, model.nb + 1):
+        k, nv = model.jnt_vadr[i], model.jnt_nv[i]
+        for c in range(nv):
+            names[k + c] = f"joint {model.jnt_names[i]}" + (f".{c + 1}" if nv > 1 else "")
+        a, nm = model.body_madr[i], model.body_nm[i]
+        if nm:
+            fb = model.bodies[model.names[i]]
+            for c in range(nm):
+                names[a + c] = f"{model.names[i]} {fb.labels[c]}"
+    return names
+
+
+def system_modes(model: Model, q, v, t: float = 0.0) -> list:
+    """The oscillating eigenvalues of the linearized system (one per conjugate pair, ascending
+    frequency) with damping and label. Non-oscillating roots (rigid-body modes, overdamped or
+    unstable ones) are left out."""
+    free = dynamics.free_velocities(model)
+    lam, vec = np.linalg.eig(state_matrix(model, q, v, t))
+    n = free.size
+    M = dynamics.mass_matrix_system(model, make_data(model), q)[np.ix_(free, free)]
+    names = [coordinate_names(model)[i] for i in free]
+    scale = np.abs(lam).max(initial=1.0)
+    out = []
+    for k in np.flatnonzero(lam.imag > 1e-9 * scale):
+        x = vec[:n, k]
+        energy = np.abs(x) ** 2 * np.diag(M)
+        share = energy / energy.sum()
+        j = int(np.argmax(share))
+        out.append(SystemMode(float(lam[k].imag / (2 * np.pi)), float(-lam[k].real / abs(lam[k])), names[j],
+                              float(share[j])))
+    return sorted(out)
+
+
+def for_case(case, about: str = "initial") -> list:
+    """System modes of a case about its initial state (t = 0) or its static equilibrium at rest."""
+    model = model_of(case)
+    q, v = model.q0.copy(), model.v0.copy()
+    if about == "equilibrium":
+        q, v = equilibrium(model, q), np.zeros(model.nv)
+    return system_modes(model, q, v, 0.0)

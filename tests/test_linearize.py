@@ -1,0 +1,46 @@
+"""The linearized system against closed forms: a clamped beam's system modes are its mode set's,
+and the hinged pendulum vibrates at the pinned-free frequency of the Euler-Bernoulli beam."""
+
+import numpy as np
+import pytest
+
+from flexmbd import cases, flexbody, linearize
+from flexmbd.errors import InputError
+
+
+def test_fixed_base_system_modes_are_the_mode_set():
+    case = cases.load("cantilever_step")
+    fb = flexbody.for_case(case)["beam"]
+    f = [m.freq_hz for m in linearize.for_case(case)]
+    np.testing.assert_allclose(f, np.sort(fb.freq_hz), rtol=1e-6)
+
+
+def test_pendulum_vibrates_at_the_pinned_free_frequency():
+    """Released horizontal at rest: no axial load at t = 0, so the first in-plane bending mode of
+    the system (joint + clamped-free modes) is the pinned-free beam's, (beta L)^2 sqrt(EI / rho A L^4)
+    with beta L = 3.9266 (tan = tanh), within 0.1 %."""
+    case = cases.load("pendulum")
+    body, mat = case["bodies"]["beam"], case["materials"]["steel"]
+    sec, L = flexbody.beam_section(body), body["length"]
+    exact = 3.926602 ** 2 * np.sqrt(mat["E"] * sec.Iz / (mat["rho"] * sec.A * L ** 4)) / (2 * np.pi)
+    inplane = [m for m in linearize.for_case(case) if "xy" in m.label or "joint" in m.label]
+    assert inplane[0].freq_hz == pytest.approx(exact, rel=1e-3)
+    assert abs(inplane[0].damping) < 1e-9
+
+
+def test_pendulum_equilibrium_hangs_down_and_swings_at_the_compound_rate():
+    """About the hanging equilibrium the rigid swing appears: sqrt(m g d / I_O) of the beam about
+    its pivot (d = L/2, I_O = m L^2 / 3), within 1 % (the beam is flexible and has a section)."""
+    case = cases.load("pendulum")
+    model = linearize.model_of(case)
+    q = linearize.equilibrium(model, model.q0)
+    assert q[0] == pytest.approx(-np.pi / 2, abs=1e-3)
+    L, g = case["bodies"]["beam"]["length"], 9.81
+    swing = np.sqrt(1.5 * g / L) / (2 * np.pi)
+    modes = linearize.system_modes(model, q, np.zeros(model.nv))
+    assert modes[0].label == "joint pivot" and modes[0].freq_hz == pytest.approx(swing, rel=0.01)
+
+
+def test_equilibrium_refuses_prescribed_motion():
+    with pytest.raises(InputError, match="--about initial"):
+        linearize.for_case(cases.load("rotating_cantilever"), "equilibrium")
