@@ -31,7 +31,7 @@ from pathlib import Path
 from types import MappingProxyType
 
 from flexmbd import flexbody
-from flexmbd.errors import InputError
+from flexmbd.errors import InputError, printable
 from flexmbd.spatial import rotation_rpy
 
 CASES_DIR = Path(__file__).resolve().parent.parent / "cases"
@@ -42,6 +42,15 @@ CASES_DIR = Path(__file__).resolve().parent.parent / "cases"
 # "vec", a tuple of allowed strings, or a nested dict schema.
 
 REQUIRED = object()
+
+# every number of a case (and of a solver's settings) is finite and at most this in magnitude; the
+# section, stiffness and mass properties derived from a beam's or a rigid body's numbers must in
+# turn lie within DERIVED (`_check_derived`), so that the products the solvers form stay finite
+LARGEST = 1e100
+DERIVED = (1e-200, 1e200)
+
+# names of materials, bodies, joints, loads and channels: what a dotted key can address
+NAME_CHARS = set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-")
 
 MATERIAL = {
     "E": ("float+", REQUIRED),
@@ -151,7 +160,7 @@ REPORT = {
 }
 
 CASE = {
-    "title": ("str", REQUIRED),
+    "title": ("line", REQUIRED),
     "duration": ("float+", REQUIRED),
     "gravity": ("vec3", [0.0, 0.0, 0.0]),
     "materials": ({"*": MATERIAL}, REQUIRED),
@@ -290,11 +299,8 @@ def available() -> list[str]:
 def load(name_or_path: str, overrides: list[str] | tuple = ()) -> Case:
     """Read, override (`KEY=VALUE` strings) and validate a case."""
     path = find(name_or_path)
-    text = path.read_text()
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise InputError(f"{path}: not valid TOML: {e}") from None
+    text = read_text(path)
+    raw = parse_toml(text, path)
     for item in overrides:
         apply_override(raw, item, path)
     data = validate(raw, str(path))
@@ -302,17 +308,47 @@ def load(name_or_path: str, overrides: list[str] | tuple = ()) -> Case:
     return Case(name=path.stem, path=path, data=data, sha256=digest, overrides=tuple(overrides))
 
 
+def read_text(path: Path) -> str:
+    """A case file's text: UTF-8, else InputError naming the first undecodable byte."""
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise InputError(f"{path}: cannot read the case file ({e.strerror})") from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[:e.start].count(b"\n") + 1
+        raise InputError(f"{path}: not UTF-8 text (byte 0x{raw[e.start]:02x} on line {line}); "
+                         f"a case file is TOML in UTF-8") from None
+
+
+def parse_toml(text: str, path) -> dict:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise InputError(f"{path}: not valid TOML: {e}") from None
+    except RecursionError:
+        raise InputError(f"{path}: not valid TOML: arrays or tables nested too deeply") from None
+
+
 def apply_override(raw: dict, item: str, path) -> None:
     """Set a dotted key from a `KEY=VALUE` string; VALUE is read as a TOML value, else a string."""
+    if any(0xD800 <= ord(ch) <= 0xDFFF for ch in item):          # undecodable bytes of the argument
+        raise InputError(f"{path}: --set '{printable(item)}': not valid UTF-8 text (an undecodable byte); "
+                         f"expected KEY=VALUE in UTF-8")
     key, sep, value = item.partition("=")
     key = key.strip()
     if not sep or not key:
         raise InputError(f"{path}: --set {item!r}: expected KEY=VALUE")
-    try:
-        parsed = tomllib.loads(f"v = {value.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
-        parsed = value.strip()
     parts = key.split(".")
+    if not all(p.strip() for p in parts):
+        raise InputError(f"{path}: --set {key}: empty name in the dotted key (expected names joined by dots, "
+                         f"e.g. materials.steel.E)")
+    try:
+        doc = tomllib.loads(f"v = {value.strip()}")
+    except (tomllib.TOMLDecodeError, RecursionError):
+        doc = {}
+    parsed = doc["v"] if list(doc) == ["v"] else value.strip()     # more than one value: the text itself
     node = raw
     for i, part in enumerate(parts[:-1]):
         nxt = node.setdefault(part, {})
@@ -350,6 +386,10 @@ def check_table(raw, schema: dict, where: str, prefix: str) -> dict:
     if not isinstance(raw, dict):
         _fail(where, prefix.rstrip(".") or "(top level)", "expected a table")
     if "*" in schema:                                   # a table of named items
+        for name in raw:
+            if not name or not set(name) <= NAME_CHARS:
+                _fail(where, f"{prefix}{name}", "expected a name of letters, digits, '_' and '-' "
+                      "(a dotted key must be able to address it)")
         return {name: _check_value(val, schema["*"], where, f"{prefix}{name}")
                 for name, val in raw.items()}
     for key in raw:
@@ -373,6 +413,8 @@ def _number(v, where, key):
         _fail(where, key, f"expected a number, got {v!r}")
     if not math.isfinite(v):
         _fail(where, key, f"expected a finite number, got {v!r}")
+    if abs(v) > LARGEST:
+        _fail(where, key, f"expected a number of magnitude at most {LARGEST:g}, got {v!r}")
     return float(v)
 
 
@@ -400,12 +442,16 @@ def _check_value(v, kind, where: str, key: str):
     if kind in ("int+", "int0+"):
         if isinstance(v, bool) or not isinstance(v, int):
             _fail(where, key, f"expected a whole number, got {v!r}")
+        if abs(v) > LARGEST:
+            _fail(where, key, f"expected a whole number of magnitude at most {LARGEST:g}, got {v!r}")
         if v < (1 if kind == "int+" else 0):
             _fail(where, key, f"must be {'positive' if kind == 'int+' else 'non-negative'}, got {v}")
         return v
-    if kind == "str":
+    if kind in ("str", "line"):
         if not isinstance(v, str):
             _fail(where, key, f"expected a string, got {v!r}")
+        if kind == "line" and (not v.strip() or not v.isprintable()):
+            _fail(where, key, f"expected one non-empty line of text, got {v!r}")
         return v
     if kind == "bool":
         if not isinstance(v, bool):
@@ -452,7 +498,7 @@ def _check_body(v, where, key):
     if not isinstance(v, dict):
         _fail(where, key, "expected a table")
     kind = v.get("type")
-    schema = {"beam": BEAM, "rigid": RIGID}.get(kind)
+    schema = {"beam": BEAM, "rigid": RIGID}.get(kind) if isinstance(kind, str) else None
     if schema is None:
         _fail(where, key + ".type", f"expected beam or rigid, got {kind!r}{hint(str(kind), ['beam', 'rigid'])}")
     return check_table(v, schema, where, key + ".")
@@ -464,12 +510,18 @@ def _check_body(v, where, key):
 
 def _check_references(d: dict, where: str) -> None:
     bodies, joints = d["bodies"], d["joints"]
+    for key in ("bodies", "channels"):
+        if not d[key]:
+            _fail(where, key, f"expected at least one entry, the table is empty")
+    _check_integrator(d, where)
     for name, b in bodies.items():
         k = f"bodies.{name}"
         if name == "ground":
             _fail(where, k, "'ground' is reserved for the inertial frame")
         if b["type"] == "beam":
             _check_beam(b, d, where, k)
+        else:
+            _check_rigid(b, where, k)
 
     # every body has exactly one joint to its parent, and the joints form a tree rooted at ground
     children = {}
@@ -507,6 +559,62 @@ def _check_references(d: dict, where: str) -> None:
     for ch in d["report"]["tolerances"]:
         if ch not in d["channels"]:
             _fail(where, f"report.tolerances.{ch}", f"no channel {ch!r}{hint(ch, d['channels'])}")
+    rep = d["report"]
+    if rep["solvers"] and rep["reference"] is not None and rep["reference"] not in rep["solvers"]:
+        _fail(where, "report.reference", f"{rep['reference']!r} is not among report.solvers {rep['solvers']}")
+
+
+def _check_integrator(d, where):
+    ig = d["integrator"]
+    if ig["output_dt"] > d["duration"]:
+        _fail(where, "integrator.output_dt", f"{ig['output_dt']} s is longer than the duration {d['duration']} s "
+              f"(expected at most the duration)")
+    for key in ("rtol", "atol"):
+        if ig[key] >= 1.0:
+            _fail(where, f"integrator.{key}", f"expected a tolerance below 1, got {ig[key]}")
+
+
+def _check_rigid(b, where, k):
+    """A rigid body's inertia is one a mass distribution can have: positive definite principal
+    moments that satisfy the triangle inequalities I1 + I2 >= I3; its derived sizes are finite."""
+    import numpy as np
+    xx, yy, zz, xy, xz, yz = b["inertia"]
+    lam = np.linalg.eigvalsh(np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]))
+    moments = ", ".join(f"{x:.6g}" for x in lam)
+    if not lam[0] > 1e-12 * abs(lam[2]):
+        _fail(where, f"{k}.inertia", f"expected a positive definite inertia, its principal moments are {moments} kg m^2")
+    if lam[0] + lam[1] < lam[2] * (1.0 - 1e-9):
+        _fail(where, f"{k}.inertia", f"principal moments {moments} kg m^2 break the triangle inequality "
+              f"I1 + I2 >= I3 (no mass distribution has them)")
+    _check_derived(where, k, {"mass times |com|^2 (kg m^2)": b["mass"] * sum(x * x for x in b["com"]) or 1.0,
+                              "largest principal moment (kg m^2)": float(lam[2]),
+                              "mass (kg)": b["mass"]}, "mass, com and inertia")
+
+
+def _beam_sizes(b, mat) -> dict:
+    """What a beam's stiffness and mass matrices are made of (infinite where they overflow)."""
+    le, E, rho = b["length"] / b["elements"], mat["E"], mat["rho"]
+    try:
+        sec = flexbody.beam_section(b)
+        I_lo, I_hi = min(sec.Iy, sec.Iz), max(sec.Iy, sec.Iz)
+        return {
+            "section area (m^2)": sec.A, "smallest second moment of area (m^4)": I_lo,
+            "torsion constant (m^4)": sec.J, "element axial stiffness E A / le (N/m)": E * sec.A / le,
+            "largest element bending stiffness 12 E I / le^3 (N/m)": 12.0 * E * I_hi / le ** 3,
+            "smallest element bending stiffness 12 E I / le^3 (N/m)": 12.0 * E * I_lo / le ** 3,
+            "element mass rho A le (kg)": rho * sec.A * le, "element rotary inertia rho Ip le (kg m^2)": rho * sec.Ip * le,
+            "highest element frequency squared 12 E I / (rho A le^4) (1/s^2)": 12.0 * E * I_hi / (rho * sec.A * le ** 4),
+            "total mass (kg)": rho * sec.A * b["length"]}
+    except (ArithmeticError, ValueError):           # overflow, a zero from underflow
+        return {"section and element properties": math.inf}
+
+
+def _check_derived(where, k, quantities: dict, inputs: str) -> None:
+    lo, hi = DERIVED
+    for what, x in quantities.items():
+        if not (math.isfinite(x) and lo <= abs(x) <= hi):
+            _fail(where, k, f"its {what} = {x:.3g} lies outside [{lo:g}, {hi:g}], the range in which the solvers' "
+                  f"products stay finite: check its {inputs}")
 
 
 def _check_beam(b, d, where, k):
@@ -520,6 +628,8 @@ def _check_beam(b, d, where, k):
     for dim in ("b", "h", "d"):
         if dim not in need and s[dim] is not None:
             _fail(where, f"{k}.section.{dim}", f"not used by a {s['shape']} section")
+    _check_derived(where, k, _beam_sizes(b, d["materials"][b["material"]]),
+                   f"material {b['material']!r}, length, elements and section")
     n = b["segments"]
     if b["elements"] % n:
         _fail(where, f"{k}.segments",
@@ -597,16 +707,32 @@ def _check_joint_values(j, where, k):
 
 
 def _check_table_file(f: Path, where, key):
-    """A motion table: header line, then rows 't, q' with strictly increasing t (at least 4 rows)."""
+    """A motion table: header line, then rows 't, q' of finite numbers with strictly increasing t
+    (at least 4 rows)."""
+    import warnings
+
     import numpy as np
     try:
-        data = np.loadtxt(f, delimiter=",", skiprows=1, ndmin=2)
-    except ValueError as e:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")                 # numpy warns about an empty table: said below
+            data = np.loadtxt(f, delimiter=",", skiprows=1, ndmin=2, encoding="utf-8")
+    except (ValueError, OSError) as e:                      # UnicodeDecodeError is a ValueError
         _fail(where, key, f"{f.name}: not a CSV of numbers after the header line ({e})")
+    if data.size == 0:
+        _fail(where, key, f"{f.name}: no rows after the header line (expected rows t, q, at least 4)")
     if data.shape[1] != 2 or data.shape[0] < 4:
-        _fail(where, key, f"{f.name}: expected columns t, q and at least 4 rows, got shape {data.shape}")
-    if not np.all(np.diff(data[:, 0]) > 0):
-        _fail(where, key, f"{f.name}: t must increase strictly")
+        _fail(where, key, f"{f.name}: expected columns t, q and at least 4 rows, got {data.shape[0]} rows of "
+              f"{data.shape[1]} columns")
+    bad = np.flatnonzero(~np.isfinite(data).all(axis=1))
+    if bad.size:
+        _fail(where, key, f"{f.name}: row {bad[0] + 1} after the header is not finite ({data[bad[0]].tolist()}); "
+              f"expected finite t, q")
+    if np.abs(data).max() > LARGEST:
+        _fail(where, key, f"{f.name}: expected values of magnitude at most {LARGEST:g}")
+    back = np.flatnonzero(np.diff(data[:, 0]) <= 0)
+    if back.size:
+        _fail(where, key, f"{f.name}: t must increase strictly, row {back[0] + 2} after the header has "
+              f"t = {data[back[0] + 1, 0]:g} after {data[back[0], 0]:g}")
 
 
 def _check_tree(joints, where):
@@ -620,8 +746,35 @@ def _check_tree(joints, where):
             b = parent_of[b]
 
 
+def _check_fibre(fibre, body, where, key):
+    """A stress point (y, z) in the body axes that lies in the beam's section (round-off allowed)."""
+    if len(fibre) != 2:
+        _fail(where, key, "expected [y, z] in m")
+    y, z = fibre
+    s, slack = body["section"], 1.0 + 1e-9
+    if s["shape"] == "circle":
+        if math.hypot(y, z) > s["d"] / 2 * slack:
+            _fail(where, key, f"point ({y:g}, {z:g}) m lies outside the circle section of diameter {s['d']:g} m "
+                  f"(expected y^2 + z^2 <= (d/2)^2)")
+        return
+    ey, ez = (s["h"] / 2, s["b"] / 2) if s["h_axis"] == "y" else (s["b"] / 2, s["h"] / 2)
+    if abs(y) > ey * slack or abs(z) > ez * slack:
+        _fail(where, key, f"point ({y:g}, {z:g}) m lies outside the {s['b']:g} x {s['h']:g} m rectangle section "
+              f"(h along {s['h_axis']}; expected |y| <= {ey:g} m and |z| <= {ez:g} m)")
+
+
+# the keys without default that each kind of channel reads (the others must be left out)
+CHANNEL_KEYS = {"deflection": ("body", "at"), "stress_vm": ("body", "at", "fibre"), "joint_angle": ("joint",),
+                "reaction_force": ("joint",), "reaction_moment": ("joint",), "energy": ()}
+
+
 def _check_channel(name, c, bodies, joints, where):
     k = f"channels.{name}"
+    if name == "t":
+        _fail(where, k, "'t' is the time column of a result; expected another channel name")
+    for key in ("body", "joint", "at", "fibre"):
+        if c[key] is not None and key not in CHANNEL_KEYS[c["kind"]]:
+            _fail(where, f"{k}.{key}", f"not used by a {c['kind']} channel")
     if c["kind"] in ("deflection", "stress_vm"):
         b = c["body"]
         if b is None:
@@ -634,8 +787,8 @@ def _check_channel(name, c, bodies, joints, where):
             _fail(where, f"{k}.at", "needs a position along the beam (m)")
         if c["at"] > bodies[b]["length"]:
             _fail(where, f"{k}.at", f"position {c['at']} m lies beyond the beam's length {bodies[b]['length']} m")
-        if c["fibre"] is not None and len(c["fibre"]) != 2:
-            _fail(where, f"{k}.fibre", "expected [y, z] in m")
+        if c["fibre"] is not None:
+            _check_fibre(c["fibre"], bodies[b], where, f"{k}.fibre")
     if c["kind"] in ("joint_angle", "reaction_force", "reaction_moment"):
         j = c["joint"]
         if j is None:
@@ -703,9 +856,17 @@ def resolve(data: dict) -> Resolved:
 
 
 def split(data: dict) -> dict:
-    """{beam: N} of the flexible beams with `segments` = N > 1 (a beam declared rigid is not split)."""
+    """{beam: N} of the flexible beams with `segments` = N > 1 (a beam declared rigid or without
+    modes is not split)."""
     return {name: b["segments"] for name, b in data["bodies"].items()
-            if b["type"] == "beam" and not b["rigid"] and b["segments"] > 1}
+            if b["type"] == "beam" and not b["rigid"] and b["modes"]["count"] > 0 and b["segments"] > 1}
+
+
+def modeless(data: dict) -> list:
+    """Beams not declared rigid that retain no modes (`modes.count = 0`): the modal solvers model
+    their rigid limit, as if declared rigid (`split_segments`)."""
+    return [name for name, b in data["bodies"].items()
+            if b["type"] == "beam" and not b["rigid"] and b["modes"]["count"] == 0]
 
 
 def segment_name(beam: str, k: int) -> str:
@@ -737,10 +898,11 @@ def split_segments(data: dict) -> dict:
     > 1 replaced by N beams `beam:1` .. `beam:N` of length L / N and elements / N elements, each
     with the beam's `modes` table, joined by fixed joints `beam:k-k+1` at the end node of segment
     k. Segment 1 takes the beam's joint (same name, same parent); joints on the beam, loads and
-    channels at position x go to the segment that holds x (`segment_of`). `data` itself when no
-    beam is split."""
-    parts = split(data)
-    if not parts:
+    channels at position x go to the segment that holds x (`segment_of`). A beam without modes
+    becomes a beam declared rigid, the modal model's limit (`modeless`). `data` itself when no
+    beam is split or without modes."""
+    parts, still = split(data), modeless(data)
+    if not parts and not still:
         return data
     bodies, joints = {}, {}
     for jn, j in data["joints"].items():
@@ -752,7 +914,7 @@ def split_segments(data: dict) -> dict:
     for name, b in data["bodies"].items():
         n = parts.get(name)
         if n is None:
-            bodies[name] = copy.deepcopy(b)
+            bodies[name] = {**copy.deepcopy(b), "rigid": True} if name in still else copy.deepcopy(b)
             continue
         seg = {**copy.deepcopy(b), "length": b["length"] / n, "elements": b["elements"] // n, "segments": 1}
         for k in range(n):

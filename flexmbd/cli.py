@@ -20,7 +20,7 @@ import time
 import traceback
 from pathlib import Path
 
-from flexmbd import cases, files, solvers
+from flexmbd import cases, cost, files, solvers
 from flexmbd.errors import InputError, Interrupted
 
 OK, DIFFERENT, BAD_INPUT, INTERNAL = 0, 1, 2, 3
@@ -70,6 +70,7 @@ def cmd_list(args) -> int:
 def cmd_modes(args) -> int:
     from flexmbd import flexbody
     case = _load(args)
+    cost.check([(case, None)], allow_large=args.allow_large)
     if args.system:
         return system_modes(case, args.about, args.json)
     if args.save:
@@ -116,6 +117,7 @@ def cmd_run(args) -> int:
     why = solvers.status_for(case, args.solver)
     if why:
         raise InputError(f"{case.path}: solver {args.solver}: {why}")
+    cost.check([(case, args.solver)], args.t_end, args.allow_large)
     files.writable_dir(Path(args.out) / case.name, "--out")
     r = solvers.run(case, args.solver, args.t_end)
     csv, js = results.write(r, Path(args.out))
@@ -137,9 +139,10 @@ def _solver_list(text: str | None, flag: str) -> list:
     return chosen
 
 
-def run_all(jobs: list, out: Path) -> None:
+def run_all(jobs: list, out: Path, allow_large: bool = False) -> None:
     """Run (case, solver) jobs into out/results with a progress bar; failures become results."""
     from flexmbd import results
+    cost.check(jobs, allow_large=allow_large)
     t0 = time.perf_counter()
     for k, (c, s) in enumerate(jobs, 1):
         progress(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
@@ -167,7 +170,7 @@ def cmd_report(args) -> int:
     files.writable_dir(out, "--out")
     jobs = [(c, s) for c in loaded for s in build.jobs(c, chosen)]
     if not args.no_run:
-        run_all(jobs, out)
+        run_all(jobs, out, args.allow_large)
     index, summary, acc = build.write(out, loaded, chosen, warn)
     print(f"report: {index}")
     return _verdict(args, summary, acc)
@@ -179,7 +182,7 @@ def cmd_compare(args) -> int:
     case = _load(args)
     chosen = _solver_list(args.solvers, "--solvers")
     files.writable_dir(out, "--out")
-    run_all([(case, s) for s in chosen], out)
+    run_all([(case, s) for s in chosen], out, args.allow_large)
     got = build.case_page(out, case, chosen, warn)
     print(f"page: {out / case.name / 'index.html'}")
     return _verdict(args, got["summary"], got["accuracy"])
@@ -219,6 +222,8 @@ def cmd_regress(args) -> int:
             why = results.stale(fresh[c, s], loaded[c].sha256, loaded[c]["channels"])
             if why:
                 warn(f"warning: {Path(args.results) / c / (s + '.json')}: stale: {why}")
+    if not args.results:
+        cost.check([(loaded[c], s) for c, s in pairs], allow_large=args.allow_large)
 
     rows = []
     t0 = time.perf_counter()
@@ -321,6 +326,7 @@ def parser() -> argparse.ArgumentParser:
                    help="with --system: linearize about the initial state or the static equilibrium "
                         "(default: %(default)s)")
     s.add_argument("--json", action="store_true")
+    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.set_defaults(func=cmd_modes)
 
     s = sub.add_parser("run", help="one solver on one case", parents=[debug])
@@ -330,6 +336,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--t-end", type=_positive, default=None)
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
     s.add_argument("--json", action="store_true")
+    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_run)
 
@@ -338,6 +345,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
     s.add_argument("--out", default="reports")
     s.add_argument("--no-run", action="store_true", help="rebuild the pages from the stored results only")
+    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_report)
 
@@ -346,6 +354,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
     s.add_argument("--out", default="reports")
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
+    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_compare)
 
@@ -363,6 +372,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--cases", default=None)
     s.add_argument("--solvers", default=None)
     s.add_argument("--update", action="store_true", help="rewrite the baselines from fresh results")
+    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
     s.add_argument("--strict", action="store_true", help="accepted for symmetry: a failed solver is always a difference")
     s.set_defaults(func=cmd_regress)
     return p

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import sys
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -165,7 +166,9 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
     start = time.perf_counter()
     status, steps, k = results.Status(), 0, 0
     try:
-        if method == "fox-goodwin":
+        if y0.size == 0:                # nothing moves (every joint fixed, no modes): every sample is the start
+            k = t_out.size - 1
+        elif method == "fox-goodwin":
             k, steps, evals, status = _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar)
             count[0] += evals
         elif method == "dopri5":
@@ -314,7 +317,7 @@ def warm_up(model: Model, method: str | None = None) -> None:
     t, Y, counts = np.zeros(2), np.zeros((2, y0.size)), np.zeros(3, dtype=np.int64)
     if method in (None, "dopri5"):
         dopri5(ev, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts)
-    if method in (None, "fox-goodwin") and model.nq == model.nv:
+    if method in (None, "fox-goodwin") and model.nq == model.nv and model.nv:   # nothing to compile for: no states
         newmark_matrix(ev, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
         fox_goodwin(ev, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
 
@@ -382,13 +385,16 @@ def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq):
     r.set_initial_value(y0, 0.0)
     k = 0
     for k in range(1, t_out.size):
-        try:
-            y = r.integrate(t_out[k])
-        except Stop as e:                       # raised by f: keep VODE's step count
-            return k - 1, int(r._integrator.iwork[10]), e.args[0]
+        with warnings.catch_warnings(record=True) as said:     # VODE's own words go into the status
+            warnings.simplefilter("always")
+            try:
+                y = r.integrate(t_out[k])
+            except Stop as e:                   # raised by f: keep VODE's step count
+                return k - 1, int(r._integrator.iwork[10]), e.args[0]
         if not r.successful():
+            why = str(said[-1].message).removeprefix("vode: ").split(" (Perhaps")[0].rstrip(". ") if said else ""
             return k - 1, int(r._integrator.iwork[10]), \
-                results.failed(f"VODE return code {r.get_return_code()}", r.t)
+                results.failed(f"VODE return code {r.get_return_code()}{': ' + why if why else ''}", r.t)
         _check(y, t_out[k], nq)
         Y[k] = y
         if bar:

@@ -392,7 +392,7 @@ def run(case, t_end, settings):
         sim.timeIntegration.newton.absoluteTolerance = opt["newton_atol"]
     setup_s = time.perf_counter() - t_start
 
-    status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"])
+    status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"], f"{case.name} / exudyn-beam")
     t = xc.output_grid(case, t_end)
     recorded = {"dt": dt, **opt, "element": "ObjectBeamGeometricallyExact2D", "node": "NodeRigidBody2D",
                 "shear_correction": "5/6 rectangle, 9/10 circle", "linear_solver": "EigenSparse"}

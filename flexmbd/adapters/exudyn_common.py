@@ -21,6 +21,7 @@ import exudyn.itemInterface as eii       # noqa: F401  (used by the adapters)
 
 from flexmbd import files, results
 from flexmbd.adapters import common
+from flexmbd.integrate import Progress
 
 from flexmbd.spatial import expm_so3
 
@@ -99,13 +100,16 @@ def simulation_settings(case, t_end: float, dt: float, solver: dict):
     return s
 
 
-def solve(mbs, settings, solver_type: str):
-    """Run Exudyn's implicit solver; (status, wall_s, steps, newton_iterations).
+def solve(mbs, settings, solver_type: str, label: str = "exudyn"):
+    """Run Exudyn's implicit solver, with a progress bar on stderr past a couple of seconds
+    (`integrate.Progress`); (status, wall_s, steps, newton_iterations).
 
     status is ok or failed with Exudyn's message; never raises for a solver failure.
     """
     t0 = time.perf_counter()
     status = results.Status()
+    bar = Progress(settings.timeIntegration.endTime, label)
+    mbs.SetPreStepUserFunction(lambda mbs, t: bar.update(t) or True)
     try:
         with files.signals_kept(), quiet():
             ok = mbs.SolveDynamic(settings, solverType=IMPLICIT[solver_type], showHints=False,
@@ -116,6 +120,7 @@ def solve(mbs, settings, solver_type: str):
         msg = error_string(mbs) or f"{type(e).__name__}: {e}"
         status = results.failed(f"Exudyn: {msg}")
     wall_s = time.perf_counter() - t0
+    bar.close()
     it = mbs.sys["dynamicSolver"].it if "dynamicSolver" in mbs.sys else None
     steps = max(int(it.currentStepIndex) - 1, 0) if it is not None else 0   # index counts from 1
     newton = int(it.newtonStepsCount) if it is not None else 0

@@ -43,7 +43,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from flexmbd import channels, flexbody, invariants, profiles, results
+from flexmbd import cases, channels, flexbody, invariants, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
@@ -72,6 +72,10 @@ def version() -> str:
 
 
 def applies(case) -> str:
+    none = cases.modeless(case.data)
+    if none:
+        return (f"body {none[0]!r} retains no modes (modes.count = 0): an FFRF body needs at least one; "
+                f"its rigid limit is what flexmbd, pinocchio and mujoco model")
     if case.resolved.segments:
         name = next(iter(case.resolved.segments))
         return (f"body {name!r}: its segments are joined rigidly at a flexible node, whose rotation "
@@ -679,7 +683,7 @@ def run(case, t_end, settings):
     setup_s = time.perf_counter() - t_start
 
     rec = record_steps(mbs, step_sensors(S), dt, case["integrator"]["output_dt"])
-    status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"])
+    status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"], f"{case.name} / exudyn-ffrf")
     t = xc.output_grid(case, t_end)
     recorded = {"dt": dt, **{k: opt[k] for k in ("solver", "spectral_radius", "newton_rtol", "adaptive",
                                                  "rotary_inertia", "gravity")},

@@ -46,6 +46,7 @@ import mujoco
 from flexmbd import channels, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, rot_to_quat
+from flexmbd.integrate import Progress
 from flexmbd.spatial import rotation_rpy
 
 SETTINGS = {
@@ -261,6 +262,7 @@ def run(case, t_end, settings):
 
     t_out = common.sample_times(case, t_end)
     rows, status = [], results.Status()
+    bar = Progress(t_end, f"{case.name} / mujoco-rod")
     t1 = time.perf_counter()
     mujoco.mj_forward(m, d)
     rows.append(sample(case, m, d, ne, l))
@@ -273,7 +275,9 @@ def run(case, t_end, settings):
             break
         mujoco.mj_fwdPosition(m, d)                             # kinematics and inertia of the new state
         rows.append(sample(case, m, d, ne, l))
+        bar.update(t_out[k])
     wall_s = time.perf_counter() - t1
+    bar.close()
 
     n = len(rows)
     ch = channels.channels(case, trajectory(case, rows, t_out[:n], s))
