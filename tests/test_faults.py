@@ -346,7 +346,7 @@ def test_sigterm_while_a_figure_is_written_leaves_the_old_report(report, monkeyp
 
 def test_sigterm_while_a_table_is_written_leaves_the_old_report(report, monkeypatch):
     from flexmbd.report import tables
-    plant_signal(monkeypatch, tables, "latex", signal.SIGTERM)
+    plant_signal(monkeypatch, tables, "latex_document", signal.SIGTERM)
     before = snapshot(report)
     cli(["report", *ONE, "--out", report, "--no-run"], 143, names=["interrupted (SIGTERM)"])
     assert snapshot(report) == before
