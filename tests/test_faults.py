@@ -588,3 +588,16 @@ def test_sigterm_ends_an_exudyn_solve_within_a_second(tmp_path):
     assert time.perf_counter() - sent < 1.0
     assert not (tmp_path / "pendulum" / "exudyn-beam.json").exists()
     no_leftovers(tmp_path)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_signal_while_the_modules_load_is_one_line(sig, tmp_path):
+    """`python -m flexmbd` (the `flexmbd` command's entry): a signal 0.3 s in, while numpy, numba and
+    the solvers load, ends it with the same line and status as later on, and writes nothing."""
+    p = subprocess.Popen([sys.executable, "-m", "flexmbd", "run", CASE, "--solver", SOLVER, "--out", str(tmp_path)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+    time.sleep(0.3)
+    p.send_signal(sig)
+    out, err = p.communicate(timeout=60)
+    check(p.returncode, err, 128 + sig, 1, [f"interrupted ({signal.Signals(sig).name})"])
+    assert not any(tmp_path.iterdir())
