@@ -161,6 +161,40 @@ def _verdict(args, summary: list, acc: list) -> int:
     return DIFFERENT if args.strict and (failed or any(a["pass"] == "fail" for a in acc)) else OK
 
 
+def _show(args, what: str, page: Path, summary: list, acc: list) -> None:
+    """The verdict summary and the page on stdout; with --json one object: the page, the summary
+    line, one entry per run (case, solver, verdict kind and text, worst difference, wall time) and
+    the accuracy rows."""
+    from flexmbd.report import accuracy
+    line = accuracy.summary([accuracy.Verdict(accuracy.kind_of(r[2]), r[2]) for r in summary])
+    if getattr(args, "json", False):
+        runs = [{"case": r[0], "solver": r[1], "verdict": accuracy.kind_of(r[2]), "text": r[2], "worst_rms": r[3],
+                 "wall_s": r[4]} for r in summary]
+        print(json.dumps(_jsonable({what: str(page), "summary": line, "runs": runs, "accuracy": acc}),
+                         allow_nan=False, indent=1))
+        return
+    print(line)
+    for r in summary:
+        if accuracy.kind_of(r[2]) in ("fail", "failed"):
+            print(f"  {r[0]} / {r[1]}: {r[2]}")
+    print(f"{what}: {page}")
+
+
+def _jsonable(x):
+    """x with numbers as floats and NaN as None, for json.dumps(allow_nan=False)."""
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (str, bool)) or x is None:
+        return x
+    try:
+        f = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    return None if f != f else (int(x) if isinstance(x, int) else f)
+
+
 def cmd_report(args) -> int:
     from flexmbd.report import build
     out = Path(args.out)
@@ -172,7 +206,7 @@ def cmd_report(args) -> int:
     if not args.no_run:
         run_all(jobs, out, args.allow_large)
     index, summary, acc = build.write(out, loaded, chosen, warn)
-    print(f"report: {index}")
+    _show(args, "report", index, summary, acc)
     return _verdict(args, summary, acc)
 
 
@@ -184,7 +218,7 @@ def cmd_compare(args) -> int:
     files.writable_dir(out, "--out")
     run_all([(case, s) for s in chosen], out, args.allow_large)
     got = build.case_page(out, case, chosen, warn)
-    print(f"page: {out / case.name / 'index.html'}")
+    _show(args, "page", out / case.name / "index.html", got["summary"], got["accuracy"])
     return _verdict(args, got["summary"], got["accuracy"])
 
 
@@ -240,6 +274,9 @@ def cmd_regress(args) -> int:
     progress_done(len(pairs), time.perf_counter() - t0)
     if args.update:
         return OK
+    if args.json:
+        print(json.dumps(_jsonable({"moved": sum(r["moved"] for r in rows), "rows": rows}), allow_nan=False, indent=1))
+        return DIFFERENT if any(r["moved"] for r in rows) else OK
     head = ["case", "solver", "channel", "RMS diff / max|baseline|", "tolerance", "moved", "note"]
     body = [[r["case"], r["solver"], r["channel"], r["rms"], r["tolerance"], "MOVED" if r["moved"] else "ok",
              r["why"]] for r in rows]
@@ -346,6 +383,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default="reports")
     s.add_argument("--no-run", action="store_true", help="rebuild the pages from the stored results only")
     s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("--json", action="store_true", help="print one JSON object on stdout (verdicts and accuracy rows)")
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_report)
 
@@ -355,6 +393,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default="reports")
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
     s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("--json", action="store_true", help="print one JSON object on stdout (verdicts and accuracy rows)")
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_compare)
 
@@ -373,6 +412,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--solvers", default=None)
     s.add_argument("--update", action="store_true", help="rewrite the baselines from fresh results")
     s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("--json", action="store_true", help="print one JSON object on stdout (the compared channels)")
     s.add_argument("--strict", action="store_true", help="accepted for symmetry: a failed solver is always a difference")
     s.set_defaults(func=cmd_regress)
     return p
@@ -414,6 +454,9 @@ def main(argv=None) -> int:
         signum = getattr(e, "signum", signal.SIGINT)
         print(f"flexmbd: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
         return 128 + signum
+    except BrokenPipeError:                                 # the reader of stdout left (| head): not an error
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 128 + signal.SIGPIPE
     except OSError as e:
         if e.filename is None:
             return _internal(e, debug)

@@ -242,3 +242,26 @@ def test_verdicts_of_a_run():
     assert v(ok, "ref").kind == "reference"
     verdicts = [v(ok, "a"), v(ok, "b"), v(out, "b"), v(results.failed("x"), "a")]
     assert accuracy.summary(verdicts) == "4 runs: 1 pass, 1 fail, 1 outside validity, 1 failed"
+
+
+def test_a_failing_channel_is_a_fail_on_the_index_and_with_strict_exit_1(tmp_path, capsys):
+    """The cantilever with a tolerance no solver meets: the index says fail (worst channel, by how
+    much) in red on top of a one-line summary; --strict exits 1; --json carries the verdicts."""
+    import json
+    text = (Path(cases.find("cantilever_step"))).read_text()
+    strict = re.sub(r"tolerances = \{[^}]*\}", "tolerances = { tip_deflection = 1e-9, stress_vm = 1.0 }", text)
+    path = tmp_path / "tight.toml"
+    path.write_text(strict)
+    out = tmp_path / "rep"
+    args = ["report", "--cases", str(path), "--solvers", "analytic,fe-linear", "--out", str(out)]
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    assert "2 runs: 1 fail, 1 reference" in printed and "tight / analytic: fail: tip_deflection" in printed
+    index = (out / "index.html").read_text()
+    assert "<b>2 runs: 1 fail, 1 reference</b>" in index
+    assert re.search(r"<td class='fail'>fail: tip_deflection [0-9.e-]+ &gt; 1e-09 \([0-9.e+]+ x tolerance\)</td>", index)
+    assert main(args[:1] + ["--no-run", "--strict"] + args[1:]) == 1
+    capsys.readouterr()
+    assert main(args[:1] + ["--no-run", "--json"] + args[1:]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert [r["verdict"] for r in got["runs"]] == ["fail", "reference"] and got["summary"] == "2 runs: 1 fail, 1 reference"

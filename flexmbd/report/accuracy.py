@@ -103,6 +103,11 @@ def verdict(status, solver: str, reference: str, rows_: list[dict]) -> Verdict:
     return Verdict("pass", f"pass: {len(mine)} channel{'s' * (len(mine) != 1)} within tolerance")
 
 
+def kind_of(text: str) -> str:
+    """The verdict kind a verdict's text starts with (VERDICTS)."""
+    return max((k for k in VERDICTS if text == k or text.startswith((k + ":", k + " "))), key=len, default="")
+
+
 def summary(verdicts: list) -> str:
     """One line: how many runs of each verdict, e.g. '36 runs: 20 pass, 5 fail, 2 failed'."""
     counts = [(k, sum(v.kind == k for v in verdicts)) for k in VERDICTS]

@@ -23,7 +23,7 @@ from flexmbd.results import Result
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
 table{border-collapse:collapse;margin:0.6em 0;font-size:13px}th,td{border:1px solid #bbb;padding:3px 7px;text-align:right}
 th{background:#eee}td:first-child,th:first-child{text-align:left}.pass,.ok{background:#dfd}.fail{background:#fdd}
-.bad{background:#fed;text-align:left}.outside{background:#ffe9a8;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
+.bad{background:#fcc;text-align:left}.outside{background:#ffe9a8;text-align:left}.na{color:#777;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
 
 
 def jobs(case, names) -> list:
@@ -166,14 +166,16 @@ def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
     page.append("</body></html>")
     atomic_write(d / "index.html", "".join(page) + "\n")
     atomic_write(d / "index.md", "\n".join(md))
-    summary = [[case.name, s, str(r.status), accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s] for s, r in res.items()]
-    return {"accuracy": acc, "summary": summary}
+    verdicts = {s: accuracy.verdict(r.status, s, ref, acc) for s, r in res.items()}
+    summary = [[case.name, s, verdicts[s].text, accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s]
+               for s, r in res.items()]
+    return {"accuracy": acc, "summary": summary, "verdicts": [verdicts[s] for s in res]}
 
 
 def write(out: Path, chosen_cases, names, warn=None) -> tuple[Path, list, list]:
     """Every case page, the index and the reviewer tables, as one generation (built in a staging
     folder and swapped in at the end: `files.generation`); (the index path, summary rows
-    [case, solver, status, worst, wall], accuracy rows)."""
+    [case, solver, verdict, worst, wall] (`accuracy.verdict`), accuracy rows)."""
     out = Path(out)
     with files.generation(out) as stage:
         all_acc, summary = _write(out, stage, chosen_cases, names, warn)
@@ -181,26 +183,30 @@ def write(out: Path, chosen_cases, names, warn=None) -> tuple[Path, list, list]:
 
 
 def _write(out: Path, stage: Path, chosen_cases, names, warn) -> tuple[list, list]:
-    all_acc, summary = [], []
+    all_acc, summary, verdicts = [], [], []
     for case in chosen_cases:
         got = _case_page(out, stage, case, jobs(case, names), warn)
         all_acc += got["accuracy"]
         summary += got["summary"]
+        verdicts += got["verdicts"]
     tables.write_accuracy(stage, all_acc)
-    head = ["case", "solver", "status", "worst RMS diff / max|ref|", "wall [s]"]
+    head = ["case", "solver", "verdict", "worst RMS diff / max|ref|", "wall [s]"]
+    line = accuracy.summary(verdicts)
     links_html = [[f"<a href='{r[0]}/index.html'>{html.escape(r[0])}</a>"] + r[1:] for r in summary]
     links_md = [[f"[{r[0]}]({r[0]}/index.md)"] + r[1:] for r in summary]
     when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    intro = (f"Every case on every solver; the worst difference is the largest normalised RMS difference from "
-             f"the case's reference solver over the channels compared. Generated {when}, commit "
+    intro = (f"Every case on every solver. A run passes when every compared channel's RMS difference from the "
+             f"case's reference solver, over the reference's largest magnitude, is within the case's tolerance; "
+             f"the worst difference is the largest of them. Generated {when}, commit "
              f"{results.git_commit() or 'unknown'}. Reviewer tables: ")
     pages = ["accuracy.csv", "accuracy.md", "accuracy.tex"]
     page = (f"<!doctype html><html><head><meta charset='utf-8'><title>flexmbd report</title><style>{CSS}</style>"
-            f"</head><body><h1>flexmbd report</h1><p>{html.escape(intro)}"
+            f"</head><body><h1>flexmbd report</h1><p class='summary'><b>{html.escape(line)}</b></p>"
+            f"<p>{html.escape(intro)}"
             + ", ".join(f"<a href='{f}'>{f}</a>" for f in pages) + "."
             + (" Benchmarks: <a href='bench/index.html'>bench</a>." if (out / "bench" / "index.html").exists() else "")
             + "</p>" + tables.html_table(head, links_html, raw_cols=(0,)) + "</body></html>")
     atomic_write(stage / "index.html", page + "\n")
-    atomic_write(stage / "index.md", "# flexmbd report\n\n" + intro + ", ".join(f"[{f}]({f})" for f in pages)
+    atomic_write(stage / "index.md", "# flexmbd report\n\n**" + line + "**\n\n" + intro + ", ".join(f"[{f}]({f})" for f in pages)
                  + ".\n\n" + tables.markdown(head, links_md))
     return all_acc, summary

@@ -48,6 +48,18 @@ def markdown(head: list, rows: list[list]) -> str:
     return "\n".join(out) + "\n"
 
 
+CLASSES = [("pass", "pass"), ("ok", "ok"), ("reference", "ok"), ("failed", "bad"), ("fail", "fail"),
+           ("ok, outside linear validity", "outside"), ("outside validity", "outside"), ("not applicable", "na"),
+           ("unavailable", "na"), ("not compared", "na")]
+
+
+def css_class(text: str) -> str:
+    """The colour class of a verdict or status cell ('' for any other text): the longest prefix wins."""
+    hits = [(len(p), c) for p, c in CLASSES if text == p or text.startswith(p + ":") or text.startswith(p + " ")
+            or (p.startswith("ok,") and text.startswith(p))]
+    return max(hits)[1] if hits else ""
+
+
 def html_table(head: list, rows: list[list], raw_cols: tuple = ()) -> str:
     """An HTML table; columns in raw_cols hold ready HTML (links), others are escaped."""
     th = "".join(f"<th>{html.escape(h)}</th>" for h in head)
@@ -56,12 +68,7 @@ def html_table(head: list, rows: list[list], raw_cols: tuple = ()) -> str:
         cells = []
         for j, c in enumerate(r):
             text = fmt(c) if j not in raw_cols else c
-            cls = f" class='{text}'" if text in ("pass", "fail", "ok") else ""
-            if isinstance(text, str) and (text.startswith("failed") or text.startswith("unavailable")
-                                          or text.startswith("not applicable")):
-                cls = " class='bad'"
-            if isinstance(text, str) and text.startswith("ok, outside linear validity"):
-                cls = " class='outside'"
+            cls = f" class='{css_class(text)}'" if isinstance(text, str) and css_class(text) else ""
             cells.append(f"<td{cls}>{text if j in raw_cols else html.escape(text)}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
     return f"<table><thead><tr>{th}</tr></thead><tbody>{''.join(body)}</tbody></table>"
