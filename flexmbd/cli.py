@@ -20,6 +20,7 @@ import time
 import traceback
 from pathlib import Path
 
+import flexmbd
 from flexmbd import cases, cost, files, solvers
 from flexmbd.errors import InputError, Interrupted
 
@@ -333,8 +334,23 @@ def progress_done(n: int, elapsed: float) -> None:
 # parser
 
 
+class Help(argparse.HelpFormatter):
+    """Help that shows an option's default when it has a value worth showing."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if ("%(default)" not in text and action.option_strings and action.default not in (None, False)
+                and action.default is not argparse.SUPPRESS):
+            text += " (default: %(default)s)"
+        return text
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with its errors as one line naming the option (exit 2), not a usage block."""
+
+    def __init__(self, *a, **k):
+        k.setdefault("formatter_class", Help)
+        super().__init__(*a, **k)
 
     def error(self, message):
         where = self.prog.partition(" ")[2] or "command line"
@@ -345,54 +361,62 @@ def parser() -> argparse.ArgumentParser:
     debug = Parser(add_help=False)
     debug.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                        help="show the traceback of an internal error on the terminal")
-    p = Parser(prog="flexmbd", description="Flexible multibody validation harness.", parents=[debug])
-    sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
+    p = Parser(prog="flexmbd", description="Flexible multibody validation harness: cases, solvers, reports. "
+               "Exit status: 0 success, 1 a difference (or, with --strict, a failed solver), 2 bad input or an "
+               "unusable file, 3 an internal error, 130 / 143 interrupted.", parents=[debug])
+    p.add_argument("--version", action="version", version=f"flexmbd {flexmbd.__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
     strict = "exit 1 when a solver fails (and, for report / compare, when a result misses its tolerance)"
+    case = "a case name from cases/ (see flexmbd list) or the path of a case TOML file"
+    over = "override a case value, e.g. materials.steel.E=2.1e11 (repeatable)"
+    names = ", ".join(solvers.NAMES)
+    large = "run even beyond the cost limits (README.md, Cost limits)"
 
     s = sub.add_parser("list", help="the cases, with title, bodies and solvers", parents=[debug])
-    s.add_argument("--json", action="store_true")
+    s.add_argument("--json", action="store_true", help="print one JSON array on stdout")
     s.set_defaults(func=cmd_list)
 
-    s = sub.add_parser("modes", help="retained mode frequencies (Hz) and labels per flexible body", parents=[debug])
-    s.add_argument("case")
-    s.add_argument("--set", action="append", metavar="KEY=VALUE")
+    s = sub.add_parser("modes", help="retained mode frequencies (Hz) and labels per flexible body, or the "
+                       "system's (--system)", parents=[debug])
+    s.add_argument("case", help=case)
+    s.add_argument("--set", action="append", metavar="KEY=VALUE", help=over)
     s.add_argument("--save", metavar="DIR", help="also write each reduced body as DIR/CASE_BODY.npz")
     s.add_argument("--system", action="store_true",
                    help="the assembled system's frequencies (joint and modal coordinates, linearized)")
     s.add_argument("--about", choices=["initial", "equilibrium"], default="initial",
-                   help="with --system: linearize about the initial state or the static equilibrium "
-                        "(default: %(default)s)")
-    s.add_argument("--json", action="store_true")
-    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+                   help="with --system: linearize about the initial state or the static equilibrium")
+    s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    s.add_argument("--allow-large", action="store_true", help=large)
     s.set_defaults(func=cmd_modes)
 
     s = sub.add_parser("run", help="one solver on one case", parents=[debug])
-    s.add_argument("case")
-    s.add_argument("--solver", required=True)
-    s.add_argument("--out", default="results")
-    s.add_argument("--t-end", type=_positive, default=None)
-    s.add_argument("--set", action="append", metavar="KEY=VALUE")
-    s.add_argument("--json", action="store_true")
-    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("case", help=case)
+    s.add_argument("--solver", required=True, help=f"one of: {names}")
+    s.add_argument("--out", default="results", help="results go to OUT/CASE/SOLVER.{csv,json}")
+    s.add_argument("--t-end", type=_positive, default=None, metavar="SECONDS",
+                   help="simulate this long instead of the case's duration")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE", help=over)
+    s.add_argument("--json", action="store_true", help="print the result's JSON sidecar on stdout")
+    s.add_argument("--allow-large", action="store_true", help=large)
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_run)
 
     s = sub.add_parser("report", help="every case on every available solver, and the report", parents=[debug])
     s.add_argument("--cases", default=None, help="comma-separated case names or paths (default: all)")
-    s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
-    s.add_argument("--out", default="reports")
+    s.add_argument("--solvers", default=None, help=f"comma-separated solver names (default: all: {names})")
+    s.add_argument("--out", default="reports", help="the report folder (results in OUT/results)")
     s.add_argument("--no-run", action="store_true", help="rebuild the pages from the stored results only")
-    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("--allow-large", action="store_true", help=large)
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout (verdicts and accuracy rows)")
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_report)
 
     s = sub.add_parser("compare", help="run solvers on one case and write its report page", parents=[debug])
-    s.add_argument("case")
-    s.add_argument("--solvers", default=None, help="comma-separated solver names (default: all)")
-    s.add_argument("--out", default="reports")
-    s.add_argument("--set", action="append", metavar="KEY=VALUE")
-    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("case", help=case)
+    s.add_argument("--solvers", default=None, help=f"comma-separated solver names (default: all: {names})")
+    s.add_argument("--out", default="reports", help="the report folder (results in OUT/results)")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE", help=over)
+    s.add_argument("--allow-large", action="store_true", help=large)
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout (verdicts and accuracy rows)")
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_compare)
@@ -401,17 +425,18 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--quick", action="store_true", help="fewer sizes and settings (a smoke run)")
     s.add_argument("--no-work-precision", action="store_true", help="skip the (long) work-precision sweeps")
-    s.add_argument("--out", default="reports/bench")
+    s.add_argument("--out", default="reports/bench", help="folder of the plots and their page")
     s.set_defaults(func=cmd_bench)
 
     s = sub.add_parser("regress", help="compare fresh results with stored baselines (exit 1 if anything moved)",
                        parents=[debug])
-    s.add_argument("--baseline", default=str(Path(__file__).resolve().parent.parent / "references" / "baselines"))
+    s.add_argument("--baseline", default=str(Path(__file__).resolve().parent.parent / "references" / "baselines"),
+                   help="folder of baselines BASELINE/CASE/SOLVER.csv")
     s.add_argument("--results", default=None, help="compare these stored results instead of running the solvers")
-    s.add_argument("--cases", default=None)
-    s.add_argument("--solvers", default=None)
+    s.add_argument("--cases", default=None, help="comma-separated case names (default: every baseline's)")
+    s.add_argument("--solvers", default=None, help="comma-separated solver names (default: every baseline's)")
     s.add_argument("--update", action="store_true", help="rewrite the baselines from fresh results")
-    s.add_argument("--allow-large", action="store_true", help="run even beyond the cost limits (README.md)")
+    s.add_argument("--allow-large", action="store_true", help=large)
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout (the compared channels)")
     s.add_argument("--strict", action="store_true", help="accepted for symmetry: a failed solver is always a difference")
     s.set_defaults(func=cmd_regress)

@@ -76,3 +76,19 @@ def test_modes_system_json(capsys):
     out = json.loads(capsys.readouterr().out)
     inplane = [m for m in out["modes"] if "xy" in m["label"]]
     assert out["about"] == "initial" and inplane[0]["freq_hz"] == pytest.approx(24.23, abs=0.01)
+
+
+def test_version_and_help_text_for_every_option(capsys):
+    from flexmbd.cli import parser
+    import argparse
+    import flexmbd
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.strip() == f"flexmbd {flexmbd.__version__}"
+    p = parser()
+    subs = next(a for a in p._actions if isinstance(a, argparse._SubParsersAction)).choices
+    for name, sp in subs.items():
+        for a in sp._actions:
+            assert a.help, (name, a.dest)
+    help_text = subs["run"].format_help()
+    assert "(default: results)" in help_text and "one of: flexmbd, fe-linear" in help_text
