@@ -56,7 +56,7 @@ def compare(case, solvers=None, t_end: float | None = None):
         registry.check_name(n, "solvers")
     res = {n: registry.run(case, n, t_end) for n in names}
     ok = {n: r for n, r in res.items() if r.ok}
-    freqs, _ = build.fe_modes(case)
+    freqs = build.fe_frequencies(case)
     rows = accuracy.rows(case, ok, {n: registry.module(n) for n in ok}, freqs)
     df = pd.DataFrame(rows, columns=["case", "solver", "reference", "channel", "rms", "max", "peak", "tolerance"])
     df["passes"] = df["rms"] <= df["tolerance"]

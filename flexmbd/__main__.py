@@ -12,13 +12,13 @@ def _while_loading(signum, frame):
     os._exit(128 + signum)                   # nothing is written yet
 
 
-def run() -> int:
+def run() -> None:
     previous = {s: signal.signal(s, _while_loading) for s in (signal.SIGINT, signal.SIGTERM)}
-    from flexmbd.cli import main
+    from flexmbd.cli import exit_with, main
     for s, old in previous.items():
         signal.signal(s, old)
-    return main()
+    exit_with(main())
 
 
 if __name__ == "__main__":
-    sys.exit(run())
+    run()

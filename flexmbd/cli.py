@@ -506,5 +506,16 @@ def _internal(e: BaseException, debug: bool) -> int:
     return INTERNAL
 
 
+def exit_with(code: int):
+    """End the process with `code`. After an interruption the interpreter is left at once (output
+    flushed): Python may otherwise end itself by the signal at shutdown when a KeyboardInterrupt
+    passed through native code, and the status would read -2, not 130."""
+    if code >= 128:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    exit_with(main())

@@ -120,25 +120,44 @@ def worst(rows_: list[dict], solver: str) -> float:
     return max(vals) if vals else np.nan
 
 
-def peak_table(case, results: dict, modes: dict, tol: float = 0.02) -> list[dict]:
-    """Identified spectral peaks of each deflection channel, each with the nearest FE natural
-    frequency among `modes[channel]` = (frequencies, labels), the retained modes that move the
-    channel's point in its direction: rows (solver, channel, f_identified, mode, f_FE, difference).
-    `mode` names the FE mode only within `tol`: on a body held differently from its mode set's
-    boundary conditions (a pendulum's pinned root, clamped-free modes) the system's frequencies
-    are not the retained modes' and are listed as unmatched."""
+def aliased(f: float, fs: float) -> float:
+    """The frequency at which a sampled sinusoid of frequency f shows below the Nyquist frequency
+    fs / 2: |f - k fs| folded into [0, fs / 2]."""
+    r = f % fs
+    return min(r, fs - r)
+
+
+def peak_table(case, results: dict, modes: list, output_dt: float, tol: float = 0.02) -> list[dict]:
+    """Identified spectral peaks of each deflection channel, each matched to the system's modes
+    `modes` = [(frequency Hz, label)] (linearize.py): rows (solver, channel, f_identified, mode,
+    f_system, difference). A peak within `tol` of a mode below the Nyquist frequency 1 / (2 dt) is
+    named after it; else one within `tol` of the alias of a mode above it is named 'alias of ...';
+    else 'none within 2 %'."""
+    f_sys = np.array([f for f, _ in modes])
+    if not f_sys.size:
+        return []
+    fs = 1.0 / output_dt
+    below, above = f_sys <= fs / 2, f_sys > fs / 2
     out = []
-    for ch, (f_fe, labels) in modes.items():
-        if not f_fe:
+    for ch, c in case["channels"].items():
+        if c["kind"] != "deflection":
             continue
-        f_fe = np.asarray(f_fe)
         for name, r in results.items():
             if not r.ok or ch not in r.channels or not np.any(r.channels[ch]):
                 continue
-            for fp, _ in metrics.spectral_peaks(r.t, r.channels[ch], n=8, fmin=0.5 * f_fe.min()):
-                k = int(np.argmin(np.abs(f_fe - fp)))
-                d = fp / f_fe[k] - 1.0
-                out.append({"case": case.name, "solver": name, "channel": ch, "f_identified": fp,
-                            "mode": labels[k] if abs(d) <= tol else f"none within {tol:.0%} (nearest {labels[k]})",
-                            "f_fe": f_fe[k], "difference": d})
+            for fp, _ in metrics.spectral_peaks(r.t, r.channels[ch], n=8, fmin=0.5 * f_sys.min()):
+                row = {"case": case.name, "solver": name, "channel": ch, "f_identified": fp}
+                k = int(np.argmin(np.where(below, np.abs(f_sys - fp), np.inf))) if below.any() else 0
+                d = fp / f_sys[k] - 1.0
+                alias = [(abs(aliased(f, fs) / fp - 1.0), j) for j, f in enumerate(f_sys) if above[j]]
+                if below.any() and abs(d) <= tol:
+                    row.update(mode=modes[k][1], f_system=f_sys[k], difference=d)
+                elif alias and min(alias)[0] <= tol:
+                    j = min(alias)[1]
+                    row.update(mode=f"alias of {modes[j][1]} ({f_sys[j]:.4g} Hz above the Nyquist "
+                                    f"frequency {fs / 2:.4g} Hz)", f_system=aliased(f_sys[j], fs),
+                               difference=fp / aliased(f_sys[j], fs) - 1.0)
+                else:
+                    row.update(mode=f"none within {tol:.0%} (nearest {modes[k][1]})", f_system=f_sys[k], difference=d)
+                out.append(row)
     return out

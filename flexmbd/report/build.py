@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import datetime
 import html
+import re
 import json
 from pathlib import Path
 
@@ -53,20 +54,15 @@ def load_results(out: Path, case, names, warn=None) -> dict:
     return got
 
 
-def fe_modes(case) -> tuple[dict, dict]:
-    """(body -> natural frequencies Hz of the retained modes, deflection channel -> (frequencies,
-    labels) of the modes that move the channel's point in the channel's direction). Pre-processing,
-    no solver is run."""
-    bodies = flexbody.for_case(case)
-    freqs = {n: fb.freq_hz.tolist() for n, fb in bodies.items()}
-    per_channel = {}
-    for ch, c in case["channels"].items():
-        if c["kind"] == "deflection" and c["body"] in bodies:
-            fb = bodies[c["body"]]
-            w = np.abs(fb.Phi[fb.node_at(c["at"]), 3 + "xyz".index(c["component"])])
-            keep = w > 1e-6 * w.max() if w.max() > 0 else np.zeros(w.size, dtype=bool)
-            per_channel[ch] = (fb.freq_hz[keep].tolist(), fb.labels[keep].tolist())
-    return freqs, per_channel
+def fe_frequencies(case) -> dict:
+    """Body -> natural frequencies (Hz) of its retained modes (pre-processing, no solver is run)."""
+    return {n: fb.freq_hz.tolist() for n, fb in flexbody.for_case(case).items()}
+
+
+def system_modes(case) -> list:
+    """[(frequency Hz, label)] of the case's linearized system about its initial state (linearize.py)."""
+    from flexmbd import linearize
+    return [(m.freq_hz, m.label) for m in linearize.for_case(case)]
 
 
 def timing_rows(res: dict, t_end: float) -> list[list]:
@@ -95,10 +91,12 @@ def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
     res = load_results(out, case, names, warn)
     ok = {s: r for s, r in res.items() if r.ok}
     mods = {s: solvers.module(s) for s in res}
-    freqs, modes = fe_modes(case)
+    freqs = fe_frequencies(case)
     ref = case["report"]["reference"]
     acc = accuracy.rows(case, ok, mods, freqs)
-    peaks = accuracy.peak_table(case, ok, modes)
+    system = system_modes(case)
+    dt = case["integrator"]["output_dt"]
+    peaks = accuracy.peak_table(case, ok, system, dt)
     d = stage / case.name
     sections = []                                             # (title, html, markdown)
 
@@ -114,22 +112,31 @@ def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
         sections.append((title, "".join(f"<p><img src='{i}' alt='{i}'></p>" for i in imgs),
                          "".join(f"![{i}]({i})\n\n" for i in imgs)))
 
-    # spectra of the deflection channels, with the identified peaks
-    spec = []
-    for n in modes:
-        if modes[n][0]:
-            spec.append(figures.spectra(case, n, ok, modes[n][0], d / f"fft_{n}.png"))
+    # spectra of the deflection channels, with the identified peaks and the system's modes
+    spec = [figures.spectra(case, n, ok, [f for f, _ in system], 0.5 / dt, d / f"fft_{n}.png")
+            for n, c in case["channels"].items() if c["kind"] == "deflection" and system]
     if spec:
-        head = ["solver", "channel", "identified [Hz]", "FE mode", "FE [Hz]", "difference"]
-        rows = [[p["solver"], p["channel"], p["f_identified"], p["mode"], p["f_fe"], p["difference"]] for p in peaks]
+        head = ["solver", "channel", "identified [Hz]", "system mode", "system [Hz]", "difference"]
+        rows = [[p["solver"], p["channel"], p["f_identified"], p["mode"], p["f_system"], p["difference"]] for p in peaks]
+        high = [(f, lab) for f, lab in system if f > 0.5 / dt]
         note = ("<p>Hann window, zero-padded 8x; a peak must stand clear of the main lobe and side lobes of "
-                "every larger peak; refined by a parabola through the log-amplitudes. Each peak is set beside the nearest FE natural frequency of "
-                "the body's retained modes and named after it within 2 %. A body held differently from its mode "
-                "set's boundary conditions (a pendulum's pinned root with clamped-free modes) vibrates at the "
-                "system's frequencies, which are listed as unmatched.</p>")
+                "every larger peak; refined by a parabola through the log-amplitudes. Each peak is named after "
+                "the nearest frequency of the system within 2 %: the case's equations (joint and modal "
+                "coordinates) linearized about the initial state (<code>flexmbd modes CASE --system</code>, "
+                "docs/formulation.md §10); a system whose configuration or spin changes much during the run "
+                "(a swinging double pendulum, a spun-up beam) vibrates at shifting frequencies, and its peaks "
+                "may stand apart from these.</p>")
+        if high:
+            note += (f"<p class='outside'>{len(high)} system modes lie above the Nyquist frequency "
+                     f"{0.5 / dt:.4g} Hz of the {dt * 1e3:.4g} ms output (the lowest: "
+                     + ", ".join(f"{f:.4g} Hz, {html.escape(lab)}" for f, lab in high[:3])
+                     + "); sampled without filtering, they show as aliases at |f - k / dt|, which the table "
+                       "names.</p>")
         sections.append(("FFT spectra and identified frequencies",
                          "".join(f"<p><img src='{i}' alt='{i}'></p>" for i in spec) + note + tables.html_table(head, rows),
-                         "".join(f"![{i}]({i})\n\n" for i in spec) + tables.markdown(head, rows)))
+                         "".join(f"![{i}]({i})\n\n" for i in spec)
+                         + re.sub(r"<[^>]+>", "", note.replace("</p><p", "</p>\n\n<p")) + "\n\n"
+                         + tables.markdown(head, rows)))
 
     # what elasticity changes: flexible minus rigid joint angles
     rigid = next((s for s in ("pinocchio", "mujoco") if s in ok), None)

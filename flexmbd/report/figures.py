@@ -58,20 +58,23 @@ def channel(case, name: str, results: dict, reference: str, path: Path) -> str:
     return save(fig, path)
 
 
-def spectra(case, name: str, results: dict, fe_hz, path: Path) -> str:
-    """Amplitude spectra (Hann window, zero-padded) with the FE natural frequencies marked."""
+def spectra(case, name: str, results: dict, system_hz, nyquist: float, path: Path) -> str:
+    """Amplitude spectra (Hann window, zero-padded) up to the Nyquist frequency, with the system's
+    frequencies marked (dotted)."""
     fig, ax = plt.subplots(figsize=(9, 4))
-    fmax = 1.15 * max(fe_hz) if len(fe_hz) else 200.0
+    shown = [f for f in system_hz if f <= nyquist]
+    fmax = min(nyquist, 1.15 * max(shown)) if shown else nyquist
     for s, r in results.items():
         if name not in r.channels or len(r.t) < 16 or not np.any(r.channels[name]):
             continue
         f, A = metrics.spectrum(r.t, r.channels[name])
         keep = (f > 0) & (f <= fmax)
         ax.semilogy(f[keep], np.maximum(A[keep] * 1e3, 1e-9), lw=1.0, label=s)
-    for fe in fe_hz:
-        ax.axvline(fe, color="k", ls=":", lw=0.8)
-    ax.set_xlabel("frequency [Hz]  (dotted: FE natural frequencies of the retained modes)")
+    for fs in shown:
+        ax.axvline(fs, color="k", ls=":", lw=0.8)
+    ax.set_xlabel("frequency [Hz]  (dotted: the system's frequencies, linearized about the initial state)")
     ax.set_ylabel(f"|FFT| of {name} [mm]")
+    ax.set_title(f"{case.name}: spectrum of {name}", fontsize=10)
     ax.grid(alpha=0.3)
     legend(ax, fontsize=8, ncol=3)
     fig.tight_layout()
