@@ -84,8 +84,7 @@ def signals_held():
     try:
         yield
     finally:
-        for s, handler in old.items():
-            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        restore(old)
         if got:
             signal.raise_signal(got[0])
 
@@ -108,10 +107,15 @@ def signals_kept():
     try:
         yield
     finally:
-        for s, handler in old.items():
-            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        restore(old)
         if got:
             raise Interrupted(got[0])
+
+
+def restore(handlers: dict) -> None:
+    """Put back signal handlers {signal: handler} as getsignal / signal returned them."""
+    for s, handler in handlers.items():
+        signal.signal(s, handler if handler is not None else signal.SIG_DFL)
 
 
 def temporary(path, content) -> str:

@@ -335,29 +335,17 @@ def plant_signal(monkeypatch, module, name: str, sig) -> None:
     monkeypatch.setattr(module, name, wrapped)
 
 
-def test_sigterm_while_a_figure_is_written_leaves_the_old_report(report, monkeypatch):
-    from flexmbd.report import figures
-    plant_signal(monkeypatch, figures.plt.Figure, "savefig", signal.SIGTERM)
+@pytest.mark.parametrize("module, name, sig", [("figures", "savefig", signal.SIGTERM),
+                                              ("tables", "latex_document", signal.SIGTERM),
+                                              ("tables", "html_table", signal.SIGINT)],
+                         ids=["SIGTERM while a figure is written", "SIGTERM while a table is written",
+                              "SIGINT while a page is written"])
+def test_a_signal_while_the_report_is_written_leaves_the_old_report(report, monkeypatch, module, name, sig):
+    from flexmbd.report import figures, tables
+    target = {"figures": figures.plt.Figure, "tables": tables}[module]
+    plant_signal(monkeypatch, target, name, sig)
     before = snapshot(report)
-    cli(["report", *ONE, "--out", report, "--no-run"], 143, names=["interrupted (SIGTERM)"])
-    assert snapshot(report) == before
-    no_leftovers(report)
-
-
-def test_sigterm_while_a_table_is_written_leaves_the_old_report(report, monkeypatch):
-    from flexmbd.report import tables
-    plant_signal(monkeypatch, tables, "latex_document", signal.SIGTERM)
-    before = snapshot(report)
-    cli(["report", *ONE, "--out", report, "--no-run"], 143, names=["interrupted (SIGTERM)"])
-    assert snapshot(report) == before
-    no_leftovers(report)
-
-
-def test_sigint_while_a_page_is_written_leaves_the_old_report(report, monkeypatch):
-    from flexmbd.report import tables
-    plant_signal(monkeypatch, tables, "html_table", signal.SIGINT)
-    before = snapshot(report)
-    cli(["report", *ONE, "--out", report, "--no-run"], 130, names=["interrupted (SIGINT)"])
+    cli(["report", *ONE, "--out", report, "--no-run"], 128 + sig, names=[f"interrupted ({signal.Signals(sig).name})"])
     assert snapshot(report) == before
     no_leftovers(report)
 

@@ -127,21 +127,20 @@ def aliased(f: float, fs: float) -> float:
     return min(r, fs - r)
 
 
-def peak_table(case, results: dict, modes: list, output_dt: float, tol: float = 0.02) -> list[dict]:
-    """Identified spectral peaks of each deflection channel, each matched to the system's modes
-    `modes` = [(frequency Hz, label)] (linearize.py): rows (solver, channel, f_identified, mode,
-    f_system, difference). A peak within `tol` of a mode below the Nyquist frequency 1 / (2 dt) is
-    named after it; else one within `tol` of the alias of a mode above it is named 'alias of ...';
-    else 'none within 2 %'."""
-    f_sys = np.array([f for f, _ in modes])
-    if not f_sys.size:
-        return []
+def peak_table(case, results: dict, modes: dict, output_dt: float, tol: float = 0.02) -> list[dict]:
+    """Identified spectral peaks of each deflection channel, each matched to the system modes that
+    move its point, `modes[channel]` = [(frequency Hz, label)] (linearize.py): rows (solver,
+    channel, f_identified, mode, f_system, difference). Peaks are sought above half the lowest of
+    those modes (below lies the forced, quasi-static response). A peak within `tol` of a mode below
+    the Nyquist frequency 1 / (2 dt) is named after it; else one within `tol` of the alias of a mode
+    above it is named 'alias of ...'; else 'none within 2 %'."""
     fs = 1.0 / output_dt
-    below, above = f_sys <= fs / 2, f_sys > fs / 2
     out = []
-    for ch, c in case["channels"].items():
-        if c["kind"] != "deflection":
+    for ch, chm in modes.items():
+        f_sys = np.array([f for f, _ in chm])
+        if not f_sys.size:
             continue
+        below, above = f_sys <= fs / 2, f_sys > fs / 2
         for name, r in results.items():
             if not r.ok or ch not in r.channels or not np.any(r.channels[ch]):
                 continue
@@ -151,13 +150,13 @@ def peak_table(case, results: dict, modes: list, output_dt: float, tol: float = 
                 d = fp / f_sys[k] - 1.0
                 alias = [(abs(aliased(f, fs) / fp - 1.0), j) for j, f in enumerate(f_sys) if above[j]]
                 if below.any() and abs(d) <= tol:
-                    row.update(mode=modes[k][1], f_system=f_sys[k], difference=d)
+                    row.update(mode=chm[k][1], f_system=f_sys[k], difference=d)
                 elif alias and min(alias)[0] <= tol:
                     j = min(alias)[1]
-                    row.update(mode=f"alias of {modes[j][1]} ({f_sys[j]:.4g} Hz above the Nyquist "
+                    row.update(mode=f"alias of {chm[j][1]} ({f_sys[j]:.4g} Hz above the Nyquist "
                                     f"frequency {fs / 2:.4g} Hz)", f_system=aliased(f_sys[j], fs),
                                difference=fp / aliased(f_sys[j], fs) - 1.0)
                 else:
-                    row.update(mode=f"none within {tol:.0%} (nearest {modes[k][1]})", f_system=f_sys[k], difference=d)
+                    row.update(mode=f"none within {tol:.0%} (nearest {chm[k][1]})", f_system=f_sys[k], difference=d)
                 out.append(row)
     return out

@@ -23,7 +23,7 @@ from flexmbd.results import Result
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
 table{border-collapse:collapse;margin:0.6em 0;font-size:13px}th,td{border:1px solid #bbb;padding:3px 7px;text-align:right}
-th{background:#eee}td:first-child,th:first-child{text-align:left}.pass,.ok{background:#dfd}.fail{background:#fdd}
+th{background:#eee}td:first-child,th:first-child{text-align:left}.pass,.ok{background:#dfd;text-align:left}.fail{background:#fdd;text-align:left}
 .bad{background:#fcc;text-align:left}.outside{background:#ffe9a8;text-align:left}.na{color:#777;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
 
 
@@ -65,6 +65,25 @@ def system_modes(case) -> list:
     return [(m.freq_hz, m.label) for m in linearize.for_case(case)]
 
 
+def channel_modes(case, system: list) -> dict:
+    """Deflection channel -> the system modes [(Hz, label)] that can move its point in its
+    direction: those led by a joint, or by a retained mode of the channel's body (or of one of its
+    segments) whose shape moves that node in that direction."""
+    bodies = flexbody.for_case(case)
+    out = {}
+    for ch, c in case["channels"].items():
+        if c["kind"] != "deflection" or c["body"] not in bodies:
+            continue
+        fb = bodies[c["body"]]
+        w = np.abs(fb.Phi[fb.node_at(c["at"]), 3 + "xyz".index(c["component"])])
+        moving = {str(lab) for lab, x in zip(fb.labels, w) if x > 1e-6 * w.max()} if w.max() > 0 else set()
+        mine = lambda label: (label.startswith("joint ") or any(
+            label.startswith(prefix) and label.partition(" ")[2] in moving
+            for prefix in (c["body"] + " ", c["body"] + ":")))
+        out[ch] = [(f, lab) for f, lab in system if mine(lab)]
+    return out
+
+
 def timing_rows(res: dict, t_end: float) -> list[list]:
     rows = []
     for s, r in res.items():
@@ -96,7 +115,7 @@ def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
     acc = accuracy.rows(case, ok, mods, freqs)
     system = system_modes(case)
     dt = case["integrator"]["output_dt"]
-    peaks = accuracy.peak_table(case, ok, system, dt)
+    peaks = accuracy.peak_table(case, ok, channel_modes(case, system), dt)
     d = stage / case.name
     sections = []                                             # (title, html, markdown)
 
@@ -121,13 +140,15 @@ def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
         high = [(f, lab) for f, lab in system if f > 0.5 / dt]
         note = ("<p>Hann window, zero-padded 8x; a peak must stand clear of the main lobe and side lobes of "
                 "every larger peak; refined by a parabola through the log-amplitudes. Each peak is named after "
-                "the nearest frequency of the system within 2 %: the case's equations (joint and modal "
-                "coordinates) linearized about the initial state (<code>flexmbd modes CASE --system</code>, "
-                "docs/formulation.md §10); a system whose configuration or spin changes much during the run "
+                "the nearest frequency within 2 % of the system modes that move the channel's point in its "
+                "direction: the case's equations (joint and modal coordinates) linearized about the initial "
+                "state (<code>flexmbd modes CASE --system</code>, docs/formulation.md §10). Peaks below half "
+                "the lowest of them are the forced, quasi-static response and are not listed. A system whose configuration or spin changes much during the run "
                 "(a swinging double pendulum, a spun-up beam) vibrates at shifting frequencies, and its peaks "
                 "may stand apart from these.</p>")
         if high:
-            note += (f"<p class='outside'>{len(high)} system modes lie above the Nyquist frequency "
+            note += (f"<p class='outside'>{len(high)} system mode{'s lie' if len(high) > 1 else ' lies'} above "
+                     f"the Nyquist frequency "
                      f"{0.5 / dt:.4g} Hz of the {dt * 1e3:.4g} ms output (the lowest: "
                      + ", ".join(f"{f:.4g} Hz, {html.escape(lab)}" for f, lab in high[:3])
                      + "); sampled without filtering, they show as aliases at |f - k / dt|, which the table "
