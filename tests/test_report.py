@@ -265,3 +265,14 @@ def test_a_failing_channel_is_a_fail_on_the_index_and_with_strict_exit_1(tmp_pat
     assert main(args[:1] + ["--no-run", "--json"] + args[1:]) == 0
     got = json.loads(capsys.readouterr().out)
     assert [r["verdict"] for r in got["runs"]] == ["fail", "reference"] and got["summary"] == "2 runs: 1 fail, 1 reference"
+
+
+def test_every_figure_has_an_svg_and_each_solver_one_colour(report):
+    from flexmbd.report import figures
+    pngs = list((report / "cantilever_step").glob("*.png"))
+    assert pngs and all(p.with_suffix(".svg").is_file() for p in pngs)
+    colours = [figures.style(s)["color"] for s in list(figures.STYLE) + ["a-plug-in", "another"]]
+    assert len(set(colours[:len(figures.STYLE)])) == len(figures.STYLE)
+    assert figures.style("a-plug-in") == figures.style("a-plug-in")            # stable across figures
+    svg = (report / "cantilever_step" / "tip_deflection.svg").read_text()
+    assert figures.STYLE["analytic"][0] in svg and figures.STYLE["fe-linear"][0] in svg
