@@ -47,7 +47,7 @@ def where(case, name: str) -> str:
     c = case["channels"][name]
     if c["kind"] in ("deflection", "stress_vm") and "body" in c:
         at = f" at x = {c['at']:g} m" if "at" in c else ""
-        comp = f", {c['component']}" if "component" in c else ""
+        comp = f", {c['component']}" if c["kind"] == "deflection" else ""
         return f"{case.name}: {name} ({c['kind']}{comp}) of {c['body']}{at}"
     if c["kind"] == "joint_angle":
         return f"{case.name}: {name} (angle of joint {c['joint']})"
