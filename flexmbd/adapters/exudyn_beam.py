@@ -290,7 +290,7 @@ def trajectory(case, beams: dict, X: dict, t: np.ndarray) -> channels.Trajectory
     for jname in channels.joints_needed(case):
         traj.joints[jname] = joint_angle(case, beams, X, case["joints"][jname])
     if channels.wants_energy(case):
-        traj.energy = {"total": energy(case, beams, X)}
+        traj.energy = energy(case, beams, X)
     for name, b in beams.items():
         body, Xb = case["bodies"][name], X[name]
         nodes = {x: node_index(body, x, len(b["elems"])) for x in channels.points_needed(case, name)}
@@ -345,16 +345,19 @@ def strains(x: float, b: dict, Xb: dict) -> np.ndarray:
     return np.column_stack([eps, zero, kap, zero])
 
 
-def energy(case, beams, X) -> np.ndarray:
+def energy(case, beams, X) -> dict:
+    """The energy parts (n,) J: the elements' kinetic and strain energies, and gravity's
+    -g . (rho A l (r1 + r2) / 2) over the elements."""
     g = np.asarray(case["gravity"], dtype=float)[:2]
-    E = 0.0
+    T = U = V = 0.0
     for name, b in beams.items():
         Xb = X[name]
         mass = b["k"]["massPerLength"] * b["l"]
         for e in range(len(b["elems"])):
-            E = E + Xb["T"][e][:, 0] + Xb["U"][e][:, 0]
-            E = E - mass * 0.5 * (Xb["r"][e][:, :2] + Xb["r"][e + 1][:, :2]) @ g
-    return E
+            T = T + Xb["T"][e][:, 0]
+            U = U + Xb["U"][e][:, 0]
+            V = V - mass * 0.5 * (Xb["r"][e][:, :2] + Xb["r"][e + 1][:, :2]) @ g
+    return {"kinetic": T, "strain": U, "gravity": V}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -406,5 +409,8 @@ def run(case, t_end, settings):
         return r
     X = {name: {k: ({i: xc.sensor_series(mbs, s, t[:n]) for i, s in v.items()}) for k, v in Sb.items()}
          for name, Sb in S.items()}
-    r.t, r.channels = t[:n], channels.channels(case, trajectory(case, beams, X, t[:n]))
+    traj = trajectory(case, beams, X, t[:n])
+    r.t, r.channels = t[:n], channels.channels(case, traj)
+    if "kinetic" in traj.energy:                   # what an energy channel's differences are measured against
+        r.extra["kinetic_max_J"] = float(np.max(traj.energy["kinetic"]))
     return r
