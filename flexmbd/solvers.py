@@ -153,4 +153,5 @@ def run(case, name: str, t_end: float | None = None) -> Result:
         r.status = cut[1]
     r.solver, r.case, r.case_sha256 = name, case.name, case.sha256
     r.solver_version = r.solver_version or mod.version()
+    r.extra["overrides"] = list(case.overrides)        # the --set items, recorded in the sidecar
     return r

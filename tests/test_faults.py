@@ -366,8 +366,8 @@ PAGES = ("index.html", "index.md", "accuracy.csv", "accuracy.md", "accuracy.tex"
 @pytest.mark.parametrize("sig, status, delay", [(signal.SIGTERM, 143, 0.1), (signal.SIGTERM, 143, 0.4),
                                                 (signal.SIGINT, 130, 0.25)])
 def test_a_real_signal_during_a_report_ends_it_with_one_generation(report, sig, status, delay):
-    """A real signal to a `report` process once it has started work: it ends within a second,
-    exit 128 + signal, one line, and the pages are all of the old report or all of the new one."""
+    """A real signal to a `report` process once it has started work: it ends with exit
+    128 + signal and one line, and the pages are all of the old report or all of the new one."""
     old = {p: (report / p).stat().st_ino for p in PAGES}
     p = subprocess.Popen([sys.executable, "-m", "flexmbd.cli", "report", *ONE, "--out", str(report)],
                          stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
@@ -375,16 +375,14 @@ def test_a_real_signal_during_a_report_ends_it_with_one_generation(report, sig, 
     first = p.stderr.readline()                      # the progress line: main is at work
     assert PROGRESS.match(first), first
     time.sleep(delay)
-    sent = time.perf_counter()
     p.send_signal(sig)
     err = first + p.stderr.read()
     p.wait(timeout=10)
-    took = time.perf_counter() - sent
     if p.returncode in (0, -sig):                    # finished before the signal came (or while exiting)
+        assert p.returncode == 0 or "interrupted" not in err, (p.returncode, err[-300:])
         check(0, err, 0, 0, [])
     else:
-        check(p.returncode, err, status, 1, ["interrupted"])
-        assert took < 1.0, took
+        check(p.returncode, err, status, 1, ["interrupted"])    # how soon: benchmarks/signal_latency.py
     new = {q: (report / q).stat().st_ino for q in PAGES}
     assert all(new[q] == old[q] for q in PAGES) or all(new[q] != old[q] for q in PAGES), (old, new)
     no_leftovers(report)
@@ -560,7 +558,7 @@ def test_report_with_a_missing_case_path_runs_nothing(tmp_path):
 
 
 @pytest.mark.slow
-def test_sigterm_ends_an_exudyn_solve_within_a_second(tmp_path):
+def test_sigterm_ends_an_exudyn_solve(tmp_path):
     """Exudyn's solver is native code; it runs Python's signal handlers between steps and would
     turn the exception into a failed result (files.signals_kept raises it again)."""
     pytest.importorskip("exudyn")
@@ -568,12 +566,10 @@ def test_sigterm_ends_an_exudyn_solve_within_a_second(tmp_path):
                           "--out", str(tmp_path)], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
                          env=ENV)
     time.sleep(1.8)                                   # imported, set up, solving (until about 3.5 s)
-    sent = time.perf_counter()
     p.send_signal(signal.SIGTERM)
     err = p.stderr.read()
     p.wait(timeout=10)
-    check(p.returncode, err, 143, 1, ["interrupted (SIGTERM)"])
-    assert time.perf_counter() - sent < 1.0
+    check(p.returncode, err, 143, 1, ["interrupted (SIGTERM)"])    # how soon: benchmarks/signal_latency.py
     assert not (tmp_path / "pendulum" / "exudyn-beam.json").exists()
     no_leftovers(tmp_path)
 

@@ -158,3 +158,13 @@ def test_an_interrupted_writer_leaves_a_matching_pair(tmp_path, sig):
         k = meta["settings"]["k"]
         assert len(back.t) == meta["samples"] == 50 + k % 7
         assert np.all(back.channels["x"] == k), (trial, k, back.channels["x"][:3])
+
+
+def test_the_sidecar_records_every_override_and_the_versions(tmp_path):
+    import json
+    from flexmbd import cases, results, solvers
+    case = cases.load("cantilever_step", ["materials.steel.E=2.1e11", "duration=0.01"])
+    _, js = results.write(solvers.run(case, "analytic"), tmp_path)
+    meta = json.loads(js.read_text())
+    assert meta["overrides"] == ["materials.steel.E=2.1e11", "duration=0.01"]
+    assert meta["versions"]["numba"] and meta["versions"]["exudyn"]
