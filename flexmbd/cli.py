@@ -98,7 +98,8 @@ def cmd_modes(args) -> int:
 def system_modes(case, about: str, as_json: bool) -> int:
     """The assembled system's frequencies, damping and labels (linearize.py)."""
     from flexmbd import linearize
-    modes = linearize.for_case(case, about)
+    with files.signals_exit():                          # may compile the kernel; writes nothing
+        modes = linearize.for_case(case, about)
     rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping if abs(m.damping) > 1e-9 else 0.0,
              "label": m.label, "share": m.share} for k, m in enumerate(modes)]
     if as_json:
@@ -120,7 +121,8 @@ def cmd_run(args) -> int:
         raise InputError(f"{case.path}: solver {args.solver}: {why}")
     cost.check([(case, args.solver)], args.t_end, args.allow_large)
     files.writable_dir(Path(args.out) / case.name, "--out")
-    r = solvers.run(case, args.solver, args.t_end)
+    with files.signals_exit():                          # nothing written while it runs
+        r = solvers.run(case, args.solver, args.t_end)
     csv, js = results.write(r, Path(args.out))
     if r.status.outside:
         print(f"flexmbd: warning: {case.name} / {r.solver} ran outside its model's linear validity "
@@ -147,7 +149,9 @@ def run_all(jobs: list, out: Path, allow_large: bool = False) -> None:
     t0 = time.perf_counter()
     for k, (c, s) in enumerate(jobs, 1):
         progress(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
-        results.write(solvers.run(c, s), out / "results")
+        with files.signals_exit():                      # nothing written while it runs
+            r = solvers.run(c, s)
+        results.write(r, out / "results")
     progress_done(len(jobs), time.perf_counter() - t0)
 
 
@@ -265,7 +269,11 @@ def cmd_regress(args) -> int:
     for k, (case_name, solver) in enumerate(pairs, 1):
         progress(k, len(pairs), f"{case_name} / {solver}", time.perf_counter() - t0)
         case = loaded[case_name]
-        r = fresh[case_name, solver] if args.results else solvers.run(case, solver)
+        if args.results:
+            r = fresh[case_name, solver]
+        else:
+            with files.signals_exit():                  # nothing written while it runs
+                r = solvers.run(case, solver)
         if args.update:
             if not r.ok:
                 raise InputError(f"{case_name} / {solver}: {r.status}; baseline not written")

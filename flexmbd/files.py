@@ -90,6 +90,28 @@ def signals_held():
 
 
 @contextmanager
+def signals_exit():
+    """For a stretch that writes nothing of flexmbd's but may run native code for long (a solver's
+    run, numba compiling): SIGINT or SIGTERM ends the process at once with its one line and exit
+    status. A Python exception raised inside native callbacks (LLVM's, while numba compiles) would
+    be printed as ignored and lost; the process is left instead (numba writes its cache files by
+    rename, so none is left half-written)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def leave(signum, frame):
+        os.write(2, f"flexmbd: interrupted ({signal.Signals(signum).name})\n".encode())
+        os._exit(128 + signum)
+
+    old = {s: signal.signal(s, leave) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        restore(old)
+
+
+@contextmanager
 def signals_kept():
     """For native code that runs Python's signal handlers but turns their exception into its own
     failure (Exudyn's solver does): a SIGINT or SIGTERM raises Interrupted as usual, and is raised

@@ -62,7 +62,8 @@ def fe_frequencies(case) -> dict:
 def system_modes(case) -> list:
     """[(frequency Hz, label)] of the case's linearized system about its initial state (linearize.py)."""
     from flexmbd import linearize
-    return [(m.freq_hz, m.label) for m in linearize.for_case(case)]
+    with files.signals_held():          # may compile the kernel: a signal waits for it, then acts
+        return [(m.freq_hz, m.label) for m in linearize.for_case(case)]
 
 
 def channel_modes(case, system: list) -> dict:
