@@ -210,6 +210,7 @@ def cmd_report(args) -> int:
     jobs = [(c, s) for c in loaded for s in build.jobs(c, chosen)]
     if not args.no_run:
         run_all(jobs, out, args.allow_large)
+    build.prepare(loaded)
     index, summary, acc = build.write(out, loaded, chosen, warn)
     _show(args, "report", index, summary, acc)
     return _verdict(args, summary, acc)
@@ -222,6 +223,7 @@ def cmd_compare(args) -> int:
     chosen = _solver_list(args.solvers, "--solvers")
     files.writable_dir(out, "--out")
     run_all([(case, s) for s in chosen], out, args.allow_large)
+    build.prepare([case])
     got = build.case_page(out, case, chosen, warn)
     _show(args, "page", out / case.name / "index.html", got["summary"], got["accuracy"])
     return _verdict(args, got["summary"], got["accuracy"])

@@ -59,11 +59,27 @@ def fe_frequencies(case) -> dict:
     return {n: fb.freq_hz.tolist() for n, fb in flexbody.for_case(case).items()}
 
 
+SYSTEM = {}     # (case name, case hash) -> system_modes(case), once per process
+
+
 def system_modes(case) -> list:
-    """[(frequency Hz, label)] of the case's linearized system about its initial state (linearize.py)."""
+    """[(frequency Hz, label)] of the case's linearized system about its initial state
+    (linearize.py), computed once per case version. The command line computes them before the
+    pages are built (`prepare`), where a signal may end the process at once."""
     from flexmbd import linearize
-    with files.signals_held():          # may compile the kernel: a signal waits for it, then acts
-        return [(m.freq_hz, m.label) for m in linearize.for_case(case)]
+    key = (case.name, case.sha256)
+    if key not in SYSTEM:
+        with files.signals_held():      # may compile the kernel: a signal waits for it, then acts
+            SYSTEM[key] = [(m.freq_hz, m.label) for m in linearize.for_case(case)]
+    return SYSTEM[key]
+
+
+def prepare(chosen_cases) -> None:
+    """What page building needs that may run long native code (the system modes: the first one
+    compiles flexmbd's kernel), done before any page is staged: SIGINT / SIGTERM end it at once."""
+    with files.signals_exit():
+        for case in chosen_cases:
+            system_modes(case)
 
 
 def channel_modes(case, system: list) -> dict:
