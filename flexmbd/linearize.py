@@ -104,13 +104,14 @@ def system_modes(model: Model, q, v, t: float = 0.0) -> list:
     free = dynamics.free_velocities(model)
     lam, vec = np.linalg.eig(state_matrix(model, q, v, t))
     n = free.size
-    M = dynamics.mass_matrix_system(model, make_data(model), q)[np.ix_(free, free)]
+    data, E = make_data(model), np.eye(model.nv)
+    M_ii = np.array([2.0 * dynamics.energy(model, data, q, E[i])[0] for i in free])   # diagonal of M: 2 T(e_i)
     names = [coordinate_names(model)[i] for i in free]
     scale = np.abs(lam).max(initial=1.0)
     out = []
     for k in np.flatnonzero(lam.imag > 1e-9 * scale):
         x = vec[:n, k]
-        energy = np.abs(x) ** 2 * np.diag(M)
+        energy = np.abs(x) ** 2 * M_ii
         share = energy / energy.sum()
         j = int(np.argmax(share))
         out.append(SystemMode(float(lam[k].imag / (2 * np.pi)), float(-lam[k].real / abs(lam[k])), names[j],
