@@ -120,10 +120,10 @@ def cmd_run(args) -> int:
     if why:
         raise InputError(f"{case.path}: solver {args.solver}: {why}")
     cost.check([(case, args.solver)], args.t_end, args.allow_large)
-    files.writable_dir(Path(args.out) / case.name, "--out")
+    files.writable_dir(results.folder(args.out) / case.name, "--out")
     with files.signals_exit():                          # nothing written while it runs
         r = solvers.run(case, args.solver, args.t_end)
-    csv, js = results.write(r, Path(args.out))
+    csv, js = results.write(r, results.folder(args.out))
     if r.status.outside:
         print(f"flexmbd: warning: {case.name} / {r.solver} ran outside its model's linear validity "
               f"({r.status.why}); see docs/formulation.md §7", file=sys.stderr)
@@ -133,6 +133,20 @@ def cmd_run(args) -> int:
         print(f"{case.name} / {r.solver}: {r.status}; {r.steps} steps, solve {r.wall_s:.3f} s, "
               f"set-up {r.setup_s:.3f} s -> {js.parent}")
     return DIFFERENT if args.strict and r.status.kind == "failed" else OK
+
+
+def cmd_import(args) -> int:
+    from flexmbd import external, results
+    case = _load(args)
+    r = external.load(case, args.solver, Path(args.file), Path(args.meta) if args.meta else None)
+    files.writable_dir(results.folder(args.out) / case.name, "--out")
+    csv, js = results.write(r, results.folder(args.out))
+    if args.json:
+        print(js.read_text(), end="")
+    else:
+        print(f"{case.name} / {r.solver}: imported {len(r.t)} samples of {', '.join(r.channels)} "
+              f"({r.status}) -> {js.parent}")
+    return OK
 
 
 def _solver_list(text: str | None, flag: str) -> list:
@@ -151,8 +165,18 @@ def run_all(jobs: list, out: Path, allow_large: bool = False) -> None:
         progress(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
         with files.signals_exit():                      # nothing written while it runs
             r = solvers.run(c, s)
-        results.write(r, out / "results")
+        results.write(r, results.folder(out))
     progress_done(len(jobs), time.perf_counter() - t0)
+
+
+def results_folder(out) -> Path:
+    """The results of the report folder `out` (results.folder), which must exist."""
+    from flexmbd import results
+    where = results.folder(out)
+    if not where.is_dir():
+        raise InputError(f"{where}: --results: no results folder (give the report folder DIR whose results are "
+                         f"DIR/results/CASE/SOLVER.json, as run, import, compare and report write them)")
+    return where
 
 
 def warn(line: str) -> None:
@@ -210,8 +234,11 @@ def cmd_report(args) -> int:
     jobs = [(c, s) for c in loaded for s in build.jobs(c, chosen)]
     if not args.no_run:
         run_all(jobs, out, args.allow_large)
-    build.prepare(loaded)
-    index, summary, acc = build.write(out, loaded, chosen, warn)
+    build.prepare(loaded, warn)
+    t0 = time.perf_counter()
+    index, summary, acc = build.write(out, loaded, chosen, warn,
+                                      lambda k, n, label: progress(k, n, label, time.perf_counter() - t0))
+    progress_done(len(loaded) + 1, time.perf_counter() - t0)
     _show(args, "report", index, summary, acc)
     return _verdict(args, summary, acc)
 
@@ -223,7 +250,7 @@ def cmd_compare(args) -> int:
     chosen = _solver_list(args.solvers, "--solvers")
     files.writable_dir(out, "--out")
     run_all([(case, s) for s in chosen], out, args.allow_large)
-    build.prepare([case])
+    build.prepare([case], warn)
     got = build.case_page(out, case, chosen, warn)
     _show(args, "page", out / case.name / "index.html", got["summary"], got["accuracy"])
     return _verdict(args, got["summary"], got["accuracy"])
@@ -234,10 +261,16 @@ def cmd_regress(args) -> int:
     from flexmbd import results
     base = Path(args.baseline)
     pairs = regress.listing(base)
-    chosen = _solver_list(args.solvers, "--solvers") if args.solvers else None
+    chosen = None
+    if args.solvers:                    # registered solvers, and imported results by their baselines or --results
+        chosen = args.solvers.split(",")
+        for name in chosen:
+            if not (args.results or name in {s for _, s in pairs}):
+                solvers.check_name(name, "--solvers")
     if args.update and (args.cases or args.solvers):          # create baselines too, not only rewrite
         names = args.cases.split(",") if args.cases else cases.available()
-        pairs = [(c, s) for c in names for s in chosen or solvers.NAMES if not solvers.status_for(_case(c), s)]
+        pairs = [(c, s) for c in names for s in chosen or solvers.NAMES
+                 if s not in solvers.NAMES or not solvers.status_for(_case(c), s)]
     if args.cases:
         pairs = [p for p in pairs if p[0] in args.cases.split(",")]
     if chosen:
@@ -250,19 +283,28 @@ def cmd_regress(args) -> int:
     stored, fresh = {}, {}
     if args.update:
         files.writable_dir(base, "--baseline")
+        brought = {c: results.imported(results_folder(args.results), c) if args.results else []
+                   for c in dict.fromkeys(c for c, _ in pairs)}
         for c, s in pairs:
-            files.writable_dir(regress.known(base, c, s).parent, "--baseline")
+            files.writable_dir(regress.known(base, c, s, imported=s in brought[c]).parent, "--baseline")
     else:
         for c, s in pairs:
             stored[c, s], why = regress.baseline(base, loaded[c], s)
             if why:
                 warn(f"warning: {base / c / (s + '.csv')}: {why}")
     if args.results:
+        where = results_folder(args.results)
         for c, s in pairs:
-            fresh[c, s] = results.read(Path(args.results), c, s)
+            fresh[c, s] = results.read(where, c, s)
             why = results.stale(fresh[c, s], loaded[c].sha256, loaded[c]["channels"])
             if why:
-                warn(f"warning: {Path(args.results) / c / (s + '.json')}: stale: {why}")
+                warn(f"warning: {where / c / (s + '.json')}: stale: {why}")
+    else:
+        for c, s in pairs:
+            if s not in solvers.NAMES:
+                regress.known(base, c, s)                   # an unknown solver's baseline is named as such
+                raise InputError(f"{base / c / (s + '.csv')}: {s} is an imported result, which cannot be rerun: "
+                                 f"give --results DIR (the report folder it was imported into)")
     if not args.results:
         cost.check([(loaded[c], s) for c, s in pairs], allow_large=args.allow_large)
 
@@ -297,6 +339,12 @@ def cmd_regress(args) -> int:
         print(f"moved: {r['case']} / {r['solver']} / {r['channel']}: RMS difference {tables.fmt(r['rms'])} "
               f"> tolerance {tables.fmt(r['tolerance'])}", file=sys.stderr)
     return DIFFERENT if moved else OK
+
+
+def cmd_completion(args) -> int:
+    from flexmbd import completion
+    print(completion.bash(parser(), cases.available(), solvers.NAMES), end="")
+    return OK
 
 
 def cmd_bench(args) -> int:
@@ -402,7 +450,7 @@ def parser() -> argparse.ArgumentParser:
     s = sub.add_parser("run", help="one solver on one case", parents=[debug])
     s.add_argument("case", help=case)
     s.add_argument("--solver", required=True, help=f"one of: {names}")
-    s.add_argument("--out", default="results", help="results go to OUT/CASE/SOLVER.{csv,json}")
+    s.add_argument("--out", default="reports", help="the report folder: the result goes to OUT/results/CASE/SOLVER.{csv,json}")
     s.add_argument("--t-end", type=_positive, default=None, metavar="SECONDS",
                    help="simulate this long instead of the case's duration")
     s.add_argument("--set", action="append", metavar="KEY=VALUE", help=over)
@@ -410,6 +458,20 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--allow-large", action="store_true", help=large)
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_run)
+
+    s = sub.add_parser("import", help="bring in a result computed elsewhere, checked against the case's channels "
+                       "(docs/plugins.md)", parents=[debug])
+    s.add_argument("case", help=case)
+    s.add_argument("file", metavar="FILE.csv", help="a table of t [s] and any of the case's channels (SI units)")
+    s.add_argument("--solver", required=True, metavar="NAME",
+                   help="the name the result goes by on the pages (not one of flexmbd's solvers)")
+    s.add_argument("--meta", metavar="FILE.json", default=None,
+                   help="solver_version, settings, status, wall_s, machine, date, description, ... (docs/plugins.md)")
+    s.add_argument("--out", default="reports", help="the report folder: the result goes to OUT/results/CASE/NAME.{csv,json}")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE", help=over + "; the case version the result was "
+                   "computed for")
+    s.add_argument("--json", action="store_true", help="print the result's JSON sidecar on stdout")
+    s.set_defaults(func=cmd_import)
 
     s = sub.add_parser("report", help="every case on every available solver, and the report", parents=[debug])
     s.add_argument("--cases", default=None, help="comma-separated case names or paths (default: all)")
@@ -431,6 +493,12 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_compare)
 
+    s = sub.add_parser("completion", help="print the shell completion script (bash; zsh through bashcompinit)",
+                       parents=[debug], description='bash: eval "$(flexmbd completion bash)" in ~/.bashrc; zsh: '
+                       'autoload -U +X bashcompinit && bashcompinit && eval "$(flexmbd completion bash)"')
+    s.add_argument("shell", choices=["bash"], help="the shell")
+    s.set_defaults(func=cmd_completion)
+
     s = sub.add_parser("bench", help="timing and work-precision against peers on this machine", parents=[debug])
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--quick", action="store_true", help="fewer sizes and settings (a smoke run)")
@@ -442,7 +510,9 @@ def parser() -> argparse.ArgumentParser:
                        parents=[debug])
     s.add_argument("--baseline", default=str(Path(__file__).resolve().parent.parent / "references" / "baselines"),
                    help="folder of baselines BASELINE/CASE/SOLVER.csv")
-    s.add_argument("--results", default=None, help="compare these stored results instead of running the solvers")
+    s.add_argument("--results", default=None, metavar="DIR",
+                   help="compare the results stored in the report folder DIR (DIR/results/CASE/SOLVER.json) instead "
+                        "of running the solvers; needed for imported results")
     s.add_argument("--cases", default=None, help="comma-separated case names (default: every baseline's)")
     s.add_argument("--solvers", default=None, help="comma-separated solver names (default: every baseline's)")
     s.add_argument("--update", action="store_true", help="rewrite the baselines from fresh results")

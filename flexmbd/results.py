@@ -195,12 +195,14 @@ def environment() -> dict:
 
 
 def sidecar(r: Result, csv_sha256: str | None = None) -> dict:
-    """The JSON sidecar of a result; `csv_sha256` is the SHA-256 of its CSV (None: no CSV)."""
+    """The JSON sidecar of a result; `csv_sha256` is the SHA-256 of its CSV (None: no CSV). The
+    environment is this process's, unless the result carries its own (`r.extra`: a result read
+    back, or one brought in by `flexmbd import`)."""
     return {"solver": r.solver, "solver_version": r.solver_version, "case": r.case,
             "case_sha256": r.case_sha256, "status": str(r.status), "failed_at_s": r.status.t,
             "settings": r.settings, "wall_s": r.wall_s, "setup_s": r.setup_s, "steps": r.steps,
             "rhs_evals": r.rhs_evals, "samples": int(len(r.t)), "channels": list(r.channels),
-            "csv_sha256": csv_sha256, **r.extra, **environment()}
+            "csv_sha256": csv_sha256, **environment(), **r.extra}
 
 
 SIDECAR_KEYS = {"solver", "solver_version", "case", "case_sha256", "status", "failed_at_s", "settings", "wall_s",
@@ -209,6 +211,26 @@ SIDECAR_KEYS = {"solver", "solver_version", "case", "case_sha256", "status", "fa
 
 def sha256(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+def folder(out) -> Path:
+    """Where the results of a report folder OUT live: OUT/results/CASE/SOLVER.{csv,json}, the one
+    layout of `run`, `import`, `compare`, `report` and `regress --results`."""
+    return Path(out) / "results"
+
+
+def imported(out_dir: Path, case: str) -> list[str]:
+    """Names of the results of a case brought in with `flexmbd import` (their sidecar has the key
+    `imported`), in name order; unreadable sidecars are left to `read` to report."""
+    names = []
+    for js in sorted((Path(out_dir) / case).glob("*.json")):
+        try:
+            meta = json.loads(js.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        if isinstance(meta, dict) and "imported" in meta and meta.get("solver") == js.stem:
+            names.append(js.stem)
+    return names
 
 
 def write(r: Result, out_dir: Path) -> tuple[Path, Path]:
@@ -305,7 +327,6 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
         if want is not None and sha256(text) != want:
             raise InputError(f"{csv}: does not belong to {js.name} (written by another run, or changed)")
         df = read_table(csv, text, ["t"] + chans, samples)
-    known = SIDECAR_KEYS | {"python", "versions", "git_commit", "machine", "date"}
     if status.kind == "failed" and meta.get("failed_at_s") is not None:
         status = Status("failed", status.why, float(meta["failed_at_s"]))
     return Result(solver=solver, case=case, t=df["t"].to_numpy(dtype=float),
@@ -314,7 +335,7 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
                   settings=meta.get("settings", {}), wall_s=meta.get("wall_s", 0.0),
                   setup_s=meta.get("setup_s", 0.0), steps=meta.get("steps", 0),
                   rhs_evals=meta.get("rhs_evals", 0), case_sha256=meta.get("case_sha256", ""),
-                  extra={k: v for k, v in meta.items() if k not in known})
+                  extra={k: v for k, v in meta.items() if k not in SIDECAR_KEYS})
 
 
 def stale(r: Result, case_sha256: str, channels) -> str:

@@ -265,15 +265,15 @@ def test_zero_modes_is_the_rigid_limit(tmp_path, capsys):
     for solver in ("flexmbd", "pinocchio"):
         assert main(["run", "pendulum", "--solver", solver, "--t-end", "0.3", "--out", str(out),
                      "--set", "bodies.beam.modes.count=0"]) == 0
-    a, b = (json.loads((out / "pendulum" / f"{s}.json").read_text()) for s in ("flexmbd", "pinocchio"))
+    a, b = (json.loads((out / "results" / "pendulum" / f"{s}.json").read_text()) for s in ("flexmbd", "pinocchio"))
     assert a["status"] == "ok" and b["status"] == "ok"
     import pandas as pd
-    fa, fb = (pd.read_csv(out / "pendulum" / f"{s}.csv") for s in ("flexmbd", "pinocchio"))
+    fa, fb = (pd.read_csv(out / "results" / "pendulum" / f"{s}.csv") for s in ("flexmbd", "pinocchio"))
     assert abs(fa["joint_angle"] - fb["joint_angle"]).max() < 1e-8
     assert fa["joint_angle"].iloc[-1] < -0.3                      # it did swing
     assert main(["run", "cantilever_step", "--solver", "flexmbd", "--t-end", "0.1", "--out", str(out),
                  "--set", "bodies.beam.modes.count=0"]) == 0
-    rest = pd.read_csv(out / "cantilever_step" / "flexmbd.csv")
+    rest = pd.read_csv(out / "results" / "cantilever_step" / "flexmbd.csv")
     assert len(rest) == 101 and (rest["tip_deflection"] == 0).all()
     c = cases.load("pendulum", ["bodies.beam.modes.count=0"])
     why = solvers.status_for(c, "exudyn-ffrf")

@@ -131,7 +131,7 @@ def test_no_traceback_from_the_console_script(tmp_path):
                        capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 2
     assert "Traceback" not in r.stderr and r.stderr.count("\n") == 1
-    assert not (tmp_path / "results").exists()
+    assert not (tmp_path / "reports").exists()
 
 
 def test_motion_table_file_is_checked(tmp_path):

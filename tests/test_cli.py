@@ -53,7 +53,7 @@ def test_run_outside_linear_validity_warns_in_one_line(tmp_path, capsys):
     out, err = capsys.readouterr()
     warnings = [line for line in err.splitlines() if line.startswith("flexmbd: warning:")]
     assert code == 0 and len(warnings) == 1 and "linear validity" in warnings[0]
-    status = json.loads((tmp_path / "pendulum" / "flexmbd.json").read_text())["status"]
+    status = json.loads((tmp_path / "results" / "pendulum" / "flexmbd.json").read_text())["status"]
     assert status.startswith("ok, outside linear validity (node rotation 0.52 rad")
 
 
@@ -63,7 +63,7 @@ def test_a_stiffened_beam_bent_too_far_fails_saying_why(tmp_path, capsys):
     bent, and what to do."""
     code = main(["run", "pendulum", "--solver", "flexmbd", "--set", "materials.steel.E=2.06e9", "--t-end", "0.4",
                  "--out", str(tmp_path)])
-    status = json.loads((tmp_path / "pendulum" / "flexmbd.json").read_text())["status"]
+    status = json.loads((tmp_path / "results" / "pendulum" / "flexmbd.json").read_text())["status"]
     assert code == 0 and status.startswith("failed: outside linear validity: the stiffened mass matrix stops being positive "
                                      "definite (beam 'beam' bent 3.7 % of its length") and "segments" in status
     strict = main(["run", "pendulum", "--solver", "flexmbd", "--set", "materials.steel.E=2.06e9", "--t-end", "0.4",
@@ -91,4 +91,4 @@ def test_version_and_help_text_for_every_option(capsys):
         for a in sp._actions:
             assert a.help, (name, a.dest)
     help_text = subs["run"].format_help()
-    assert "(default: results)" in help_text and "one of: flexmbd, fe-linear" in help_text
+    assert "(default: reports)" in help_text and "OUT/results/CASE" in help_text and "one of: flexmbd, fe-linear" in help_text

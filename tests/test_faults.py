@@ -124,7 +124,7 @@ def base(tmp_path) -> Path:
 
 
 def regress_stored(base: Path, results: Path, status: int, lines: int = 1, names=(), extra=()) -> list[str]:
-    return cli(["regress", "--baseline", base, "--results", results, *ONE, *extra], status, lines, names)
+    return cli(["regress", "--baseline", base, "--results", results.parent, *ONE, *extra], status, lines, names)
 
 
 def edit_csv(path: Path, change) -> None:
@@ -172,7 +172,7 @@ def test_a_failed_solver_is_exit_0_and_with_strict_exit_1(tmp_path):
     run = ["run", CASE, "--solver", SOLVER, "--set", "loads.tip_force.force=[0.0,-1e7,0.0]", "--t-end", "0.05",
            "--out", tmp_path]
     cli(run, 0, 0)
-    assert json.loads((tmp_path / CASE / f"{SOLVER}.json").read_text())["status"].startswith("failed: diverged")
+    assert json.loads((tmp_path / "results" / CASE / f"{SOLVER}.json").read_text())["status"].startswith("failed: diverged")
     cli(run + ["--strict"], 1, 0)
 
 
@@ -218,9 +218,10 @@ def test_run_out_lies_under_a_file(tmp_path):
 def test_run_out_case_folder_is_a_file(tmp_path, monkeypatch):
     from flexmbd import solvers
     monkeypatch.setattr(solvers, "run", lambda *a, **k: pytest.fail("a solver ran"))
-    (tmp_path / CASE).write_text("keep")
-    cli(["run", CASE, "--solver", SOLVER, "--out", tmp_path], 2, names=[tmp_path / CASE])
-    assert (tmp_path / CASE).read_text() == "keep"
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / CASE).write_text("keep")
+    cli(["run", CASE, "--solver", SOLVER, "--out", tmp_path], 2, names=[tmp_path / "results" / CASE])
+    assert (tmp_path / "results" / CASE).read_text() == "keep"
     no_leftovers(tmp_path)
 
 
@@ -262,7 +263,7 @@ def test_bench_out_is_a_file(tmp_path):
 
 def test_regress_update_into_a_file(tmp_path, results):
     (tmp_path / "f").write_text("keep")
-    cli(["regress", "--update", "--baseline", tmp_path / "f", "--results", results, *ONE], 2,
+    cli(["regress", "--update", "--baseline", tmp_path / "f", "--results", results.parent, *ONE], 2,
         names=[tmp_path / "f", "--baseline"])
 
 
@@ -272,7 +273,7 @@ def test_regress_update_into_a_file(tmp_path, results):
 
 def test_run_past_the_file_size_limit_keeps_the_old_pair(results):
     before = snapshot(results)
-    process(["run", CASE, "--solver", SOLVER, "--out", results], 2, fsize=16 * 1024,
+    process(["run", CASE, "--solver", SOLVER, "--out", results.parent], 2, fsize=16 * 1024,
             names=[results / CASE / f"{SOLVER}.csv", "file too large"])
     assert snapshot(results) == before
     no_leftovers(results)
@@ -287,7 +288,7 @@ def test_report_past_the_file_size_limit_keeps_the_old_report(report):
 
 def test_regress_update_past_the_file_size_limit_keeps_the_old_baseline(base, results):
     before = snapshot(base)
-    process(["regress", "--update", "--baseline", base, "--results", results, *ONE], 2, fsize=16 * 1024,
+    process(["regress", "--update", "--baseline", base, "--results", results.parent, *ONE], 2, fsize=16 * 1024,
             names=[base / CASE / f"{SOLVER}.csv", "file too large"])
     assert snapshot(base) == before
     no_leftovers(base)
@@ -429,14 +430,14 @@ def test_a_baseline_without_t(base, results):
 
 def test_a_baseline_for_an_unknown_solver(base, results):
     shutil.copy(base / CASE / f"{SOLVER}.csv", base / CASE / "nosuch.csv")
-    cli(["regress", "--baseline", base, "--results", results, "--cases", CASE], 2,
+    cli(["regress", "--baseline", base, "--results", results.parent, "--cases", CASE], 2,
         names=[base / CASE / "nosuch.csv", "unknown solver"])
 
 
 def test_regress_update_of_a_baseline_for_an_unknown_solver(base, results):
     shutil.copy(base / CASE / f"{SOLVER}.csv", base / CASE / "nosuch.csv")
     before = snapshot(base)
-    cli(["regress", "--update", "--baseline", base, "--results", results], 2,
+    cli(["regress", "--update", "--baseline", base, "--results", results.parent], 2,
         names=[base / CASE / "nosuch.csv", "unknown solver"])
     assert snapshot(base) == before
 

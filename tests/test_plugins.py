@@ -36,7 +36,7 @@ def test_example_plugin_runs_beside_the_built_in_solvers(tmp_path):
     assert "example-pendulum" in listed.stdout.split("pendulum ")[-1]
     r = flexmbd(["run", "pendulum", "--solver", "example-pendulum", "--out", str(tmp_path / "out")], env)
     assert r.returncode == 0 and "ok" in r.stdout, r.stderr
-    got = pd.read_csv(tmp_path / "out" / "pendulum" / "example-pendulum.csv")
+    got = pd.read_csv(tmp_path / "out" / "results" / "pendulum" / "example-pendulum.csv")
     rigid = solvers.run(cases.load("pendulum"), "pinocchio")
     np.testing.assert_allclose(got["t"], rigid.t)
     assert np.abs(got["joint_angle"] - rigid.channels["joint_angle"]).max() < 1e-3   # slender rod: no section inertia

@@ -68,6 +68,6 @@ def test_run_writes_csv_and_sidecar(tmp_path, capsys):
     for key in ("solver_version", "case_sha256", "settings", "wall_s", "setup_s", "steps", "rhs_evals",
                 "python", "versions", "git_commit"):
         assert key in meta
-    back = results.read(tmp_path, "cantilever_step", "analytic")
+    back = results.read(results.folder(tmp_path), "cantilever_step", "analytic")
     assert set(back.channels) == {"tip_deflection", "stress_vm"} and back.t[-1] == pytest.approx(0.1)
-    assert not [p for p in (tmp_path / "cantilever_step").iterdir() if p.name.startswith(".")]
+    assert not [p for p in (tmp_path / "results" / "cantilever_step").iterdir() if p.name.startswith(".")]

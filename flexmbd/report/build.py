@@ -39,7 +39,7 @@ def load_results(out: Path, case, names, warn=None) -> dict:
     got = {}
     for s in names:
         try:
-            r = results.read(out / "results", case.name, s)
+            r = results.read(results.folder(out), case.name, s)
             why = results.stale(r, case.sha256, case["channels"])
             if why:
                 note = f"{out / 'results' / case.name / (s + '.json')}: stale: {why}"
@@ -74,9 +74,14 @@ def system_modes(case) -> list:
     return SYSTEM[key]
 
 
-def prepare(chosen_cases) -> None:
+def prepare(chosen_cases, notice=None) -> None:
     """What page building needs that may run long native code (the system modes: the first one
-    compiles flexmbd's kernel), done before any page is staged: SIGINT / SIGTERM end it at once."""
+    compiles flexmbd's kernel), done before any page is staged: SIGINT / SIGTERM end it at once.
+    `notice(line)` is told when the kernel is not yet compiled for this source version."""
+    from flexmbd.kernel import jit
+    if notice and chosen_cases and not jit.is_cached():
+        notice("compiling the solver's kernel once for this source version, to linearize the cases for "
+               "their spectra (about a minute; cached afterwards)")
     with files.signals_exit():
         for case in chosen_cases:
             system_modes(case)
@@ -111,22 +116,35 @@ def timing_rows(res: dict, t_end: float) -> list[list]:
 
 
 def provenance_rows(res: dict) -> list[list]:
-    return [[s, r.solver_version, r.case_sha256, r.extra.get("git_commit", ""), r.extra.get("date", ""),
-             r.extra.get("machine", ""), json.dumps(r.settings, sort_keys=True)[:300]] for s, r in res.items()]
+    """Per solver: version, case hash, commit, date, machine, Python and numba (flexmbd's compiler),
+    the --set overrides, where an imported result came from, and the settings."""
+    rows = []
+    for s, r in res.items():
+        e = r.extra
+        python = ", ".join(x for x in [e.get("python") and f"Python {e['python']}",
+                                       (e.get("versions") or {}).get("numba") and f"numba {e['versions']['numba']}"] if x)
+        came = f"imported: {e['imported'].get('file', '')} (sha256 {e['imported'].get('sha256', '')[:16]})" \
+            if isinstance(e.get("imported"), dict) else " ".join(f"--set {o}" for o in e.get("overrides") or [])
+        rows.append([s, r.solver_version, r.case_sha256[:16], e.get("git_commit", ""), e.get("date", ""),
+                     e.get("machine", ""), python, came, json.dumps(r.settings, sort_keys=True)[:300]])
+    return rows
 
 
 def case_page(out: Path, case, names, warn=None) -> dict:
     """Write one case's page and figures (`out/CASE/`, swapped in whole: `files.generation`);
     return its accuracy rows and summary rows."""
+    indexed = (Path(out) / "index.html").is_file()
     with files.generation(out) as stage:
-        return _case_page(out, stage, case, names, warn)
+        return _case_page(out, stage, case, names, warn, indexed)
 
 
-def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
-    """One case's page from the results under `out`, written into `stage/CASE/`."""
+def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) -> dict:
+    """One case's page from the results under `out`, written into `stage/CASE/`; it links to the
+    report's index when there is one (`indexed`), and says how to build one otherwise."""
+    names = list(names) + [s for s in results.imported(results.folder(out), case.name) if s not in names]
     res = load_results(out, case, names, warn)
     ok = {s: r for s, r in res.items() if r.ok}
-    mods = {s: solvers.module(s) for s in res}
+    mods = {s: solvers.module(s) if s in solvers.MODULES else None for s in res}     # None: imported
     freqs = fe_frequencies(case)
     ref = case["report"]["reference"]
     acc = accuracy.rows(case, ok, mods, freqs)
@@ -197,14 +215,18 @@ def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
     sections.append(("Accuracy", note + tables.html_table(head, rows), tables.markdown(head, rows)))
 
     # provenance
-    head = ["solver", "version", "case sha256", "git commit", "date", "machine", "settings"]
+    head = ["solver", "version", "case sha256", "git commit", "date", "machine", "Python, numba", "overrides / source",
+            "settings"]
     rows = provenance_rows(res)
     sections.append(("Provenance", tables.html_table(head, rows), tables.markdown(head, rows)))
 
     title = f"{case.name}: {case['title']}"
+    build_index = f"no index yet: flexmbd report --no-run --out {out} builds it from the stored results"
+    top_html = "<a href='../index.html'>index</a>" if indexed else f"<code>{html.escape(build_index)}</code>"
+    top_md = "[index](../index.md)" if indexed else f"`{build_index}`"
     page = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
-            f"<style>{CSS}</style></head><body><p><a href='../index.html'>index</a></p><h1>{html.escape(title)}</h1>"]
-    md = [f"# {title}\n", "[index](../index.md)\n"]
+            f"<style>{CSS}</style></head><body><p>{top_html}</p><h1>{html.escape(title)}</h1>"]
+    md = [f"# {title}\n", top_md + "\n"]
     for t, h, m in sections:
         page.append(f"<h2>{html.escape(t)}</h2>{h}")
         md.append(f"## {t}\n\n{m}")
@@ -217,23 +239,28 @@ def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
     return {"accuracy": acc, "summary": summary, "verdicts": [verdicts[s] for s in res]}
 
 
-def write(out: Path, chosen_cases, names, warn=None) -> tuple[Path, list, list]:
+def write(out: Path, chosen_cases, names, warn=None, progress=None) -> tuple[Path, list, list]:
     """Every case page, the index and the reviewer tables, as one generation (built in a staging
     folder and swapped in at the end: `files.generation`); (the index path, summary rows
-    [case, solver, verdict, worst, wall] (`accuracy.verdict`), accuracy rows)."""
+    [case, solver, verdict, worst, wall] (`accuracy.verdict`), accuracy rows). `progress(k, n,
+    label)` is told before each page."""
     out = Path(out)
     with files.generation(out) as stage:
-        all_acc, summary = _write(out, stage, chosen_cases, names, warn)
+        all_acc, summary = _write(out, stage, chosen_cases, names, warn, progress)
     return out / "index.html", summary, all_acc
 
 
-def _write(out: Path, stage: Path, chosen_cases, names, warn) -> tuple[list, list]:
+def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None) -> tuple[list, list]:
     all_acc, summary, verdicts = [], [], []
-    for case in chosen_cases:
+    for k, case in enumerate(chosen_cases, 1):
+        if progress:
+            progress(k, len(chosen_cases) + 1, f"page {case.name}")
         got = _case_page(out, stage, case, jobs(case, names), warn)
         all_acc += got["accuracy"]
         summary += got["summary"]
         verdicts += got["verdicts"]
+    if progress:
+        progress(len(chosen_cases) + 1, len(chosen_cases) + 1, "index and reviewer tables")
     tables.write_accuracy(stage, all_acc)
     head = ["case", "solver", "verdict", "worst RMS diff / max|ref|", "wall [s]"]
     line = accuracy.summary(verdicts)

@@ -37,7 +37,9 @@ def write(base: Path, case, r: Result) -> Path:
     """Store a result as the baseline of (case, solver), with its provenance header."""
     env = results.environment()
     units = "; ".join(["t s"] + [f"{c} {UNITS[case['channels'][c]['kind']]}" for c in r.channels])
-    head = [f"source: flexmbd run {case.name} --solver {r.solver} (case file {case.path.name}, sha256 {case.sha256})",
+    how = (f"flexmbd import {case.name} --solver {r.solver} {r.extra['imported']['file']}" if "imported" in r.extra
+           else f"flexmbd run {case.name} --solver {r.solver}")
+    head = [f"source: {how} (case file {case.path.name}, sha256 {case.sha256})",
             f"solver: {r.solver} {r.solver_version}",
             f"settings: {json.dumps(r.settings, sort_keys=True)}",
             f"date: {env['date']}; git commit: {env['git_commit']}; python {env['python']}",
@@ -74,12 +76,24 @@ def samples(case) -> int:
     return int(round(case["duration"] / case["integrator"]["output_dt"])) + 1
 
 
-def known(base: Path, case: str, solver: str) -> Path:
-    """The path of the baseline of (case, solver); an InputError naming it when the solver is unknown."""
+def known(base: Path, case: str, solver: str, imported: bool = False) -> Path:
+    """The path of the baseline of (case, solver); an InputError naming it when the solver is
+    unknown: neither one of the registry's nor an imported result (`imported`, or a baseline
+    whose source is `flexmbd import`)."""
     path = Path(base) / case / f"{solver}.csv"
-    if solver not in solvers.NAMES:
-        raise InputError(f"{path}: a baseline for an unknown solver {solver!r} (known: {', '.join(solvers.NAMES)})")
+    if solver not in solvers.NAMES and not (imported or is_imported(path)):
+        raise InputError(f"{path}: a baseline for an unknown solver {solver!r} (known: {', '.join(solvers.NAMES)}, "
+                         f"or a result brought in with flexmbd import)")
     return path
+
+
+def is_imported(path: Path) -> bool:
+    """Whether a stored baseline was made from an imported result (its source line says so)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.readline().startswith("# source: flexmbd import ")
+    except (OSError, UnicodeDecodeError):
+        return False
 
 
 def baseline(base: Path, case, solver: str) -> tuple[pd.DataFrame, str]:
