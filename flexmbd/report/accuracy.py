@@ -127,13 +127,27 @@ def aliased(f: float, fs: float) -> float:
     return min(r, fs - r)
 
 
+def truncation(fp: float, f_sys) -> str:
+    """Why a peak may have no system mode near it: a reduced model's frequencies are upper bounds
+    of the full model's (Rayleigh-Ritz), most of all its highest; a peak above all but the highest
+    of the modes that move the channel's point (or above all of them) lies where the truncated
+    mode set has no counterpart. '' otherwise."""
+    higher = np.sort(np.asarray(f_sys)[np.asarray(f_sys) > fp])
+    if higher.size > 1:
+        return ""
+    where = (f"below only the highest of them, {higher[0]:.4g} Hz" if higher.size else "above all of them")
+    return (f"; {where}: the retained modes place their highest frequencies too high (Rayleigh-Ritz bound), "
+            "so a finer model's mode here has no counterpart")
+
+
 def peak_table(case, results: dict, modes: dict, output_dt: float, tol: float = 0.02) -> list[dict]:
     """Identified spectral peaks of each deflection channel, each matched to the system modes that
     move its point, `modes[channel]` = [(frequency Hz, label)] (linearize.py): rows (solver,
     channel, f_identified, mode, f_system, difference). Peaks are sought above half the lowest of
     those modes (below lies the forced, quasi-static response). A peak within `tol` of a mode below
     the Nyquist frequency 1 / (2 dt) is named after it; else one within `tol` of the alias of a mode
-    above it is named 'alias of ...'; else 'none within 2 %'."""
+    above it is named 'alias of ...'; else 'none within 2 %', with the truncation note
+    (`truncation`) where the peak lies at the top of the retained modes."""
     fs = 1.0 / output_dt
     out = []
     for ch, chm in modes.items():
@@ -157,6 +171,7 @@ def peak_table(case, results: dict, modes: dict, output_dt: float, tol: float = 
                                     f"frequency {fs / 2:.4g} Hz)", f_system=aliased(f_sys[j], fs),
                                difference=fp / aliased(f_sys[j], fs) - 1.0)
                 else:
-                    row.update(mode=f"none within {tol:.0%} (nearest {chm[k][1]})", f_system=f_sys[k], difference=d)
+                    row.update(mode=f"none within {tol:.0%} (nearest {chm[k][1]}){truncation(fp, f_sys)}",
+                               f_system=f_sys[k], difference=d)
                 out.append(row)
     return out

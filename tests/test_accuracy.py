@@ -1,0 +1,46 @@
+"""report/accuracy.py: the spectral peak table names each peak after a system mode, an alias of
+one above the Nyquist frequency, or says why none is near."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from flexmbd import cases
+from flexmbd.report import accuracy
+from flexmbd.results import Result
+
+CASE = cases.load("pendulum")
+
+
+def rows(freqs_hz, modes, dt=1e-3, duration=2.0) -> list[dict]:
+    """The peak table of a signal of unit sinusoids at freqs_hz, sampled every dt."""
+    t = np.arange(0.0, duration + dt / 2, dt)
+    y = sum(np.sin(2 * np.pi * f * t) for f in freqs_hz)
+    r = Result(solver="x", case=CASE.name, t=t, channels={"tip_deflection": y})
+    return accuracy.peak_table(CASE, {"x": r}, {"tip_deflection": modes}, dt)
+
+
+def test_a_peak_is_named_after_the_system_mode_within_2_percent():
+    got = rows([24.3], [(24.23, "beam xy1"), (78.5, "beam xy2")])
+    assert [(r["mode"], round(r["f_system"], 2)) for r in got] == [("beam xy1", 24.23)]
+    assert got[0]["difference"] == pytest.approx(24.3 / 24.23 - 1, abs=2e-3)
+
+
+def test_a_mode_above_the_nyquist_frequency_is_named_as_its_alias():
+    got = rows([700.3], [(24.23, "beam xy1"), (700.3, "beam xy5")])             # 1 ms: Nyquist 500 Hz
+    assert len(got) == 1 and got[0]["mode"].startswith("alias of beam xy5 (700.3 Hz above the Nyquist")
+    assert got[0]["f_identified"] == pytest.approx(299.7, abs=0.3)
+
+
+def test_a_peak_at_the_top_of_the_retained_modes_says_truncation():
+    """426 Hz between the retained 281 Hz and the highest, 700 Hz: a finer model's mode that the
+    truncated set places too high. With a further mode above 700 Hz, no such claim is made."""
+    modes = [(24.23, "beam xy1"), (281.5, "beam xy4"), (700.3, "beam xy5")]
+    got = rows([426.0], modes, dt=5e-4)
+    assert got[0]["mode"].startswith("none within 2% (nearest beam xy4); below only the highest")
+    assert "below only the highest of them, 700.3 Hz" in got[0]["mode"] and "Rayleigh-Ritz" in got[0]["mode"]
+    got = rows([426.0], modes + [(1100.0, "beam xy6")], dt=2.5e-4)
+    assert got[0]["mode"] == "none within 2% (nearest beam xy4)"
+    got = rows([900.0], modes, dt=2.5e-4)
+    assert "above all of them" in got[0]["mode"]
