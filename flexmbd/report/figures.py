@@ -60,34 +60,123 @@ def legend(ax, **kw) -> None:
         ax.legend(**kw)
 
 
+# long vibrating histories: the first and the last few periods drawn again, side by side
+ZOOM_ABOVE = 20       # periods of a visible vibration over the history beyond which it is zoomed
+ZOOM_PERIODS = 4      # periods in each zoom window
+VISIBLE = 0.02        # a vibration is visible when its amplitude is this share of the history's range
+
+
+def vibration_hz(t, y) -> float:
+    """Frequency (Hz) of the largest peak of y's amplitude spectrum (`metrics.spectrum`) at 10
+    periods or more over the record (slower motion never draws as a band); NaN when that peak's
+    amplitude is under VISIBLE times the range of y: no visible vibration."""
+    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
+    if len(t) < 16 or not np.all(np.isfinite(y)) or np.ptp(y) == 0:
+        return np.nan
+    f, A = metrics.spectrum(t, y)
+    A = np.where(f >= 10.0 / (t[-1] - t[0]), A, 0.0)
+    k = int(np.argmax(A))
+    return float(f[k]) if A[k] >= VISIBLE * np.ptp(y) else np.nan
+
+
+def zoom_windows(t, f: float) -> list:
+    """[(t0, t1) of the first ZOOM_PERIODS periods of a vibration of f Hz, (t0, t1) of the last]
+    over the samples t (s), when they span more than ZOOM_ABOVE of its periods; [] otherwise
+    (f NaN: no vibration)."""
+    if not f * (t[-1] - t[0]) > ZOOM_ABOVE:
+        return []
+    w = ZOOM_PERIODS / f
+    return [(float(t[0]), float(t[0] + w)), (float(t[-1] - w), float(t[-1]))]
+
+
+def drawn(kind: str, y, k: float) -> np.ndarray:
+    """What a channel's figure draws of a history y (n,): y times k (the figure's unit); a total
+    energy as its change from the start, E(t) - E(0), the same for any datum of potential energy."""
+    y = np.asarray(y, dtype=float) * k
+    return y - y[0] if kind == "energy" and len(y) else y
+
+
+def floor_of(diffs: dict, norm: float) -> float:
+    """Lower clip of the |difference| panel: a hundredth of the smallest of the solvers' median
+    (non-zero) differences, so that every solver's usual level shows, while exact agreement (at
+    t = 0, at crossings) does not stretch the axis; at least 1e-15 norm (round-off)."""
+    medians = [np.median(d[d > 0]) for d in diffs.values() if np.any(d > 0)]
+    return max(0.01 * min(medians), 1e-15 * norm) if medians else 1e-15 * norm
+
+
 def channel(case, name: str, results: dict, reference: str, path: Path) -> str:
-    """Overlay of one channel for every solver, and the magnitude of each solver's difference from
-    the reference on a shared log scale (every solver readable, whatever the worst one does)."""
+    """`channel_figure`, saved (`save`)."""
+    return save(channel_figure(case, name, results, reference), path)
+
+
+def channel_figure(case, name: str, results: dict, reference: str):
+    """Overlay of one channel for every solver (top), and the magnitude of each solver's difference
+    from the reference on a shared log scale (every solver readable, whatever the worst one does).
+
+    A history holding more than ZOOM_ABOVE (20) periods of a visible vibration of the reference
+    (`vibration_hz`: the largest spectral peak at 10 periods or more, its amplitude at least 2 % of
+    the range) draws as a solid band: a third row then shows its first and its last ZOOM_PERIODS (4)
+    periods side by side, shaded on the overview. An energy is drawn as its change from t = 0 (each
+    solver's own E(0) removed) and is never zoomed. Returns the Figure (`channel` saves it)."""
     kind = case["channels"][name]["kind"]
     unit, k = UNITS[kind]
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 5.6), sharex=True, height_ratios=[3, 2])
-    ref = results.get(reference)
-    floor = None
-    for s, r in results.items():
-        if name not in r.channels or not len(r.t):
-            continue
-        extra = {"lw": 2.2, "alpha": 0.6} if s == reference else {"lw": 1.0}
-        top.plot(r.t, r.channels[name] * k, label=s, **style(s, len(r.t)), **extra)
-        if ref is not None and s != reference and name in ref.channels:
-            d = np.abs(metrics.on_grid(ref.t, r.t, r.channels[name]) - ref.channels[name]) * k
-            scale = np.nanmax(np.abs(ref.channels[name])) * k
-            floor = 1e-9 * scale if scale > 0 else 1e-12
-            bottom.semilogy(ref.t, np.maximum(d, floor), lw=1.0, label=f"{s} - {reference}", **style(s, len(ref.t)))
-    top.set_title(where(case, name), fontsize=10)
-    top.set_ylabel(f"{name} [{unit}]")
+    curves = {s: (np.asarray(r.t, dtype=float), drawn(kind, r.channels[name], k)) for s, r in results.items()
+              if name in r.channels and len(r.t)}
+    ref = curves.get(reference)
+    diffs = {s: np.abs(metrics.on_grid(ref[0], t, y) - ref[1]) for s, (t, y) in curves.items()
+             if ref is not None and s != reference}
+    kinetic = results[reference].extra.get("kinetic_max_J") if ref is not None else None
+    floor = floor_of(diffs, metrics.channel_norm(kind, ref[1], kinetic) * k if ref is not None else 1.0)
+    f = vibration_hz(*ref) if ref is not None and kind != "energy" else np.nan
+    windows = zoom_windows(ref[0], f) if ref is not None else []
+    line = lambda s, n: {**style(s, n), **({"lw": 2.2, "alpha": 0.6} if s == reference else {"lw": 1.0})}
+
+    fig = plt.figure(figsize=(9, 8.4 if windows else 5.6), layout="constrained")
+    outer = fig.add_gridspec(2 if windows else 1, 1, height_ratios=[5, 2.6] if windows else [1])
+    over = outer[0].subgridspec(2, 1, height_ratios=[3, 2])
+    top = fig.add_subplot(over[0])
+    bottom = fig.add_subplot(over[1], sharex=top)
+
+    # overview and differences
+    for s, (t, y) in curves.items():
+        top.plot(t, y, label=s, **line(s, len(t)))
+    for s, d in diffs.items():
+        bottom.semilogy(ref[0], np.maximum(d, floor), lw=1.0, label=f"{s} - {reference}", **style(s, len(ref[0])))
+    if kind == "energy":
+        ylabel = "energy change from t = 0 [J]"
+        title = f"{case.name}: {name}, change of the total energy (kinetic + gravity + strain) from t = 0"
+        if kinetic:
+            title += (f"\naccuracy table: differences over {reference}'s largest kinetic energy, "
+                      f"{kinetic:.3g} J")
+    else:
+        ylabel, title = f"{name} [{unit}]", where(case, name)
+    top.set_title(title, fontsize=10)
+    top.set_ylabel(ylabel)
+    top.tick_params(labelbottom=False)
     legend(top, fontsize=8, ncol=3)
     top.grid(alpha=0.3)
     bottom.set_ylabel(f"|difference| [{unit}]")
     bottom.set_xlabel("t [s]")
     bottom.grid(alpha=0.3, which="both")
     legend(bottom, fontsize=8, ncol=3)
-    fig.tight_layout()
-    return save(fig, path)
+
+    # zoom windows: the first and the last periods, shaded on the overview
+    zoom = outer[1].subgridspec(1, 2) if windows else None
+    for i, ((t0, t1), which) in enumerate(zip(windows, ("first", "last"))):
+        ax = fig.add_subplot(zoom[i])
+        margin = 0.02 * (t1 - t0)
+        for s, (t, y) in curves.items():
+            inside = (t >= t0 - margin) & (t <= t1 + margin)
+            ax.plot(t[inside], y[inside], **line(s, int(inside.sum())))
+        ax.set_xlim(t0, t1)
+        for a in (top, bottom):
+            a.axvspan(t0, t1, color="0.5", alpha=0.15, lw=0)
+        ax.set_title(f"{which} {ZOOM_PERIODS} periods of {f:.3g} Hz (shaded above)", fontsize=9)
+        ax.set_xlabel("t [s]")
+        ax.grid(alpha=0.3)
+        if i == 0:
+            ax.set_ylabel(ylabel)
+    return fig
 
 
 def spectra(case, name: str, results: dict, system_hz, nyquist: float, path: Path) -> str:
