@@ -68,3 +68,31 @@ def test_energy_is_drawn_as_its_change_from_the_start_and_labelled_so(pendulum):
     assert flexmbd_line.get_ydata()[0] == 0.0 and mujoco_line.get_ydata()[0] == 0.0
     assert mujoco_line.get_ydata()[-1] == pytest.approx(2e-3, rel=1e-6)
     assert np.nanmax(bottom.lines[0].get_ydata()) == pytest.approx(2e-3, rel=1e-3)   # the drifts' difference
+
+
+def test_mode_shapes_draw_one_panel_per_mode_and_torsion_or_axial_only_where_they_lead():
+    """The flexible pendulum's 5 cm segment keeps bending, torsion and axial modes: one panel each,
+    every mode scaled to a largest value of 1, the torsion angle only on the torsion mode, the axial
+    displacement only on the axial one, the cubic through the node values."""
+    fb = cases.load("flexible_pendulum").segmented.resolved.reduced("rod:1")
+    axes = axes_of(figures.mode_shapes_figure(fb, "rod:1"))
+    assert len(axes) == fb.n_modes == 8
+    for j, ax in enumerate(axes):
+        label = str(fb.labels[j])
+        drawn = {l.get_label(): l for l in ax.lines if not l.get_label().startswith("_")}
+        extra = {"torsion about x"} if label.startswith("torsion") else {"axial x"} if label.startswith("axial") else set()
+        assert set(drawn) == {"transverse y", "transverse z"} | extra, label
+        assert max(np.max(np.abs(l.get_ydata())) for l in drawn.values()) == pytest.approx(1.0)
+        assert label in ax.get_title() and f"{fb.freq_hz[j]:.4g} Hz" in ax.get_title()
+    x, v = figures.mode_curves(fb, 0)["transverse y"]
+    nodes = np.isin(x, fb.x0[:, 0])
+    assert nodes.sum() == fb.n_nodes and len(x) > 10 * fb.n_nodes
+    assert v[nodes] / v[nodes][-1] == pytest.approx(fb.Phi[:, 4, 0] / fb.Phi[-1, 4, 0])
+
+
+def test_hermite_reproduces_a_cubic():
+    x = np.array([0.0, 0.3, 1.0])
+    f, df = (lambda s: 2 * s ** 3 - s ** 2 + 0.5), (lambda s: 6 * s ** 2 - 2 * s)
+    xs, v = figures.hermite(x, f(x), df(x))
+    assert v == pytest.approx(f(xs), abs=1e-12)
+

@@ -276,3 +276,28 @@ def test_every_figure_has_an_svg_and_each_solver_one_colour(report):
     assert figures.style("a-plug-in") == figures.style("a-plug-in")            # stable across figures
     svg = (report / "cantilever_step" / "tip_deflection.svg").read_text()
     assert figures.STYLE["analytic"][0] in svg and figures.STYLE["fe-linear"][0] in svg
+
+
+def test_case_page_shows_each_flexible_body_s_retained_modes(report):
+    """A "Mode shapes" section with one figure per flexible body, saying these are the body's own
+    modes and where the system modes are; the same in Markdown."""
+    page = (report / "cantilever_step" / "index.html").read_text()
+    md = (report / "cantilever_step" / "index.md").read_text()
+    assert "<h2>Mode shapes</h2><p><img src='modes_beam.png'" in page
+    assert (report / "cantilever_step" / "modes_beam.png").is_file() and (report / "cantilever_step" / "modes_beam.svg").is_file()
+    for text in (page, md):
+        assert "not the system's" in text and "flexmbd modes cantilever_step --system" in text
+    assert "## Mode shapes\n\n![modes_beam.png](modes_beam.png)" in md
+    assert page.index("<h2>FFT spectra") < page.index("<h2>Mode shapes") < page.index("<h2>Timing")
+
+
+def test_a_split_beam_shows_the_modes_its_segments_carry(tmp_path):
+    """The flexible pendulum's rod is 20 segments of 5 cm to the modal solvers: one figure, of the
+    root segment's modes, and a note saying so; not the unsplit 1 m rod's modes."""
+    from flexmbd.report import build
+    case = cases.load("flexible_pendulum")
+    html, md = build.mode_shapes(case, tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["modes_rod.png", "modes_rod.svg"]
+    assert "20 segments of 0.05 m" in html and "root segment rod:1" in html and "`segments = 20`" in md
+    assert "0.05 m" in (tmp_path / "modes_rod.svg").read_text()                        # the title names a segment
+

@@ -27,6 +27,11 @@ th{background:#eee}td:first-child,th:first-child{text-align:left}.pass,.ok{backg
 .bad{background:#fcc;text-align:left}.outside{background:#ffe9a8;text-align:left}.na{color:#777;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
 
 
+def plain(text: str) -> str:
+    """A page's HTML paragraph as Markdown: <code> as backticks, other tags dropped."""
+    return re.sub(r"<[^>]+>", "", re.sub(r"</?code>", "`", text.replace("</p><p", "</p>\n\n<p")))
+
+
 def jobs(case, names) -> list:
     """The solvers of `names` that the case's report runs (its `report.solvers`, when given)."""
     return [s for s in names if not case["report"]["solvers"] or s in case["report"]["solvers"]]
@@ -99,6 +104,45 @@ def channel_modes(case, system: list) -> dict:
             for prefix in (c["body"] + " ", c["body"] + ":")))
         out[ch] = [(f, lab) for f, lab in system if mine(lab)]
     return out
+
+
+def mode_shapes(case, d: Path) -> tuple[str, str] | None:
+    """The "Mode shapes" section (html, markdown) of a case page: one figure per flexible body with
+    retained modes (`figures.mode_shapes`, written into d); None when no body has any.
+
+    A beam split into N segments (`segments = N`) is modelled by the modal solvers as N beams
+    joined rigidly, each with the same length, mesh and modes table and so the same modes: the
+    root segment's modes are drawn, as those every segment carries. The unsplit beam's modes (what
+    `flexbody.for_case` returns for it) are in no modal solver's model: neither drawn nor computed."""
+    figs, notes, bcs = [], [], set()
+    for name in [b.name for b in case.resolved.bodies if b.kind == "beam"]:
+        segs = case.resolved.segments.get(name, ())
+        if segs:
+            fb = case.segmented.resolved.reduced(segs[0])
+            title = (f"{case.name}: retained modes of each of the {len(segs)} segments of {name} "
+                     f"({segs[0]} shown; {fb.boundary}, {fb.length:g} m)")
+            notes.append(f"{html.escape(name)} is split into {len(segs)} segments of {fb.length:g} m joined rigidly "
+                         f"(<code>segments = {len(segs)}</code>): the modal solvers give each segment the same "
+                         f"retained modes, drawn here for the root segment {html.escape(segs[0])}.")
+        else:
+            fb = case.resolved.reduced(name)
+            title = f"{case.name}: retained modes of {name} ({fb.boundary}, {fb.length:g} m)"
+        if fb.n_modes:
+            figs.append(figures.mode_shapes(fb, title, d / f"modes_{name}.png"))
+            bcs.add(fb.boundary)
+    if not figs:
+        return None
+    note = ("<p>The retained modes of each flexible body under its boundary condition ("
+            + ", ".join(sorted(bcs)) + "), as the modal solvers reduce it: the node displacements along the undeformed "
+            "beam, transverse y and z (cubic between the nodes), and the axial displacement or the torsion "
+            "angle of a mode led by it, each mode scaled to a largest value of 1 and titled with its frequency. "
+            "These are the body's own modes, not the system's: the system modes (joints and bodies together, "
+            "linearized about the initial state) are those the spectra are matched against, listed by "
+            f"<code>flexmbd modes {html.escape(case.name)} --system</code>.</p>")
+    if notes:
+        note += "<p>" + " ".join(notes) + "</p>"
+    return ("".join(f"<p><img src='{i}' alt='{i}'></p>" for i in figs) + note,
+            "".join(f"![{i}]({i})\n\n" for i in figs) + plain(note) + "\n")
 
 
 def timing_rows(res: dict, t_end: float) -> list[list]:
@@ -175,6 +219,11 @@ def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
                          "".join(f"![{i}]({i})\n\n" for i in spec)
                          + re.sub(r"<[^>]+>", "", note.replace("</p><p", "</p>\n\n<p")) + "\n\n"
                          + tables.markdown(head, rows)))
+
+    # the flexible bodies' retained modes
+    shapes = mode_shapes(case, d)
+    if shapes:
+        sections.append(("Mode shapes", *shapes))
 
     # what elasticity changes: flexible minus rigid joint angles
     rigid = next((s for s in ("pinocchio", "mujoco") if s in ok), None)

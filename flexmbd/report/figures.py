@@ -36,6 +36,7 @@ def save(fig, path: Path) -> str:
     PNG's file name (pages link relatively)."""
     try:
         atomic_write(path, lambda f: fig.savefig(f, dpi=90, format="png"))
+        fig.set_layout_engine("none")           # the SVG keeps the PNG's layout, not computed again
         atomic_write(path.with_suffix(".svg"), lambda f: fig.savefig(f, format="svg"))
     finally:
         plt.close(fig)
@@ -215,3 +216,77 @@ def elasticity(case, flexible, rigid, rigid_name: str, path: Path) -> str:
     legend(ax, fontsize=8)
     fig.tight_layout()
     return save(fig, path)
+
+
+# a flexible body's retained modes: which node values are drawn, and how
+SHAPE_LOOK = {"transverse y": {"color": "k", "ls": "-"}, "transverse z": {"color": "#7f7f7f", "ls": "--"},
+              "axial x": {"color": "#17becf", "ls": ":"}, "torsion about x": {"color": "#9467bd", "ls": "-."}}
+
+
+def hermite(x, u, du, points: int = 400) -> tuple[np.ndarray, np.ndarray]:
+    """The cubic Hermite interpolation through node values u (N,) with slopes du (N,) at node
+    positions x (N,), m: the Euler-Bernoulli element's deflection between its nodes, sampled at
+    about `points` places along the beam; (positions, values)."""
+    per = max(2, -(-points // (len(x) - 1)))
+    s = np.linspace(0.0, 1.0, per, endpoint=False)
+    l = np.diff(x)[:, None]
+    h = [1 - 3 * s**2 + 2 * s**3, l * (s - 2 * s**2 + s**3), 3 * s**2 - 2 * s**3, l * (s**3 - s**2)]
+    U = h[0] * u[:-1, None] + h[1] * du[:-1, None] + h[2] * u[1:, None] + h[3] * du[1:, None]
+    return np.append((x[:-1, None] + l * s).ravel(), x[-1]), np.append(U.ravel(), u[-1])
+
+
+def mode_curves(fb, j: int) -> dict:
+    """{component: (positions along the beam (m), values)} drawn of retained mode j of a FlexBody
+    (Phi rows [rot x, y, z; trans x, y, z]): the transverse displacements y and z, cubic between
+    the nodes (`hermite`, slopes theta_z and -theta_y), and the axial displacement or the torsion
+    angle, linear between the nodes, when the mode is led by it (its label); together scaled to a
+    largest magnitude of 1 (a torsion mode's angle in rad against its displacements in m: these
+    stay near zero)."""
+    x, P = np.asarray(fb.x0[:, 0], dtype=float), np.asarray(fb.Phi[:, :, j], dtype=float)
+    curves = {"transverse y": hermite(x, P[:, 4], P[:, 2]), "transverse z": hermite(x, P[:, 5], -P[:, 1])}
+    label = str(fb.labels[j])
+    if label.startswith("axial"):
+        curves["axial x"] = (x, P[:, 3])
+    if label.startswith("torsion"):
+        curves["torsion about x"] = (x, P[:, 0])
+    top = max(np.max(np.abs(v)) for _, v in curves.values())
+    return {c: (xs, v / top) for c, (xs, v) in curves.items()} if top > 0 else curves
+
+
+def mode_shapes(fb, title: str, path: Path) -> str:
+    """`mode_shapes_figure`, saved (`save`)."""
+    return save(mode_shapes_figure(fb, title), path)
+
+
+def mode_shapes_figure(fb, title: str):
+    """One small panel per retained mode of a FlexBody (`mode_curves` along the undeformed beam),
+    titled with its number, label and frequency; four to a row. Returns the Figure, with
+    one axes per mode."""
+    n = fb.n_modes
+    cols = min(n, 4)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(10, 1.2 + 1.7 * rows), sharex=True, sharey=True,
+                             squeeze=False, layout="constrained")
+    for j, ax in enumerate(axes.flat):
+        if j >= n:                                   # the last row's empty places: the ones above show x
+            fig.delaxes(ax)
+            axes.flat[j - cols].tick_params(labelbottom=True)
+            axes.flat[j - cols].set_xlabel(f"x along {fb.name} [m]", fontsize=8.5)
+            continue
+        if j >= n - cols:
+            ax.set_xlabel(f"x along {fb.name} [m]", fontsize=8.5)
+        for c, (x, v) in mode_curves(fb, j).items():
+            ax.plot(x, v, lw=1.2, label=c, **SHAPE_LOOK[c])
+        ax.axhline(0.0, color="0.75", lw=0.6)
+        ax.set_title(f"{j + 1}: {fb.labels[j]}, {fb.freq_hz[j]:.4g} Hz", fontsize=8.5)
+        ax.set_ylim(-1.15, 1.15)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=8)
+    handles = {}
+    for ax in fig.axes:
+        handles.update(zip(*reversed(ax.get_legend_handles_labels())))
+    fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncol=len(handles), fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.supylabel("mode shape, largest value 1", fontsize=9)
+    return fig
+
