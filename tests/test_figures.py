@@ -96,3 +96,18 @@ def test_hermite_reproduces_a_cubic():
     xs, v = figures.hermite(x, f(x), df(x))
     assert v == pytest.approx(f(xs), abs=1e-12)
 
+
+def test_work_precision_draws_a_panel_per_case_and_a_line_per_solver_and_scheme():
+    row = lambda case, s, scheme, e, w: {"case": case, "solver": s, "scheme": scheme, "setting": "", "error": e, "wall_s": w}
+    rows = [row("a", "flexmbd", "dopri5", 1e-3, 0.1), row("a", "flexmbd", "dopri5", 1e-5, 0.3),
+            row("a", "exudyn-ffrf", "fox-goodwin", np.nan, 0.2), row("a", "exudyn-ffrf", "fox-goodwin", 1e-4, 1.0),
+            row("b", "flexmbd", "dopri5", 1e-4, 0.2), row("b", "flexmbd", "adams", 1e-6, 0.5)]
+    a, b = axes_of(figures.work_precision_figure(rows))
+    assert a.get_title() == "a" and b.get_title() == "b"
+    assert a.get_xscale() == a.get_yscale() == "log"
+    lines = {l.get_label(): l for l in a.lines}
+    assert set(lines) == {"flexmbd (dopri5)", "exudyn-ffrf (fox-goodwin)"}
+    assert list(lines["exudyn-ffrf (fox-goodwin)"].get_xdata()) == [1.0]          # the diverged setting left out
+    assert lines["flexmbd (dopri5)"].get_color() == figures.style("flexmbd")["color"]
+    assert lines["exudyn-ffrf (fox-goodwin)"].get_color() == figures.style("exudyn-ffrf")["color"]
+    assert {l.get_label() for l in b.lines} == {"flexmbd (dopri5)", "flexmbd (adams)"}

@@ -301,3 +301,40 @@ def test_a_split_beam_shows_the_modes_its_segments_carry(tmp_path):
     assert "20 segments of 0.05 m" in html and "root segment rod:1" in html and "`segments = 20`" in md
     assert "0.05 m" in (tmp_path / "modes_rod.svg").read_text()                        # the title names a segment
 
+
+def bench_run(folder: Path, name: str, machine: str, error: float = 1e-4) -> None:
+    import json
+    rows = [{"case": "cantilever_step", "solver": s, "scheme": "fox-goodwin", "setting": f"dt={dt}", "error": error * dt / 1e-4,
+             "wall_s": 1e-3 / dt} for s in ("flexmbd", "exudyn-ffrf") for dt in (2e-4, 1e-4)]
+    (folder / name).write_text(json.dumps({"machine": machine, "quick": True, "work_precision": rows}))
+
+
+def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(report, tmp_path, monkeypatch, capsys):
+    """With benchmark runs in the history folder the index shows the newest one's work-precision
+    figure, naming its file, commit and machine and saying its times are not this report's; a
+    broken file is passed over with a warning. Without any, the index says nothing about it."""
+    from flexmbd.report import build
+    out = tmp_path / "rep"
+    shutil.copytree(report / "results", out / "results")
+    history = tmp_path / "history"
+    history.mkdir()
+    bench_run(history, "2026-11-22_aaaaaaa.json", "old machine")
+    bench_run(history, "2026-12-01_bbbbbbb.json", "new machine")
+    (history / "2026-12-02_ccccccc.json").write_text("{not json")
+    monkeypatch.setattr(build, "HISTORY", history)
+    args = ["report", "--no-run", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(out)]
+    assert main(args) == 0
+    assert "2026-12-02_ccccccc.json: benchmark run not shown" in capsys.readouterr().err
+    page, md = (out / "index.html").read_text(), (out / "index.md").read_text()
+    for text in (page, md):
+        assert "2026-12-01_bbbbbbb.json" in text and "commit bbbbbbb" in text and "machine: new machine" in text
+        assert "not in this report's runs" in text and "aaaaaaa" not in text and "old machine" not in text
+    assert "<h2>Work and precision</h2><p><img src='work_precision.png'" in page
+    assert "![work_precision.png](work_precision.png)" in md
+    assert (out / "work_precision.png").is_file() and (out / "work_precision.svg").is_file()
+
+    monkeypatch.setattr(build, "HISTORY", tmp_path / "no-history")
+    assert main(args) == 0
+    for page in (out / "index.html", out / "index.md"):
+        text = page.read_text()
+        assert "Work and precision" not in text and "work_precision" not in text and "benchmark" not in text

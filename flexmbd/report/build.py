@@ -27,6 +27,10 @@ th{background:#eee}td:first-child,th:first-child{text-align:left}.pass,.ok{backg
 .bad{background:#fcc;text-align:left}.outside{background:#ffe9a8;text-align:left}.na{color:#777;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
 
 
+# `flexmbd bench` runs, one JSON file each, named DATE_COMMIT[_NOTE].json
+HISTORY = Path(__file__).resolve().parent.parent.parent / "benchmarks" / "history"
+
+
 def plain(text: str) -> str:
     """A page's HTML paragraph as Markdown: <code> as backticks, other tags dropped."""
     return re.sub(r"<[^>]+>", "", re.sub(r"</?code>", "`", text.replace("</p><p", "</p>\n\n<p")))
@@ -266,6 +270,58 @@ def _case_page(out: Path, stage: Path, case, names, warn) -> dict:
     return {"accuracy": acc, "summary": summary, "verdicts": [verdicts[s] for s in res]}
 
 
+def latest_bench(folder: Path, warn=None) -> tuple[Path, dict] | None:
+    """The newest benchmark run in `folder` with work-precision rows: (its file, its contents), or
+    None. Newest by file name (DATE_COMMIT[_NOTE].json, the date first; a day's runs in name
+    order); a file that cannot be read or whose rows lack a key is passed over (`warn` is told)."""
+    keys = {"case", "solver", "scheme", "error", "wall_s"}
+    number = lambda v: v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+    for path in sorted(Path(folder).glob("*.json"), reverse=True):
+        try:
+            run = json.loads(path.read_text())
+            rows = run.get("work_precision") if isinstance(run, dict) else None
+            if rows and not all(isinstance(r, dict) and keys <= r.keys() and number(r["error"]) and number(r["wall_s"])
+                                for r in rows):
+                raise ValueError(f"a work_precision row lacks one of {sorted(keys)} or has an error or a wall time "
+                                 "that is not a number")
+        except (OSError, ValueError) as e:
+            if warn:
+                warn(f"warning: {path}: benchmark run not shown: {e}")
+            continue
+        if rows:                                         # a diverged setting's error: NaN or null
+            nan = lambda v: np.nan if v is None else float(v)
+            return path, {**run, "work_precision": [{**r, "error": nan(r["error"]), "wall_s": nan(r["wall_s"])}
+                                                    for r in rows]}
+    return None
+
+
+def bench_section(stage: Path, warn=None) -> tuple[str, str]:
+    """The index's work-precision figure (`figures.work_precision`, into stage) and its caption
+    from the newest benchmark run in HISTORY (`latest_bench`), as (html, markdown); ('', '') when
+    there is none."""
+    got = latest_bench(HISTORY, warn)
+    if got is None:
+        return "", ""
+    path, run = got
+    rows = run["work_precision"]
+    img = figures.work_precision(rows, stage / "work_precision.png")
+    date, _, rest = path.stem.partition("_")
+    commit = rest.split("_")[0] or "not recorded"
+    dropped = sum(not np.isfinite(r["error"]) for r in rows)
+    caption = (f"<p>Work and precision from the latest benchmark run, <code>{html.escape(path.parent.parent.name)}/"
+               f"{html.escape(path.parent.name)}/{html.escape(path.name)}</code> (commit {html.escape(commit)}, "
+               f"{html.escape(date)}, machine: {html.escape(str(run.get('machine', 'not recorded')))}"
+               + (", a quick run" if run.get("quick") else "") + "): for each case, every solver and time-stepping "
+               "scheme over its settings (tolerances or steps, in the order run), the error against the solve-only "
+               "wall time. The error is the worst deflection channel's RMS difference from a flexmbd run at "
+               "rtol 1e-12, over that run's largest magnitude (<code>flexmbd bench</code>). The times were measured "
+               "in that run, on that machine, not in this report's runs."
+               + (f" {dropped} setting{'s' if dropped > 1 else ''} without a finite error (diverged) "
+                  f"{'are' if dropped > 1 else 'is'} left out." if dropped else "") + "</p>")
+    return (f"<h2>Work and precision</h2><p><img src='{img}' alt='{img}'></p>{caption}",
+            f"## Work and precision\n\n![{img}]({img})\n\n{plain(caption)}\n")
+
+
 def write(out: Path, chosen_cases, names, warn=None) -> tuple[Path, list, list]:
     """Every case page, the index and the reviewer tables, as one generation (built in a staging
     folder and swapped in at the end: `files.generation`); (the index path, summary rows
@@ -294,13 +350,14 @@ def _write(out: Path, stage: Path, chosen_cases, names, warn) -> tuple[list, lis
              f"the worst difference is the largest of them. Generated {when}, commit "
              f"{results.git_commit() or 'unknown'}. Reviewer tables: ")
     pages = ["accuracy.csv", "accuracy.md", "accuracy.tex"]
+    bench_html, bench_md = bench_section(stage, warn)
     page = (f"<!doctype html><html><head><meta charset='utf-8'><title>flexmbd report</title><style>{CSS}</style>"
             f"</head><body><h1>flexmbd report</h1><p class='summary'><b>{html.escape(line)}</b></p>"
             f"<p>{html.escape(intro)}"
             + ", ".join(f"<a href='{f}'>{f}</a>" for f in pages) + "."
             + (" Benchmarks: <a href='bench/index.html'>bench</a>." if (out / "bench" / "index.html").exists() else "")
-            + "</p>" + tables.html_table(head, links_html, raw_cols=(0,)) + "</body></html>")
+            + "</p>" + tables.html_table(head, links_html, raw_cols=(0,)) + bench_html + "</body></html>")
     atomic_write(stage / "index.html", page + "\n")
     atomic_write(stage / "index.md", "# flexmbd report\n\n**" + line + "**\n\n" + intro + ", ".join(f"[{f}]({f})" for f in pages)
-                 + ".\n\n" + tables.markdown(head, links_md))
+                 + ".\n\n" + tables.markdown(head, links_md) + ("\n" + bench_md if bench_md else ""))
     return all_acc, summary

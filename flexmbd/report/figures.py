@@ -290,3 +290,44 @@ def mode_shapes_figure(fb, title: str):
     fig.supylabel("mode shape, largest value 1", fontsize=9)
     return fig
 
+
+# work and precision of a benchmark run (`flexmbd bench`)
+SCHEME_LOOK = [("-", "o"), ("--", "s"), (":", "^"), ("-.", "D"), ((0, (5, 1, 1, 1)), "v")]
+
+
+def work_precision(rows: list, path: Path) -> str:
+    """`work_precision_figure`, saved (`save`)."""
+    return save(work_precision_figure(rows), path)
+
+
+def work_precision_figure(rows: list):
+    """Error against solve-only wall time (log-log) of a benchmark's work-precision rows {case,
+    solver, scheme, setting, error, wall_s} (`bench.work_precision`): one panel per case, one line
+    per (solver, scheme) through its settings in the order they were run, in the solver's colour
+    (`style`) with a line style and marker per scheme; settings without a finite error (diverged)
+    are left out. Returns the Figure, one axes per case."""
+    names = list(dict.fromkeys(r["case"] for r in rows))
+    curves = list(dict.fromkeys((r["solver"], r["scheme"]) for r in rows))
+    schemes = {}
+    for s, scheme in curves:
+        schemes.setdefault(s, []).append(scheme)
+    fig, axes = plt.subplots(1, len(names), figsize=(max(4.2 * len(names), 6.5), 4.6), squeeze=False,
+                             layout="constrained")
+    for ax, name in zip(axes[0], names):
+        for s, scheme in curves:
+            pts = [(r["wall_s"], r["error"]) for r in rows if r["case"] == name and (r["solver"], r["scheme"]) == (s, scheme)
+                   and np.isfinite(r["error"]) and r["error"] > 0 and r["wall_s"] > 0]
+            ls, marker = SCHEME_LOOK[schemes[s].index(scheme) % len(SCHEME_LOOK)]
+            if pts:
+                ax.loglog(*zip(*pts), ls=ls, marker=marker, ms=4, lw=1.2, color=style(s)["color"],
+                          label=f"{s} ({scheme})")
+        ax.set_title(name, fontsize=10)
+        ax.set_xlabel("wall time, solve only [s]")
+        ax.grid(alpha=0.3, which="both")
+    axes[0][0].set_ylabel("deflection error / max |reference|")
+    handles = {}
+    for ax in fig.axes:
+        handles.update(zip(*reversed(ax.get_legend_handles_labels())))
+    if handles:
+        fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncol=min(len(handles), 5), fontsize=8)
+    return fig
