@@ -1,5 +1,6 @@
-"""Figures of a case page (matplotlib; PNG and SVG, written atomically), one colour and marker
-per solver throughout."""
+"""Figures of the report (matplotlib; PNG and SVG, written atomically), one colour and marker per
+solver throughout: a case page's channels, spectra, flexible minus rigid angles and the retained
+modes of its flexible bodies; the index's work-precision figure of a benchmark run."""
 
 from __future__ import annotations
 
@@ -127,7 +128,7 @@ def channel_figure(case, name: str, results: dict, reference: str):
     diffs = {s: np.abs(metrics.on_grid(ref[0], t, y) - ref[1]) for s, (t, y) in curves.items()
              if ref is not None and s != reference}
     kinetic = results[reference].extra.get("kinetic_max_J") if ref is not None else None
-    floor = floor_of(diffs, metrics.channel_norm(kind, ref[1], kinetic) * k if ref is not None else 1.0)
+    floor = floor_of(diffs, metrics.channel_norm(kind, ref[1], kinetic and kinetic * k) if ref is not None else 1.0)
     f = vibration_hz(*ref) if ref is not None and kind != "energy" else np.nan
     windows = zoom_windows(ref[0], f) if ref is not None else []
     line = lambda s, n: {**style(s, n), **({"lw": 2.2, "alpha": 0.6} if s == reference else {"lw": 1.0})}
