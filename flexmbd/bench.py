@@ -215,26 +215,14 @@ def run(quick: bool = False, with_work_precision: bool = True, progress=None) ->
 
 
 def plots(result: dict, folder: Path) -> list[str]:
-    """Work-precision and scaling plots plus an index page in `folder`; returns the file names."""
+    """Work-precision (`report.figures.work_precision`, one panel per case) and scaling plots plus
+    an index page in `folder`; returns the file names."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from flexmbd.report.figures import save
-    names = []
-    for name in sorted({r["case"] for r in result.get("work_precision", [])}):
-        fig, ax = plt.subplots(figsize=(7, 4.5))
-        curves = sorted({(r["solver"], r["scheme"]) for r in result["work_precision"] if r["case"] == name})
-        for (s, scheme), mk in zip(curves, ("o-", "^-", "s--", "D--", "v--")):
-            pts = sorted((r["wall_s"], r["error"]) for r in result["work_precision"]
-                         if r["case"] == name and (r["solver"], r["scheme"]) == (s, scheme) and np.isfinite(r["error"]))
-            if pts:
-                ax.loglog(*zip(*pts), mk if s == "flexmbd" else mk.replace("-", "--", 1), label=f"{s} ({scheme})")
-        ax.set_xlabel("wall time, solve only [s]")
-        ax.set_ylabel("deflection error / max |reference|")
-        ax.set_title(name)
-        ax.grid(alpha=0.3, which="both")
-        ax.legend()
-        names.append(save(fig, folder / f"work_precision_{name}.png"))
+    from flexmbd.report import figures
+    names = [figures.work_precision(result["work_precision"], folder / "work_precision.png")] \
+        if result.get("work_precision") else []
     fig, ax = plt.subplots(figsize=(7, 4.5))
     rc, fc = result["rigid_chain"], result["flexible_chain"]
     ax.loglog([r["n"] for r in rc], [r["flexmbd_us"] for r in rc], "o-", label="flexmbd, rigid chain")
@@ -245,7 +233,7 @@ def plots(result: dict, folder: Path) -> list[str]:
     ax.set_ylabel("one forward-dynamics evaluation [us]")
     ax.grid(alpha=0.3, which="both")
     ax.legend()
-    names.append(save(fig, folder / "scaling.png"))
+    names.append(figures.save(fig, folder / "scaling.png"))
     page = ("<!doctype html><html><head><meta charset='utf-8'><title>flexmbd bench</title></head><body>"
             "<p><a href='../index.html'>report</a></p><h1>flexmbd bench</h1>"
             + "".join(f"<p><img src='{n}' alt='{n}'></p>" for n in names)

@@ -276,3 +276,65 @@ def test_every_figure_has_an_svg_and_each_solver_one_colour(report):
     assert figures.style("a-plug-in") == figures.style("a-plug-in")            # stable across figures
     svg = (report / "cantilever_step" / "tip_deflection.svg").read_text()
     assert figures.STYLE["analytic"][0] in svg and figures.STYLE["fe-linear"][0] in svg
+
+
+def test_case_page_shows_each_flexible_body_s_retained_modes(report):
+    """A "Mode shapes" section with one figure per flexible body, saying these are the body's own
+    modes and where the system modes are; the same in Markdown."""
+    page = (report / "cantilever_step" / "index.html").read_text()
+    md = (report / "cantilever_step" / "index.md").read_text()
+    assert "<h2>Mode shapes</h2><p><img src='modes_beam.png'" in page
+    assert (report / "cantilever_step" / "modes_beam.png").is_file() and (report / "cantilever_step" / "modes_beam.svg").is_file()
+    for text in (page, md):
+        assert "not the system's" in text and "flexmbd modes cantilever_step --system" in text
+    assert "## Mode shapes\n\n![modes_beam.png](modes_beam.png)" in md
+    assert page.index("<h2>FFT spectra") < page.index("<h2>Mode shapes") < page.index("<h2>Timing")
+
+
+def test_a_split_beam_shows_the_modes_its_segments_carry(tmp_path):
+    """The flexible pendulum's rod is 20 segments of 5 cm to the modal solvers: one figure, of the
+    root segment's modes, and a note saying so; not the unsplit 1 m rod's modes."""
+    from flexmbd.report import build
+    case = cases.load("flexible_pendulum")
+    html, md = build.mode_shapes(case, tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["modes_rod.png", "modes_rod.svg"]
+    assert "20 segments of 0.05 m" in html and "root segment rod:1" in html and "`segments = 20`" in md
+    assert "0.05 m" in (tmp_path / "modes_rod.svg").read_text()                        # the title names a segment
+
+
+def bench_run(folder: Path, name: str, machine: str, error: float = 1e-4) -> None:
+    import json
+    rows = [{"case": "cantilever_step", "solver": s, "scheme": "fox-goodwin", "setting": f"dt={dt}", "error": error * dt / 1e-4,
+             "wall_s": 1e-3 / dt} for s in ("flexmbd", "exudyn-ffrf") for dt in (2e-4, 1e-4)]
+    (folder / name).write_text(json.dumps({"machine": machine, "quick": True, "work_precision": rows}))
+
+
+def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(report, tmp_path, monkeypatch, capsys):
+    """With benchmark runs in the history folder the index shows the newest one's work-precision
+    figure, naming its file, commit and machine and saying its times are not this report's; a
+    broken file is passed over with a warning. Without any, the index says nothing about it."""
+    from flexmbd.report import build
+    out = tmp_path / "rep"
+    shutil.copytree(report / "results", out / "results")
+    history = tmp_path / "history"
+    history.mkdir()
+    bench_run(history, "2026-11-22_aaaaaaa.json", "old machine")
+    bench_run(history, "2026-12-01_bbbbbbb.json", "new machine")
+    (history / "2026-12-02_ccccccc.json").write_text("{not json")
+    monkeypatch.setattr(build, "HISTORY", history)
+    args = ["report", "--no-run", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(out)]
+    assert main(args) == 0
+    assert "2026-12-02_ccccccc.json: benchmark run not shown" in capsys.readouterr().err
+    page, md = (out / "index.html").read_text(), (out / "index.md").read_text()
+    for text in (page, md):
+        assert "2026-12-01_bbbbbbb.json" in text and "commit bbbbbbb" in text and "machine: new machine" in text
+        assert "not in this report's runs" in text and "aaaaaaa" not in text and "old machine" not in text
+    assert "<h2>Work and precision</h2><p><img src='work_precision.png'" in page
+    assert "![work_precision.png](work_precision.png)" in md
+    assert (out / "work_precision.png").is_file() and (out / "work_precision.svg").is_file()
+
+    monkeypatch.setattr(build, "HISTORY", tmp_path / "no-history")
+    assert main(args) == 0
+    for page in (out / "index.html", out / "index.md"):
+        text = page.read_text()
+        assert "Work and precision" not in text and "work_precision" not in text and "benchmark" not in text

@@ -27,6 +27,15 @@ th{background:#eee}td:first-child,th:first-child{text-align:left}.pass,.ok{backg
 .bad{background:#fcc;text-align:left}.outside{background:#ffe9a8;text-align:left}.na{color:#777;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
 
 
+# `flexmbd bench` runs, one JSON file each, named DATE_COMMIT[_NOTE].json
+HISTORY = Path(__file__).resolve().parent.parent.parent / "benchmarks" / "history"
+
+
+def plain(text: str) -> str:
+    """A page's HTML paragraph as Markdown: <code> as backticks, other tags dropped."""
+    return re.sub(r"<[^>]+>", "", re.sub(r"</?code>", "`", text.replace("</p><p", "</p>\n\n<p")))
+
+
 def jobs(case, names) -> list:
     """The solvers of `names` that the case's report runs (its `report.solvers`, when given)."""
     return [s for s in names if not case["report"]["solvers"] or s in case["report"]["solvers"]]
@@ -104,6 +113,45 @@ def channel_modes(case, system: list) -> dict:
             for prefix in (c["body"] + " ", c["body"] + ":")))
         out[ch] = [(f, lab) for f, lab in system if mine(lab)]
     return out
+
+
+def mode_shapes(case, d: Path) -> tuple[str, str] | None:
+    """The "Mode shapes" section (html, markdown) of a case page: one figure per flexible body with
+    retained modes (`figures.mode_shapes`, written into d); None when no body has any.
+
+    A beam split into N segments (`segments = N`) is modelled by the modal solvers as N beams
+    joined rigidly, each with the same length, mesh and modes table and so the same modes: the
+    root segment's modes are drawn, as those every segment carries. The unsplit beam's modes (what
+    `flexbody.for_case` returns for it) are in no modal solver's model: neither drawn nor computed."""
+    figs, notes, bcs = [], [], set()
+    for name in [b.name for b in case.resolved.bodies if b.kind == "beam"]:
+        segs = case.resolved.segments.get(name, ())
+        if segs:
+            fb = case.segmented.resolved.reduced(segs[0])
+            title = (f"{case.name}: retained modes of each of the {len(segs)} segments of {name} "
+                     f"({segs[0]} shown; {fb.boundary}, {fb.length:g} m)")
+            notes.append(f"{html.escape(name)} is split into {len(segs)} segments of {fb.length:g} m joined rigidly "
+                         f"(<code>segments = {len(segs)}</code>): the modal solvers give each segment the same "
+                         f"retained modes, drawn here for the root segment {html.escape(segs[0])}.")
+        else:
+            fb = case.resolved.reduced(name)
+            title = f"{case.name}: retained modes of {name} ({fb.boundary}, {fb.length:g} m)"
+        if fb.n_modes:
+            figs.append(figures.mode_shapes(fb, title, d / f"modes_{name}.png"))
+            bcs.add(fb.boundary)
+    if not figs:
+        return None
+    note = ("<p>The retained modes of each flexible body under its boundary condition ("
+            + ", ".join(sorted(bcs)) + "), as the modal solvers reduce it: the node displacements along the undeformed "
+            "beam, transverse y and z (cubic between the nodes), and the axial displacement or the torsion "
+            "angle of a mode led by it, each mode scaled to a largest value of 1 and titled with its frequency. "
+            "These are the body's own modes, not the system's: the system modes (joints and bodies together, "
+            "linearized about the initial state) are those the spectra are matched against, listed by "
+            f"<code>flexmbd modes {html.escape(case.name)} --system</code>.</p>")
+    if notes:
+        note += "<p>" + " ".join(notes) + "</p>"
+    return ("".join(f"<p><img src='{i}' alt='{i}'></p>" for i in figs) + note,
+            "".join(f"![{i}]({i})\n\n" for i in figs) + plain(note) + "\n")
 
 
 def timing_rows(res: dict, t_end: float) -> list[list]:
@@ -194,6 +242,11 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
                          + re.sub(r"<[^>]+>", "", note.replace("</p><p", "</p>\n\n<p")) + "\n\n"
                          + tables.markdown(head, rows)))
 
+    # the flexible bodies' retained modes
+    shapes = mode_shapes(case, d)
+    if shapes:
+        sections.append(("Mode shapes", *shapes))
+
     # what elasticity changes: flexible minus rigid joint angles
     rigid = next((s for s in ("pinocchio", "mujoco") if s in ok), None)
     if "flexmbd" in ok and rigid and any(c["kind"] == "joint_angle" for c in case["channels"].values()):
@@ -239,6 +292,58 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     return {"accuracy": acc, "summary": summary, "verdicts": [verdicts[s] for s in res]}
 
 
+def latest_bench(folder: Path, warn=None) -> tuple[Path, dict] | None:
+    """The newest benchmark run in `folder` with work-precision rows: (its file, its contents), or
+    None. Newest by file name (DATE_COMMIT[_NOTE].json, the date first; a day's runs in name
+    order); a file that cannot be read or whose rows lack a key is passed over (`warn` is told)."""
+    keys = {"case", "solver", "scheme", "error", "wall_s"}
+    number = lambda v: v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+    for path in sorted(Path(folder).glob("*.json"), reverse=True):
+        try:
+            run = json.loads(path.read_text())
+            rows = run.get("work_precision") if isinstance(run, dict) else None
+            if rows and not all(isinstance(r, dict) and keys <= r.keys() and number(r["error"]) and number(r["wall_s"])
+                                for r in rows):
+                raise ValueError(f"a work_precision row lacks one of {sorted(keys)} or has an error or a wall time "
+                                 "that is not a number")
+        except (OSError, ValueError) as e:
+            if warn:
+                warn(f"warning: {path}: benchmark run not shown: {e}")
+            continue
+        if rows:                                         # a diverged setting's error: NaN or null
+            nan = lambda v: np.nan if v is None else float(v)
+            return path, {**run, "work_precision": [{**r, "error": nan(r["error"]), "wall_s": nan(r["wall_s"])}
+                                                    for r in rows]}
+    return None
+
+
+def bench_section(stage: Path, warn=None) -> tuple[str, str]:
+    """The index's work-precision figure (`figures.work_precision`, into stage) and its caption
+    from the newest benchmark run in HISTORY (`latest_bench`), as (html, markdown); ('', '') when
+    there is none."""
+    got = latest_bench(HISTORY, warn)
+    if got is None:
+        return "", ""
+    path, run = got
+    rows = run["work_precision"]
+    img = figures.work_precision(rows, stage / "work_precision.png")
+    date, _, rest = path.stem.partition("_")
+    commit = rest.split("_")[0] or "not recorded"
+    dropped = sum(not np.isfinite(r["error"]) for r in rows)
+    caption = (f"<p>Work and precision from the latest benchmark run, <code>{html.escape(path.parent.parent.name)}/"
+               f"{html.escape(path.parent.name)}/{html.escape(path.name)}</code> (commit {html.escape(commit)}, "
+               f"{html.escape(date)}, machine: {html.escape(str(run.get('machine', 'not recorded')))}"
+               + (", a quick run" if run.get("quick") else "") + "): for each case, every solver and time-stepping "
+               "scheme over its settings (tolerances or steps, in the order run), the error against the solve-only "
+               "wall time. The error is the worst deflection channel's RMS difference from a flexmbd run at "
+               "rtol 1e-12, over that run's largest magnitude (<code>flexmbd bench</code>). The times were measured "
+               "in that run, on that machine, not in this report's runs."
+               + (f" {dropped} setting{'s' if dropped > 1 else ''} without a finite error (diverged) "
+                  f"{'are' if dropped > 1 else 'is'} left out." if dropped else "") + "</p>")
+    return (f"<h2>Work and precision</h2><p><img src='{img}' alt='{img}'></p>{caption}",
+            f"## Work and precision\n\n![{img}]({img})\n\n{plain(caption)}\n")
+
+
 def write(out: Path, chosen_cases, names, warn=None, progress=None) -> tuple[Path, list, list]:
     """Every case page, the index and the reviewer tables, as one generation (built in a staging
     folder and swapped in at the end: `files.generation`); (the index path, summary rows
@@ -272,13 +377,14 @@ def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None) -> 
              f"the worst difference is the largest of them. Generated {when}, commit "
              f"{results.git_commit() or 'unknown'}. Reviewer tables: ")
     pages = ["accuracy.csv", "accuracy.md", "accuracy.tex"]
+    bench_html, bench_md = bench_section(stage, warn)
     page = (f"<!doctype html><html><head><meta charset='utf-8'><title>flexmbd report</title><style>{CSS}</style>"
             f"</head><body><h1>flexmbd report</h1><p class='summary'><b>{html.escape(line)}</b></p>"
             f"<p>{html.escape(intro)}"
             + ", ".join(f"<a href='{f}'>{f}</a>" for f in pages) + "."
             + (" Benchmarks: <a href='bench/index.html'>bench</a>." if (out / "bench" / "index.html").exists() else "")
-            + "</p>" + tables.html_table(head, links_html, raw_cols=(0,)) + "</body></html>")
+            + "</p>" + tables.html_table(head, links_html, raw_cols=(0,)) + bench_html + "</body></html>")
     atomic_write(stage / "index.html", page + "\n")
     atomic_write(stage / "index.md", "# flexmbd report\n\n**" + line + "**\n\n" + intro + ", ".join(f"[{f}]({f})" for f in pages)
-                 + ".\n\n" + tables.markdown(head, links_md))
+                 + ".\n\n" + tables.markdown(head, links_md) + ("\n" + bench_md if bench_md else ""))
     return all_acc, summary

@@ -1,5 +1,6 @@
-"""Figures of a case page (matplotlib; PNG and SVG, written atomically), one colour and marker
-per solver throughout."""
+"""Figures of the report (matplotlib; PNG and SVG, written atomically), one colour and marker per
+solver throughout: a case page's channels, spectra, flexible minus rigid angles and the retained
+modes of its flexible bodies; the index's work-precision figure of a benchmark run."""
 
 from __future__ import annotations
 
@@ -36,6 +37,7 @@ def save(fig, path: Path) -> str:
     PNG's file name (pages link relatively)."""
     try:
         atomic_write(path, lambda f: fig.savefig(f, dpi=90, format="png"))
+        fig.set_layout_engine("none")           # the SVG keeps the PNG's layout, not computed again
         atomic_write(path.with_suffix(".svg"), lambda f: fig.savefig(f, format="svg"))
     finally:
         plt.close(fig)
@@ -60,34 +62,123 @@ def legend(ax, **kw) -> None:
         ax.legend(**kw)
 
 
+# long vibrating histories: the first and the last few periods drawn again, side by side
+ZOOM_ABOVE = 20       # periods of a visible vibration over the history beyond which it is zoomed
+ZOOM_PERIODS = 4      # periods in each zoom window
+VISIBLE = 0.02        # a vibration is visible when its amplitude is this share of the history's range
+
+
+def vibration_hz(t, y) -> float:
+    """Frequency (Hz) of the largest peak of y's amplitude spectrum (`metrics.spectrum`) at 10
+    periods or more over the record (slower motion never draws as a band); NaN when that peak's
+    amplitude is under VISIBLE times the range of y: no visible vibration."""
+    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
+    if len(t) < 16 or not np.all(np.isfinite(y)) or np.ptp(y) == 0:
+        return np.nan
+    f, A = metrics.spectrum(t, y)
+    A = np.where(f >= 10.0 / (t[-1] - t[0]), A, 0.0)
+    k = int(np.argmax(A))
+    return float(f[k]) if A[k] >= VISIBLE * np.ptp(y) else np.nan
+
+
+def zoom_windows(t, f: float) -> list:
+    """[(t0, t1) of the first ZOOM_PERIODS periods of a vibration of f Hz, (t0, t1) of the last]
+    over the samples t (s), when they span more than ZOOM_ABOVE of its periods; [] otherwise
+    (f NaN: no vibration)."""
+    if not f * (t[-1] - t[0]) > ZOOM_ABOVE:
+        return []
+    w = ZOOM_PERIODS / f
+    return [(float(t[0]), float(t[0] + w)), (float(t[-1] - w), float(t[-1]))]
+
+
+def drawn(kind: str, y, k: float) -> np.ndarray:
+    """What a channel's figure draws of a history y (n,): y times k (the figure's unit); a total
+    energy as its change from the start, E(t) - E(0), the same for any datum of potential energy."""
+    y = np.asarray(y, dtype=float) * k
+    return y - y[0] if kind == "energy" and len(y) else y
+
+
+def floor_of(diffs: dict, norm: float) -> float:
+    """Lower clip of the |difference| panel: a hundredth of the smallest of the solvers' median
+    (non-zero) differences, so that every solver's usual level shows, while exact agreement (at
+    t = 0, at crossings) does not stretch the axis; at least 1e-15 norm (round-off)."""
+    medians = [np.median(d[d > 0]) for d in diffs.values() if np.any(d > 0)]
+    return max(0.01 * min(medians), 1e-15 * norm) if medians else 1e-15 * norm
+
+
 def channel(case, name: str, results: dict, reference: str, path: Path) -> str:
-    """Overlay of one channel for every solver, and the magnitude of each solver's difference from
-    the reference on a shared log scale (every solver readable, whatever the worst one does)."""
+    """`channel_figure`, saved (`save`)."""
+    return save(channel_figure(case, name, results, reference), path)
+
+
+def channel_figure(case, name: str, results: dict, reference: str):
+    """Overlay of one channel for every solver (top), and the magnitude of each solver's difference
+    from the reference on a shared log scale (every solver readable, whatever the worst one does).
+
+    A history holding more than ZOOM_ABOVE (20) periods of a visible vibration of the reference
+    (`vibration_hz`: the largest spectral peak at 10 periods or more, its amplitude at least 2 % of
+    the range) draws as a solid band: a third row then shows its first and its last ZOOM_PERIODS (4)
+    periods side by side, shaded on the overview. An energy is drawn as its change from t = 0 (each
+    solver's own E(0) removed) and is never zoomed. Returns the Figure (`channel` saves it)."""
     kind = case["channels"][name]["kind"]
     unit, k = UNITS[kind]
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 5.6), sharex=True, height_ratios=[3, 2])
-    ref = results.get(reference)
-    floor = None
-    for s, r in results.items():
-        if name not in r.channels or not len(r.t):
-            continue
-        extra = {"lw": 2.2, "alpha": 0.6} if s == reference else {"lw": 1.0}
-        top.plot(r.t, r.channels[name] * k, label=s, **style(s, len(r.t)), **extra)
-        if ref is not None and s != reference and name in ref.channels:
-            d = np.abs(metrics.on_grid(ref.t, r.t, r.channels[name]) - ref.channels[name]) * k
-            scale = np.nanmax(np.abs(ref.channels[name])) * k
-            floor = 1e-9 * scale if scale > 0 else 1e-12
-            bottom.semilogy(ref.t, np.maximum(d, floor), lw=1.0, label=f"{s} - {reference}", **style(s, len(ref.t)))
-    top.set_title(where(case, name), fontsize=10)
-    top.set_ylabel(f"{name} [{unit}]")
+    curves = {s: (np.asarray(r.t, dtype=float), drawn(kind, r.channels[name], k)) for s, r in results.items()
+              if name in r.channels and len(r.t)}
+    ref = curves.get(reference)
+    diffs = {s: np.abs(metrics.on_grid(ref[0], t, y) - ref[1]) for s, (t, y) in curves.items()
+             if ref is not None and s != reference}
+    kinetic = results[reference].extra.get("kinetic_max_J") if ref is not None else None
+    floor = floor_of(diffs, metrics.channel_norm(kind, ref[1], kinetic and kinetic * k) if ref is not None else 1.0)
+    f = vibration_hz(*ref) if ref is not None and kind != "energy" else np.nan
+    windows = zoom_windows(ref[0], f) if ref is not None else []
+    line = lambda s, n: {**style(s, n), **({"lw": 2.2, "alpha": 0.6} if s == reference else {"lw": 1.0})}
+
+    fig = plt.figure(figsize=(9, 8.4 if windows else 5.6), layout="constrained")
+    outer = fig.add_gridspec(2 if windows else 1, 1, height_ratios=[5, 2.6] if windows else [1])
+    over = outer[0].subgridspec(2, 1, height_ratios=[3, 2])
+    top = fig.add_subplot(over[0])
+    bottom = fig.add_subplot(over[1], sharex=top)
+
+    # overview and differences
+    for s, (t, y) in curves.items():
+        top.plot(t, y, label=s, **line(s, len(t)))
+    for s, d in diffs.items():
+        bottom.semilogy(ref[0], np.maximum(d, floor), lw=1.0, label=f"{s} - {reference}", **style(s, len(ref[0])))
+    if kind == "energy":
+        ylabel = "energy change from t = 0 [J]"
+        title = f"{case.name}: {name}, change of the total energy (kinetic + gravity + strain) from t = 0"
+        if kinetic:
+            title += (f"\naccuracy table: differences over {reference}'s largest kinetic energy, "
+                      f"{kinetic:.3g} J")
+    else:
+        ylabel, title = f"{name} [{unit}]", where(case, name)
+    top.set_title(title, fontsize=10)
+    top.set_ylabel(ylabel)
+    top.tick_params(labelbottom=False)
     legend(top, fontsize=8, ncol=3)
     top.grid(alpha=0.3)
     bottom.set_ylabel(f"|difference| [{unit}]")
     bottom.set_xlabel("t [s]")
     bottom.grid(alpha=0.3, which="both")
     legend(bottom, fontsize=8, ncol=3)
-    fig.tight_layout()
-    return save(fig, path)
+
+    # zoom windows: the first and the last periods, shaded on the overview
+    zoom = outer[1].subgridspec(1, 2) if windows else None
+    for i, ((t0, t1), which) in enumerate(zip(windows, ("first", "last"))):
+        ax = fig.add_subplot(zoom[i])
+        margin = 0.02 * (t1 - t0)
+        for s, (t, y) in curves.items():
+            inside = (t >= t0 - margin) & (t <= t1 + margin)
+            ax.plot(t[inside], y[inside], **line(s, int(inside.sum())))
+        ax.set_xlim(t0, t1)
+        for a in (top, bottom):
+            a.axvspan(t0, t1, color="0.5", alpha=0.15, lw=0)
+        ax.set_title(f"{which} {ZOOM_PERIODS} periods of {f:.3g} Hz (shaded above)", fontsize=9)
+        ax.set_xlabel("t [s]")
+        ax.grid(alpha=0.3)
+        if i == 0:
+            ax.set_ylabel(ylabel)
+    return fig
 
 
 def spectra(case, name: str, results: dict, system_hz, nyquist: float, path: Path) -> str:
@@ -126,3 +217,118 @@ def elasticity(case, flexible, rigid, rigid_name: str, path: Path) -> str:
     legend(ax, fontsize=8)
     fig.tight_layout()
     return save(fig, path)
+
+
+# a flexible body's retained modes: which node values are drawn, and how
+SHAPE_LOOK = {"transverse y": {"color": "k", "ls": "-"}, "transverse z": {"color": "#7f7f7f", "ls": "--"},
+              "axial x": {"color": "#17becf", "ls": ":"}, "torsion about x": {"color": "#9467bd", "ls": "-."}}
+
+
+def hermite(x, u, du, points: int = 400) -> tuple[np.ndarray, np.ndarray]:
+    """The cubic Hermite interpolation through node values u (N,) with slopes du (N,) at node
+    positions x (N,), m: the Euler-Bernoulli element's deflection between its nodes, sampled at
+    about `points` places along the beam; (positions, values)."""
+    per = max(2, -(-points // (len(x) - 1)))
+    s = np.linspace(0.0, 1.0, per, endpoint=False)
+    l = np.diff(x)[:, None]
+    h = [1 - 3 * s**2 + 2 * s**3, l * (s - 2 * s**2 + s**3), 3 * s**2 - 2 * s**3, l * (s**3 - s**2)]
+    U = h[0] * u[:-1, None] + h[1] * du[:-1, None] + h[2] * u[1:, None] + h[3] * du[1:, None]
+    return np.append((x[:-1, None] + l * s).ravel(), x[-1]), np.append(U.ravel(), u[-1])
+
+
+def mode_curves(fb, j: int) -> dict:
+    """{component: (positions along the beam (m), values)} drawn of retained mode j of a FlexBody
+    (Phi rows [rot x, y, z; trans x, y, z]): the transverse displacements y and z, cubic between
+    the nodes (`hermite`, slopes theta_z and -theta_y), and the axial displacement or the torsion
+    angle, linear between the nodes, when the mode is led by it (its label); together scaled to a
+    largest magnitude of 1 (a torsion mode's angle in rad against its displacements in m: these
+    stay near zero)."""
+    x, P = np.asarray(fb.x0[:, 0], dtype=float), np.asarray(fb.Phi[:, :, j], dtype=float)
+    curves = {"transverse y": hermite(x, P[:, 4], P[:, 2]), "transverse z": hermite(x, P[:, 5], -P[:, 1])}
+    label = str(fb.labels[j])
+    if label.startswith("axial"):
+        curves["axial x"] = (x, P[:, 3])
+    if label.startswith("torsion"):
+        curves["torsion about x"] = (x, P[:, 0])
+    top = max(np.max(np.abs(v)) for _, v in curves.values())
+    return {c: (xs, v / top) for c, (xs, v) in curves.items()} if top > 0 else curves
+
+
+def mode_shapes(fb, title: str, path: Path) -> str:
+    """`mode_shapes_figure`, saved (`save`)."""
+    return save(mode_shapes_figure(fb, title), path)
+
+
+def mode_shapes_figure(fb, title: str):
+    """One small panel per retained mode of a FlexBody (`mode_curves` along the undeformed beam),
+    titled with its number, label and frequency; four to a row. Returns the Figure, with
+    one axes per mode."""
+    n = fb.n_modes
+    cols = min(n, 4)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(10, 1.2 + 1.7 * rows), sharex=True, sharey=True,
+                             squeeze=False, layout="constrained")
+    for j, ax in enumerate(axes.flat):
+        if j >= n:                                   # the last row's empty places: the ones above show x
+            fig.delaxes(ax)
+            axes.flat[j - cols].tick_params(labelbottom=True)
+            axes.flat[j - cols].set_xlabel(f"x along {fb.name} [m]", fontsize=8.5)
+            continue
+        if j >= n - cols:
+            ax.set_xlabel(f"x along {fb.name} [m]", fontsize=8.5)
+        for c, (x, v) in mode_curves(fb, j).items():
+            ax.plot(x, v, lw=1.2, label=c, **SHAPE_LOOK[c])
+        ax.axhline(0.0, color="0.75", lw=0.6)
+        ax.set_title(f"{j + 1}: {fb.labels[j]}, {fb.freq_hz[j]:.4g} Hz", fontsize=8.5)
+        ax.set_ylim(-1.15, 1.15)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=8)
+    handles = {}
+    for ax in fig.axes:
+        handles.update(zip(*reversed(ax.get_legend_handles_labels())))
+    fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncol=len(handles), fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.supylabel("mode shape, largest value 1", fontsize=9)
+    return fig
+
+
+# work and precision of a benchmark run (`flexmbd bench`)
+SCHEME_LOOK = [("-", "o"), ("--", "s"), (":", "^"), ("-.", "D"), ((0, (5, 1, 1, 1)), "v")]
+
+
+def work_precision(rows: list, path: Path) -> str:
+    """`work_precision_figure`, saved (`save`)."""
+    return save(work_precision_figure(rows), path)
+
+
+def work_precision_figure(rows: list):
+    """Error against solve-only wall time (log-log) of a benchmark's work-precision rows {case,
+    solver, scheme, setting, error, wall_s} (`bench.work_precision`): one panel per case, one line
+    per (solver, scheme) through its settings in the order they were run, in the solver's colour
+    (`style`) with a line style and marker per scheme; settings without a finite error (diverged)
+    are left out. Returns the Figure, one axes per case."""
+    names = list(dict.fromkeys(r["case"] for r in rows))
+    curves = list(dict.fromkeys((r["solver"], r["scheme"]) for r in rows))
+    schemes = {}
+    for s, scheme in curves:
+        schemes.setdefault(s, []).append(scheme)
+    fig, axes = plt.subplots(1, len(names), figsize=(max(4.2 * len(names), 6.5), 4.6), squeeze=False,
+                             layout="constrained")
+    for ax, name in zip(axes[0], names):
+        for s, scheme in curves:
+            pts = [(r["wall_s"], r["error"]) for r in rows if r["case"] == name and (r["solver"], r["scheme"]) == (s, scheme)
+                   and np.isfinite(r["error"]) and r["error"] > 0 and r["wall_s"] > 0]
+            ls, marker = SCHEME_LOOK[schemes[s].index(scheme) % len(SCHEME_LOOK)]
+            if pts:
+                ax.loglog(*zip(*pts), ls=ls, marker=marker, ms=4, lw=1.2, color=style(s)["color"],
+                          label=f"{s} ({scheme})")
+        ax.set_title(name, fontsize=10)
+        ax.set_xlabel("wall time, solve only [s]")
+        ax.grid(alpha=0.3, which="both")
+    axes[0][0].set_ylabel("deflection error / max |reference|")
+    handles = {}
+    for ax in fig.axes:
+        handles.update(zip(*reversed(ax.get_legend_handles_labels())))
+    if handles:
+        fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncol=min(len(handles), 5), fontsize=8)
+    return fig
