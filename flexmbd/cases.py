@@ -157,7 +157,13 @@ REPORT = {
     "reference": ("solver", None),
     "solvers": ("solvers", None),
     "tolerances": ("tolerances", {}),
+    "snapshots": ("vec", None),         # s: instants of the deformed-shape snapshots (default `snapshot_instants`)
+    "shape_points": ("int0+", 11),      # evenly spaced points along each flexible beam drawn in them (0: none)
 }
+
+# the deformed-shape snapshots: at most this many instants (one panel each) and shape points per beam
+MAX_SNAPSHOTS = 12
+MAX_SHAPE_POINTS = 101
 
 CASE = {
     "title": ("line", REQUIRED),
@@ -562,6 +568,7 @@ def _check_references(d: dict, where: str) -> None:
     rep = d["report"]
     if rep["solvers"] and rep["reference"] is not None and rep["reference"] not in rep["solvers"]:
         _fail(where, "report.reference", f"{rep['reference']!r} is not among report.solvers {rep['solvers']}")
+    _check_snapshots(d, where)
 
 
 def _check_integrator(d, where):
@@ -572,6 +579,39 @@ def _check_integrator(d, where):
     for key in ("rtol", "atol"):
         if ig[key] >= 1.0:
             _fail(where, f"integrator.{key}", f"expected a tolerance below 1, got {ig[key]}")
+
+
+def snapshot_instants(duration: float) -> list:
+    """The default instants of the deformed-shape snapshots: duration x (1/4, 1/2, 3/4, 1). Not
+    t = 0: every case starts undeformed (a beam's modal coordinates start at zero), so a shape
+    at t = 0 is zero for every solver. Rounded to 12 digits (0.3, not 0.30000000000000004): the
+    snapshot is taken at the output sample nearest to the instant anyway."""
+    return [float(f"{duration * k / 4:.12g}") for k in range(1, 5)]
+
+
+def _check_snapshots(d, where):
+    """report.snapshots: 1 to MAX_SNAPSHOTS distinct instants within [0, duration] (sorted; the
+    default `snapshot_instants`); report.shape_points: 0 (no snapshots) or 2 to MAX_SHAPE_POINTS
+    (the root and the tip at least)."""
+    rep, T = d["report"], d["duration"]
+    n = rep["shape_points"]
+    if n == 1 or n > MAX_SHAPE_POINTS:
+        _fail(where, "report.shape_points", f"expected 0 (no snapshots) or 2 to {MAX_SHAPE_POINTS} points along each "
+              f"beam (the root and the tip at least), got {n}")
+    ts = rep["snapshots"]
+    if ts is None:
+        rep["snapshots"] = snapshot_instants(T)
+        return
+    if not 1 <= len(ts) <= MAX_SNAPSHOTS:
+        _fail(where, "report.snapshots", f"expected 1 to {MAX_SNAPSHOTS} instants in s (one panel each), got {len(ts)}"
+              + ("; report.shape_points = 0 turns the snapshots off" if not ts else ""))
+    for t in ts:
+        if not 0.0 <= t <= T:
+            _fail(where, "report.snapshots", f"instant {t:g} s lies outside the run [0, {T:g}] s (the duration)")
+    if len(set(ts)) < len(ts):
+        t = next(t for t in ts if ts.count(t) > 1)
+        _fail(where, "report.snapshots", f"instant {t:g} s is listed twice")
+    rep["snapshots"] = sorted(ts)
 
 
 def _check_rigid(b, where, k):

@@ -15,6 +15,10 @@ functions below turn that into channels, the same way for every solver:
     energy       the sum of the energy parts (kinetic, gravity, strain), J
     reaction_*   a component of the force the joint transmits from parent onto child, child frame
 
+and, beside the channels, the deformed-shape snapshots (`shapes`): every component of the
+deflection of `report.shape_points` evenly spaced points along each flexible beam at the output
+samples nearest to the instants `report.snapshots`, stored with the result (`solvers.run`).
+
 A beam that is not flexible in a solver's model (declared rigid, or every beam of a rigid-body
 solver) has no Beam: its deflections and stresses are zero.
 """
@@ -69,11 +73,30 @@ class Trajectory:
 
 
 def points_needed(case, body: str) -> list:
-    """Positions x (m) whose points a Beam must hold: the root, the tip and every deflection
-    channel's point, in that order, without repeats."""
-    xs = [0.0, float(case["bodies"][body]["length"])]
+    """Positions x (m) whose points a Beam must hold: the root, the tip, every deflection
+    channel's point and the shape points (`shape_positions`), in that order, without repeats (a
+    shape point within 1e-9 L of a listed position is that position)."""
+    L = float(case["bodies"][body]["length"])
+    xs = [0.0, L]
     xs += [c["at"] for c in case["channels"].values() if c["kind"] == "deflection" and c["body"] == body]
-    return list(dict.fromkeys(xs))
+    xs = list(dict.fromkeys(xs))
+    for x in evenly_spaced(case, body):
+        if not any(abs(x - y) <= 1e-9 * L for y in xs):
+            xs.append(x)
+    return xs
+
+
+def evenly_spaced(case, body: str) -> list:
+    """`report.shape_points` positions evenly spaced from the root (0) to the tip (length), m."""
+    L, n = float(case["bodies"][body]["length"]), case["report"]["shape_points"]
+    return [L * k / (n - 1) for k in range(n)]          # L k / (n - 1): 0.45, not 3 x 0.15 = 0.44999999999999996
+
+
+def shape_positions(case, body: str) -> list:
+    """The keys of a Beam's points (`points_needed`) that are the beam's shape points, root to
+    tip: `report.shape_points` evenly spaced positions (none when 0)."""
+    listed = points_needed(case, body)
+    return [min(listed, key=lambda y: abs(y - x)) for x in evenly_spaced(case, body)]
 
 
 def joints_needed(case) -> list:
@@ -193,16 +216,46 @@ def chord_frame(e) -> np.ndarray:
     return expm_so3(k / s * np.arctan2(s, x @ e))
 
 
+def displacement(beam: Beam, x: float, k=slice(None)) -> np.ndarray:
+    """(n, 3) displacement of the point at x in the root-node frame (or the chord frame), minus
+    its undeformed offset from the root node, m; at the samples k (all by default)."""
+    r0 = beam.points[0.0][k]
+    R = None if beam.root is None else beam.root[k]
+    if R is None:
+        e = beam.points[beam.length][k] - r0
+        R = np.array([chord_frame(u / np.linalg.norm(u)) for u in e]).reshape(-1, 3, 3)
+    d = np.einsum("nji,nj->ni", R, beam.points[x][k] - r0)
+    return d - (beam.x0[x] - beam.x0[0.0])
+
+
 def deflection(beam: Beam, x: float, axis: int) -> np.ndarray:
     """(n,) displacement of the point at x along `axis` (0, 1, 2) of the root-node frame (or the
     chord frame), minus its undeformed offset from the root node, m."""
-    r0 = beam.points[0.0]
-    R = beam.root
-    if R is None:
-        e = beam.points[beam.length] - r0
-        R = np.array([chord_frame(u / np.linalg.norm(u)) for u in e]).reshape(-1, 3, 3)
-    d = np.einsum("nji,nj->ni", R, beam.points[x] - r0)
-    return d[:, axis] - (beam.x0[x] - beam.x0[0.0])[axis]
+    return displacement(beam, x)[:, axis]
+
+
+def shapes(case, traj: Trajectory, instants) -> dict:
+    """The deformed-shape snapshots of every flexible beam of a trajectory:
+    {body: {"x": [nx], "t": [k], "u": (k, nx, 3) nested lists}}. x are the shape points'
+    undeformed positions along the beam as the solver tracks them (its nodes nearest to
+    `shape_positions`, m), t the output samples nearest to `instants` (s), u each point's
+    `displacement` there (root-node or chord frame, m). An instant farther than half an output
+    interval from every sample (the run ended before it) is left out, as is a sample at which a
+    beam's displacements are not finite; a beam without shape points or snapshots is left out."""
+    t, half = np.asarray(traj.t, dtype=float), 0.5 * case["integrator"]["output_dt"] * (1.0 + 1e-9)
+    picks = [int(np.argmin(np.abs(t - s))) for s in instants] if len(t) else []
+    picks = list(dict.fromkeys(i for i, s in zip(picks, instants) if abs(t[i] - s) <= half))
+    out = {}
+    for name, beam in traj.beams.items():
+        xs = shape_positions(case, name)
+        if not xs or not picks:
+            continue
+        u = np.stack([displacement(beam, x, picks) for x in xs], axis=1)          # (k, nx, 3)
+        keep = np.all(np.isfinite(u), axis=(1, 2))
+        if keep.any():
+            out[name] = {"x": [float(beam.x0[x][0] - beam.x0[0.0][0]) for x in xs],
+                         "t": [float(t[i]) for i, ok in zip(picks, keep) if ok], "u": u[keep].tolist()}
+    return out
 
 
 def stress_vm(strains, E: float, G: float, sec, fibre) -> np.ndarray:

@@ -135,7 +135,8 @@ def first_failure(t, channels: dict, bounds: dict) -> tuple[int, Status] | None:
 @dataclass
 class Result:
     """One run. `t` (n,) s; `channels` name -> (n,) array in SI units; a failed run keeps the
-    samples computed before it failed."""
+    samples computed before it failed. `trajectory` is the solver-neutral trajectory the
+    channels were computed from, handed by a solver's run to `solvers.run` (never stored)."""
 
     solver: str
     case: str
@@ -150,6 +151,7 @@ class Result:
     rhs_evals: int = 0
     case_sha256: str = ""
     extra: dict = field(default_factory=dict)
+    trajectory: object = field(default=None, repr=False, compare=False)
 
     @property
     def ok(self) -> bool:
@@ -327,6 +329,8 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
         if want is not None and sha256(text) != want:
             raise InputError(f"{csv}: does not belong to {js.name} (written by another run, or changed)")
         df = read_table(csv, text, ["t"] + chans, samples)
+    if "shapes" in meta:
+        check_shapes(js, meta["shapes"])
     if status.kind == "failed" and meta.get("failed_at_s") is not None:
         status = Status("failed", status.why, float(meta["failed_at_s"]))
     return Result(solver=solver, case=case, t=df["t"].to_numpy(dtype=float),
@@ -336,6 +340,34 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
                   setup_s=meta.get("setup_s", 0.0), steps=meta.get("steps", 0),
                   rhs_evals=meta.get("rhs_evals", 0), case_sha256=meta.get("case_sha256", ""),
                   extra={k: v for k, v in meta.items() if k not in SIDECAR_KEYS})
+
+
+def check_shapes(path: Path, shapes) -> None:
+    """A sidecar's deformed-shape snapshots (`channels.shapes`): per beam, x (nx,) m and t (k,) s
+    lists and u (k, nx, 3) nested lists, of finite numbers. An InputError naming the file and
+    the key otherwise."""
+    def finite(v, depth: int) -> bool:
+        if depth == 0:
+            return (isinstance(v, float) and bool(np.isfinite(v))) or (type(v) is int and abs(v) < 1e300)
+        return isinstance(v, list) and all(finite(e, depth - 1) for e in v)
+
+    if not isinstance(shapes, dict):
+        raise InputError(f"{path}: shapes: expected a table of beams, each with x, t and u")
+    for body, s in shapes.items():
+        key = f"shapes.{body}"
+        if not isinstance(s, dict) or set(s) != {"x", "t", "u"}:
+            raise InputError(f"{path}: {key}: expected a table with the keys x, t and u")
+        for k, depth in (("x", 1), ("t", 1), ("u", 3)):
+            if not finite(s[k], depth):
+                raise InputError(f"{path}: {key}.{k}: expected {'nested lists [t][x][3]' if depth == 3 else 'a list'} "
+                                 f"of finite numbers")
+        want = f"len(t) x len(x) x 3 = {len(s['t'])} x {len(s['x'])} x 3 (at least one instant and two points)"
+        sizes = [{len(s["u"])}, {len(row) for row in s["u"]}, {len(p) for row in s["u"] for p in row}]
+        if any(len(n) > 1 for n in sizes):
+            raise InputError(f"{path}: {key}.u: rows of unequal lengths, expected {want}")
+        got = [n.pop() if n else 0 for n in sizes]
+        if got != [len(s["t"]), len(s["x"]), 3] or not s["t"] or len(s["x"]) < 2:
+            raise InputError(f"{path}: {key}.u: {' x '.join(map(str, got))} numbers, expected {want}")
 
 
 def stale(r: Result, case_sha256: str, channels) -> str:

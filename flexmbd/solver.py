@@ -60,7 +60,7 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
                   wall_s=sim.wall_s, setup_s=setup_s, steps=sim.steps, rhs_evals=sim.rhs_evals,
                   settings={**sim.settings, "modes": modes},
                   extra={"compile_s": compile_s, "kinetic_max_J": kinetic_max,
-                         "validity": {"largest": extent, "limits": channels.LIMITS}})
+                         "validity": {"largest": extent, "limits": channels.LIMITS}}, trajectory=traj)
 
 
 SINGULAR = 0.1     # smallest eigenvalue of M at the last sample, relative to the start: M is singular

@@ -9,18 +9,21 @@ Solvers that are not part of this build are listed (so case files may name them)
 as unavailable. Other packages add solvers through the entry-point group `flexmbd.solvers`
 (docs/plugins.md).
 
-`run` is the one place where a solver's exception becomes a result, and where the divergence
-rule (`results.first_failure`) is applied to every solver's channels: a failed run keeps the
-samples before its failure.
+`run` is the one place where a solver's exception becomes a result, where the divergence
+rule (`results.first_failure`) is applied to every solver's channels (a failed run keeps the
+samples before its failure), and where the deformed-shape snapshots (`channels.shapes`) are
+taken from the trajectory a solver hands over with its result (`Result.trajectory`), for the
+samples kept, into the sidecar's `shapes`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import time
 import traceback
 
-from flexmbd import cases, results
+from flexmbd import cases, channels, results
 from flexmbd.errors import InputError
 from flexmbd.results import Result
 
@@ -154,4 +157,9 @@ def run(case, name: str, t_end: float | None = None) -> Result:
     r.solver, r.case, r.case_sha256 = name, case.name, case.sha256
     r.solver_version = r.solver_version or mod.version()
     r.extra["overrides"] = list(case.overrides)        # the --set items, recorded in the sidecar
+    traj, r.trajectory = r.trajectory, None
+    if traj is not None:                                # the kept samples' deformed shapes, once for every solver
+        shapes = channels.shapes(case, dataclasses.replace(traj, t=r.t), case["report"]["snapshots"])
+        if shapes:
+            r.extra["shapes"] = shapes
     return r

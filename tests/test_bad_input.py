@@ -159,6 +159,24 @@ BAD = [
     ("joint-q0-nan", P, None, ["joints.pivot.q0=nan"], "flexmbd", ["joints.pivot.q0", "finite"]),
     ("solver-table-not-a-table", C, None, ["solvers.analytic=3"], "analytic", ["solvers.analytic", "table"]),
     ("gravity-two-numbers", P, None, ["gravity=[0, -9.81]"], "flexmbd", ["gravity", "3 numbers"]),
+    # deformed-shape snapshots
+    ("snapshot-beyond-duration", C, None, ["report.snapshots=[0.5, 2.5]"], "analytic",
+     ["report.snapshots", "instant 2.5 s lies outside the run [0, 2] s"]),
+    ("snapshot-beyond-a-shorter-duration", C, None, ["report.snapshots=[1.5]", "duration=1"], "analytic",
+     ["report.snapshots", "instant 1.5 s lies outside the run [0, 1] s"]),
+    ("snapshot-negative", C, None, ["report.snapshots=[-0.1, 1.0]"], "analytic", ["report.snapshots", "instant -0.1 s"]),
+    ("snapshot-nan", C, None, ["report.snapshots=[nan]"], "analytic", ["report.snapshots", "finite"]),
+    ("snapshot-twice", C, None, ["report.snapshots=[1.0, 0.5, 1.0]"], "analytic", ["report.snapshots", "1 s is listed twice"]),
+    ("snapshots-empty", C, None, ["report.snapshots=[]"], "analytic", ["report.snapshots", "1 to 12 instants",
+                                                                       "report.shape_points = 0"]),
+    ("snapshots-too-many", C, None, [f"report.snapshots={[0.1 * k for k in range(13)]}"], "analytic",
+     ["report.snapshots", "1 to 12 instants", "got 13"]),
+    ("snapshots-not-a-list", C, None, ["report.snapshots=1.0"], "analytic", ["report.snapshots", "list of numbers"]),
+    ("snapshot-a-string", C, None, ["report.snapshots=['end']"], "analytic", ["report.snapshots", "expected a number"]),
+    ("shape-points-one", C, None, ["report.shape_points=1"], "analytic", ["report.shape_points", "0 (no snapshots) or 2 to 101"]),
+    ("shape-points-many", C, None, ["report.shape_points=1000"], "analytic", ["report.shape_points", "got 1000"]),
+    ("shape-points-negative", C, None, ["report.shape_points=-2"], "analytic", ["report.shape_points", "non-negative"]),
+    ("shape-points-fraction", C, None, ["report.shape_points=5.5"], "analytic", ["report.shape_points", "whole number"]),
 ]
 
 

@@ -206,3 +206,11 @@ def test_benchmark_cases_load_with_their_parameters_and_provenance(name):
     assert body["length"] == L
     text = (cases.CASES_DIR / f"{name}.toml").read_text()
     assert text.startswith("#") and "Source" in text and "derived here" in text
+
+
+def test_snapshot_instants_default_to_quarters_of_the_duration():
+    """report.snapshots: duration x (1/4, 1/2, 3/4, 1) by default (following --set duration), sorted when given."""
+    assert cases.load("cantilever_step")["report"]["snapshots"] == [0.5, 1.0, 1.5, 2.0]
+    assert cases.load("cantilever_step", ["duration=0.4"])["report"]["snapshots"] == [0.1, 0.2, 0.3, 0.4]
+    assert cases.load("cantilever_step", ["report.snapshots=[2.0, 0.0, 1.25]"])["report"]["snapshots"] == [0.0, 1.25, 2.0]
+    assert cases.load("cantilever_step")["report"]["shape_points"] == 11

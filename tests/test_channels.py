@@ -204,3 +204,81 @@ def test_modal_extent_of_a_bent_beam():
     assert e["deflection"][0] == pytest.approx(k * 1.5 ** 2 / 2 / 1.5, rel=1e-12)
     assert e["rotation"][0] == pytest.approx(k * 1.5, rel=1e-12)
     assert e["strain"][0] == pytest.approx(k * sec.cy, rel=1e-12)
+
+
+# ---------------------------------------------------------------------------------------------
+# deformed-shape snapshots
+
+
+def test_shape_points_follow_the_root_tip_and_channel_points():
+    """Root and tip first, then the deflection channels' points, then the evenly spaced shape
+    points not already listed (one within 1e-9 L of a listed point is that point)."""
+    case = cases.load("cantilever_step", ["report.shape_points=5", "channels.tip_deflection.at=0.7500000000001"])
+    assert channels.points_needed(case, "beam") == [0.0, 1.5, 0.7500000000001, 0.375, 1.125]
+    assert channels.shape_positions(case, "beam") == [0.0, 0.375, 0.7500000000001, 1.125, 1.5]
+    assert channels.shape_positions(cases.load("cantilever_step", ["report.shape_points=0"]), "beam") == []
+    assert channels.shape_positions(cases.load("cantilever_step"), "beam")[3] == 0.45     # L k / (n - 1)
+
+
+@pytest.mark.parametrize("chord", [False, True])
+def test_shapes_of_a_known_motion_are_its_displacements(chord):
+    """A beam carried through a rigid motion (root position r0(t), rotation Q(t)) while its points
+    move by u(x, t) in the carried frame: the snapshots are u at the samples nearest the instants,
+    an instant the run did not reach is left out, and each component is the deflection channel's.
+    chord = True: no root rotation (hinged-hinged modes), the frame is the chord's; the tip stays
+    on the carried x axis and the motion is planar, so that the chord frame is Q."""
+    case = cases.load("cantilever_step", ["report.shape_points=5", "integrator.output_dt=0.1",
+                                          "report.snapshots=[0.0, 0.26, 0.9, 2.0]"])
+    t = np.linspace(0.0, 1.0, 11)                                    # a run that ended at t = 1 s
+    xs, L = channels.points_needed(case, "beam"), 1.5
+    u = lambda x: np.column_stack([1e-3 * x * t, 0.02 * x * (L - x) * t, -0.01 * x * (L - x) * t ** 2 * (not chord)])
+    turn = np.column_stack([0.0 * t, 0.0 * t, 0.5 * t]) if chord else np.column_stack([0.3 * t, -0.2 * t, 0.5 * t])
+    Q = Rotation.from_rotvec(turn).as_matrix()
+    r0 = np.column_stack([t, 2.0 * t, -t])
+    points = {x: r0 + np.einsum("nij,nj->ni", Q, np.array([x, 0.0, 0.0]) + u(x)) for x in xs}
+    beam = channels.Beam(length=L, points=points, x0={x: np.array([x, 0.0, 0.0]) for x in xs},
+                         root=None if chord else Q)
+    shapes = channels.shapes(case, channels.Trajectory(t=t, beams={"beam": beam}), case["report"]["snapshots"])
+    s = shapes["beam"]
+    assert s["x"] == [0.0, 0.375, 0.75, 1.125, 1.5] and s["t"] == pytest.approx([0.0, 0.3, 0.9])
+    picks = [0, 3, 9]
+    got, want = np.array(s["u"]), np.stack([u(x)[picks] for x in s["x"]], axis=1)
+    assert got.shape == (3, 5, 3) and np.abs(want).max() > 0.01
+    assert np.abs(got - want).max() <= 1e-15
+    for j, x in enumerate(s["x"]):
+        for axis in range(3):
+            assert np.array_equal(got[:, j, axis], channels.deflection(beam, x, axis)[picks])
+
+
+@pytest.fixture(scope="module")
+def cantilever_runs():
+    from flexmbd import solvers
+    case = cases.load("cantilever_step")
+    return case, {s: solvers.run(case, s) for s in ("flexmbd", "fe-linear")}
+
+
+def test_cantilever_shapes_of_flexmbd_and_fe_linear_agree(cantilever_runs):
+    """cantilever_step, at every snapshot: flexmbd's shape within 2 % of fe-linear's largest tip
+    deflection (measured: 2e-4), its tip at the final instant within 2 % of fe-linear's there
+    (measured: 0.3 % of -1.96 mm, near a zero crossing), and each shape's tip point is the
+    tip_deflection channel at that sample."""
+    case, runs = cantilever_runs
+    ref = runs["fe-linear"]
+    scale = np.abs(ref.channels["tip_deflection"]).max()
+    s, sr = runs["flexmbd"].extra["shapes"]["beam"], ref.extra["shapes"]["beam"]
+    assert s["x"] == sr["x"] and s["t"] == sr["t"] == case["report"]["snapshots"] == [0.5, 1.0, 1.5, 2.0]
+    u, ur = np.array(s["u"]), np.array(sr["u"])
+    assert np.abs(u[:, :, 1] - ur[:, :, 1]).max() <= 0.02 * scale
+    assert abs(u[-1, -1, 1] - ur[-1, -1, 1]) <= 0.02 * abs(ur[-1, -1, 1])
+    for r in runs.values():
+        sh = r.extra["shapes"]["beam"]
+        k = [int(np.argmin(np.abs(r.t - ti))) for ti in sh["t"]]
+        assert sh["x"][-1] == 1.5 and np.array_equal(np.array(sh["u"])[:, -1, 1], r.channels["tip_deflection"][k])
+
+
+def test_rigid_solvers_store_no_shapes_and_a_short_run_those_it_reached():
+    from flexmbd import solvers
+    case = cases.load("pendulum", ["report.snapshots=[0.0, 0.02, 1.0]"])
+    assert "shapes" not in solvers.run(case, "pinocchio", 0.02).extra
+    s = solvers.run(case, "flexmbd", 0.02).extra["shapes"]["beam"]
+    assert s["t"] == [0.0, 0.02] and len(s["x"]) == 11 and np.abs(s["u"][0]).max() == 0.0 < np.abs(s["u"][1]).max()

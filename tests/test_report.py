@@ -45,6 +45,18 @@ def test_page_has_every_section(report):
     assert "fe-linear" in page and "analytic" in page
 
 
+def test_deformed_shapes_follow_the_deflections(report):
+    """The snapshot section comes right after the deflection channels, its figure drawn as PNG and
+    SVG from the shapes the solvers stored."""
+    page = (report / "cantilever_step" / "index.html").read_text()
+    titles = re.findall(r"<h2>([^<]*)</h2>", page)
+    assert titles[titles.index("Deflection") + 1] == "Deformed shape at chosen instants"
+    assert "<img src='shapes.png'" in page and (report / "cantilever_step" / "shapes.svg").is_file()
+    from flexmbd import results
+    stored = {s: results.read(report / "results", "cantilever_step", s).extra.get("shapes") for s in FAST.split(",")}
+    assert all(sh["beam"]["t"] == [0.5, 1.0, 1.5, 2.0] for sh in stored.values())
+
+
 def test_unavailable_and_inapplicable_solvers_show_their_reason(report):
     index = (report / "index.html").read_text()
     assert "not applicable" in index or "unavailable" in index

@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -168,3 +169,54 @@ def test_the_sidecar_records_every_override_and_the_versions(tmp_path):
     meta = json.loads(js.read_text())
     assert meta["overrides"] == ["materials.steel.E=2.1e11", "duration=0.01"]
     assert meta["versions"]["numba"] and meta["versions"]["exudyn"]
+
+
+# ---------------------------------------------------------------------------------------------
+# the deformed-shape snapshots in the sidecar
+
+SHAPES = {"beam": {"x": [0.0, 0.75, 1.5], "t": [0.5, 1.0],
+                   "u": [[[0.0, 0.0, 0.0], [1e-5, -3e-3, 0.0], [2e-5, -9e-3, 1e-4]],
+                         [[0.0, 0.0, 0.0], [2e-5, -6e-3, 0.0], [4e-5, -1.8e-2, 2e-4]]]}}
+
+
+def test_shapes_round_trip(tmp_path):
+    r = _result(2)
+    r.extra["shapes"] = SHAPES
+    results.write(r, tmp_path)
+    assert results.read(tmp_path, "c", "s").extra["shapes"] == SHAPES
+
+
+@pytest.mark.parametrize("key,bad,words", [
+    ("shapes", [1, 2], "shapes: expected a table"),
+    ("beam", {"x": [0.0, 1.5], "t": [0.5]}, "shapes.beam: expected a table with the keys x, t and u"),
+    ("u", float("nan"), "shapes.beam.u: expected nested lists"),
+    ("u", float("inf"), "shapes.beam.u: expected nested lists"),
+    ("u", "a string", "shapes.beam.u: expected nested lists"),
+    ("x", [0.0, "0.75", 1.5], "shapes.beam.x: expected a list"),
+    ("t", [0.5, True], "shapes.beam.t: expected a list"),
+    ("t", [0.5, 10 ** 400], "shapes.beam.t: expected a list"),
+    ("t", [0.5], "shapes.beam.u: 2 x 3 x 3 numbers, expected len(t) x len(x) x 3 = 1 x 3 x 3"),
+    ("x", [0.0, 1.5], "shapes.beam.u: 2 x 3 x 3 numbers, expected len(t) x len(x) x 3 = 2 x 2 x 3"),
+    ("u", "short row", "shapes.beam.u: rows of unequal lengths"),
+])
+def test_a_broken_shapes_block_is_refused_naming_the_key(tmp_path, key, bad, words):
+    import copy
+    r = _result(2)
+    r.extra["shapes"] = copy.deepcopy(SHAPES)
+    _, js = results.write(r, tmp_path)
+    meta = json.loads(js.read_text())
+    if key == "shapes":
+        meta["shapes"] = bad
+    elif key == "beam":
+        meta["shapes"]["beam"] = bad
+    elif isinstance(bad, float):
+        meta["shapes"]["beam"]["u"][1][2][1] = bad
+    elif bad == "short row":
+        meta["shapes"]["beam"]["u"][1][1] = [0.0, 0.0]
+    elif bad == "a string":
+        meta["shapes"]["beam"]["u"][0][0][0] = bad
+    else:
+        meta["shapes"]["beam"][key] = bad
+    js.write_text(json.dumps(meta))
+    with pytest.raises(InputError, match="s.json: " + re.escape(words)):
+        results.read(tmp_path, "c", "s")

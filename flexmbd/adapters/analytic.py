@@ -162,4 +162,4 @@ def run(case, t_end, settings):
     wall_s = time.perf_counter() - t_solve
     return Result(solver="analytic", case=case.name, t=t, channels=channels.channels(case, traj), wall_s=wall_s,
                   setup_s=setup_s, steps=int(t.size), rhs_evals=0,
-                  settings={"modes_per_plane": n, "theory": "Euler-Bernoulli, continuous"})
+                  settings={"modes_per_plane": n, "theory": "Euler-Bernoulli, continuous"}, trajectory=traj)

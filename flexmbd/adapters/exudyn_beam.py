@@ -410,7 +410,7 @@ def run(case, t_end, settings):
     X = {name: {k: ({i: xc.sensor_series(mbs, s, t[:n]) for i, s in v.items()}) for k, v in Sb.items()}
          for name, Sb in S.items()}
     traj = trajectory(case, beams, X, t[:n])
-    r.t, r.channels = t[:n], channels.channels(case, traj)
+    r.t, r.channels, r.trajectory = t[:n], channels.channels(case, traj), traj
     if "kinetic" in traj.energy:                   # what an energy channel's differences are measured against
         r.extra["kinetic_max_J"] = float(np.max(traj.energy["kinetic"]))
     return r

@@ -702,7 +702,7 @@ def run(case, t_end, settings):
             for key in ("a", "f"):
                 Xb[key] = {k: step_mean(Xb[key][k], x, rec, t[:n], dt) for k, x in Sb[key].items()}
     traj = trajectory(case, fbs, X, t[:n], joints)
-    r.t, r.channels = t[:n], channels.channels(case, traj)
+    r.t, r.channels, r.trajectory = t[:n], channels.channels(case, traj), traj
     extent, outside = channels.validity(traj)
     r.extra["validity"] = {"largest": extent, "limits": channels.LIMITS}
     if outside is not None and r.ok:

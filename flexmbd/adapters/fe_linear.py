@@ -98,7 +98,7 @@ def run(case, t_end, settings):
     return Result(solver="fe-linear", case=case.name, t=t_out, channels=channels.channels(case, traj), wall_s=wall_s,
                   setup_s=setup_s, steps=(t_out.size - 1) * stride, rhs_evals=(t_out.size - 1) * stride,
                   settings={"dt": dt, "scheme": scheme, "dofs": int(free.size),
-                            "elements": body["elements"], "mass": body["mass"]})
+                            "elements": body["elements"], "mass": body["mass"]}, trajectory=traj)
 
 
 def trajectory(case, name: str, t, U, nodes, elements, sec) -> channels.Trajectory:

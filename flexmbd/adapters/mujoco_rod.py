@@ -280,9 +280,9 @@ def run(case, t_end, settings):
     bar.close()
 
     n = len(rows)
-    ch = channels.channels(case, trajectory(case, rows, t_out[:n], s))
-    return Result(solver="mujoco-rod", case=case.name, t=t_out[:n], channels=ch, status=status,
-                  wall_s=wall_s, setup_s=setup_s, steps=(n - 1) * stride, rhs_evals=(n - 1) * stride,
+    traj = trajectory(case, rows, t_out[:n], s)
+    return Result(solver="mujoco-rod", case=case.name, t=t_out[:n], channels=channels.channels(case, traj),
+                  status=status, wall_s=wall_s, setup_s=setup_s, steps=(n - 1) * stride, rhs_evals=(n - 1) * stride,
                   settings={"edges": ne, "edge_length": l, "dt": dt, "integrator": integrator,
                             "solver": "Newton", "edge_timeconst": tc, "section": "box",
-                            "mass": "lumped, rho A l per vertex, rho A l/2 at the tip"})
+                            "mass": "lumped, rho A l per vertex, rho A l/2 at the tip"}, trajectory=traj)

@@ -18,7 +18,7 @@ import numpy as np
 from flexmbd import files, flexbody, metrics, results, solvers
 from flexmbd.errors import InputError
 from flexmbd.files import atomic_write
-from flexmbd.report import accuracy, figures, tables
+from flexmbd.report import accuracy, figures, shapes, tables
 from flexmbd.results import Result
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
@@ -213,6 +213,9 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
         imgs = [figures.channel(case, n, shown(n), ref, d / f"{n}.png") for n in chans]
         sections.append((title, "".join(f"<p><img src='{i}' alt='{i}'></p>" for i in imgs),
                          "".join(f"![{i}]({i})\n\n" for i in imgs)))
+    shape = shapes.section(case, ok, d, ref)                # the deformed shapes, right after the deflections
+    if shape:
+        sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0] == "Deflection"), 0), shape)
 
     # spectra of the deflection channels, with the identified peaks and the system's modes
     spec = [figures.spectra(case, n, ok, [f for f, _ in system], 0.5 / dt, d / f"fft_{n}.png")
@@ -243,9 +246,9 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
                          + tables.markdown(head, rows)))
 
     # the flexible bodies' retained modes
-    shapes = mode_shapes(case, d)
-    if shapes:
-        sections.append(("Mode shapes", *shapes))
+    modes_section = mode_shapes(case, d)
+    if modes_section:
+        sections.append(("Mode shapes", *modes_section))
 
     # what elasticity changes: flexible minus rigid joint angles
     rigid = next((s for s in ("pinocchio", "mujoco") if s in ok), None)
