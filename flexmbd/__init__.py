@@ -24,7 +24,8 @@ def _case(case):
 def run(case, solver: str = "flexmbd", t_end: float | None = None):
     """Run one solver on a case (a Case or a name); a pandas DataFrame indexed by time t [s], one
     column per channel (SI units). `df.attrs` holds the solver, its version, the status line,
-    `ok`, the wall times, steps and settings (the JSON sidecar's content)."""
+    `ok`, the wall times, steps and settings (the JSON sidecar's content), and the deformed-shape
+    snapshots `shapes` ({beam: {"x", "t", "u" (instant, point, 3)}}, m; docs/formulation.md §7)."""
     import pandas as pd
 
     from flexmbd import solvers
@@ -34,7 +35,8 @@ def run(case, solver: str = "flexmbd", t_end: float | None = None):
     df = pd.DataFrame({k: r.channels[k] for k in r.channels}, index=pd.Index(r.t, name="t"))
     df.attrs.update({"case": case.name, "solver": solver, "solver_version": r.solver_version,
                      "status": str(r.status), "ok": r.ok, "wall_s": r.wall_s, "setup_s": r.setup_s,
-                     "steps": r.steps, "rhs_evals": r.rhs_evals, "settings": r.settings})
+                     "steps": r.steps, "rhs_evals": r.rhs_evals, "settings": r.settings,
+                     "shapes": r.extra.get("shapes", {})})
     return df
 
 
