@@ -97,19 +97,25 @@ def coordinate_names(model: Model) -> list:
     return names
 
 
+ROUNDOFF = 1e-10    # relative error of the central differences (step 1e-6: roundoff eps / h)
+
+
 def system_modes(model: Model, q, v, t: float = 0.0) -> list:
     """The oscillating eigenvalues of the linearized system (one per conjugate pair, ascending
     frequency) with damping and label. Non-oscillating roots (rigid-body modes, overdamped or
-    unstable ones) are left out."""
+    unstable ones) are left out, and so are roots within sqrt(ROUNDOFF max|A|) of zero: a rigid
+    mode without stiffness is a double zero root, which an error e in A moves by sqrt(e)."""
     free = dynamics.free_velocities(model)
-    lam, vec = np.linalg.eig(state_matrix(model, q, v, t))
+    A = state_matrix(model, q, v, t)
+    lam, vec = np.linalg.eig(A)
+    zero = np.sqrt(ROUNDOFF * np.abs(A).max(initial=0.0))       # how far the differences move a double zero root
     n = free.size
     data, E = make_data(model), np.eye(model.nv)
     M_ii = np.array([2.0 * dynamics.energy(model, data, q, E[i])[0] for i in free])   # diagonal of M: 2 T(e_i)
     names = [coordinate_names(model)[i] for i in free]
     scale = np.abs(lam).max(initial=1.0)
     out = []
-    for k in np.flatnonzero(lam.imag > 1e-9 * scale):
+    for k in np.flatnonzero((lam.imag > 1e-9 * scale) & (np.abs(lam) > zero)):
         x = vec[:n, k]
         energy = np.abs(x) ** 2 * M_ii
         share = energy / energy.sum()

@@ -44,3 +44,16 @@ def test_a_peak_at_the_top_of_the_retained_modes_says_truncation():
     assert got[0]["mode"] == "none within 2% (nearest beam xy4)"
     got = rows([900.0], modes, dt=2.5e-4)
     assert "above all of them" in got[0]["mode"]
+
+
+def test_a_peak_only_the_finer_system_explains_is_named_after_its_mode():
+    """exudyn-beam's 426 Hz pendulum peak: none of the 12-mode system's modes is within 2 %, the
+    24-mode system's 427 Hz is; the case's own modes come first when both are near."""
+    modes = [(24.23, "beam xy1"), (281.5, "beam xy4"), (700.3, "beam xy5")]
+    finer = {"tip_deflection": [(24.25, "beam xy1 (24 modes)"), (427.6, "beam xy5 (24 modes)")]}
+    t = np.arange(0.0, 2.0 + 2.5e-4, 5e-4)
+    y = np.sin(2 * np.pi * 24.3 * t) + np.sin(2 * np.pi * 426.0 * t)
+    r = Result(solver="x", case=CASE.name, t=t, channels={"tip_deflection": y})
+    got = accuracy.peak_table(CASE, {"x": r}, {"tip_deflection": modes}, 5e-4, finer=finer)
+    assert [g["mode"] for g in got] == ["beam xy1", "beam xy5 (24 modes)"]
+    assert got[1]["difference"] == pytest.approx(426.0 / 427.6 - 1, abs=1e-3)

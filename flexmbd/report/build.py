@@ -83,6 +83,42 @@ def system_modes(case) -> list:
     return SYSTEM[key]
 
 
+FINER = 2       # the finer mode set of the spectra: this many times each beam's retained modes
+
+
+def finer(case):
+    """The case with FINER times the retained modes of every unsplit flexible beam (as far as its
+    mesh allows), against whose system a finer solver's peaks are matched; None when no beam can
+    take more (a beam split into segments keeps its modes)."""
+    from flexmbd import cases
+    more = []
+    for name, b in case["bodies"].items():
+        if b.get("type", "beam") == "beam" and b.get("segments", 1) == 1 and (b.get("modes") or {}).get("count"):
+            item = f"bodies.{name}.modes.count={FINER * b['modes']['count']}"
+            try:
+                cases.load(str(case.path), list(case.overrides) + more + [item])
+                more.append(item)
+            except InputError:                          # more modes than the mesh holds: keep this beam's
+                continue
+    return cases.load(str(case.path), list(case.overrides) + more) if more else None
+
+
+def spectral_modes(case) -> tuple[dict, dict]:
+    """(own, finer): deflection channel -> the system modes [(Hz, label)] its spectral peaks are
+    matched against (`channel_modes`), of the case and of the case with FINER times the retained
+    modes (`finer`), those labelled '... (N modes)': a peak of a finer solver (exudyn-beam,
+    fe-linear, mujoco-rod) that matches only these is a mode the retained set truncates or places
+    too high."""
+    own, fine = channel_modes(case, system_modes(case)), {}
+    more = finer(case)
+    if more is not None:
+        n = {b["modes"]["count"] for b in more["bodies"].values() if (b.get("modes") or {}).get("count")}
+        tag = f"{'/'.join(map(str, sorted(n)))} modes"
+        fine = {ch: [(f, f"{lab} ({tag})") for f, lab in modes]
+                for ch, modes in channel_modes(more, system_modes(more)).items()}
+    return own, fine
+
+
 def prepare(chosen_cases, notice=None) -> None:
     """What page building needs that may run long native code (the system modes: the first one
     compiles flexmbd's kernel), done before any page is staged: SIGINT / SIGTERM end it at once.
@@ -93,7 +129,7 @@ def prepare(chosen_cases, notice=None) -> None:
                "their spectra (about a minute; cached afterwards)")
     with files.signals_exit():
         for case in chosen_cases:
-            system_modes(case)
+            spectral_modes(case)
 
 
 def channel_modes(case, system: list) -> dict:
@@ -154,12 +190,20 @@ def mode_shapes(case, d: Path) -> tuple[str, str] | None:
             "".join(f"![{i}]({i})\n\n" for i in figs) + plain(note) + "\n")
 
 
+def ran(r: Result) -> bool:
+    """Whether a result comes from a run (ok or failed), so that its times and counts mean something."""
+    return r.status.kind in ("ok", "failed")
+
+
 def timing_rows(res: dict, t_end: float) -> list[list]:
+    """Per solver: status, solve / set-up / compile wall times, steps, RHS evaluations, wall time per
+    simulated second; NaN (shown as —) for a solver that did not run."""
     rows = []
     for s, r in res.items():
         sim = r.t[-1] if len(r.t) else t_end
-        rows.append([s, str(r.status), r.wall_s, r.setup_s, r.extra.get("compile_s", np.nan), r.steps, r.rhs_evals,
-                     metrics.per_simulated_second(r.wall_s, sim)])
+        got = [r.wall_s, r.setup_s, r.extra.get("compile_s", np.nan), r.steps, r.rhs_evals,
+               metrics.per_simulated_second(r.wall_s, sim)]
+        rows.append([s, str(r.status)] + (got if ran(r) else [np.nan] * len(got)))
     return rows
 
 
@@ -198,7 +242,8 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     acc = accuracy.rows(case, ok, mods, freqs)
     system = system_modes(case)
     dt = case["integrator"]["output_dt"]
-    peaks = accuracy.peak_table(case, ok, channel_modes(case, system), dt)
+    own, fine = spectral_modes(case)
+    peaks = accuracy.peak_table(case, ok, own, dt, finer=fine)
     d = stage / case.name
     sections = []                                             # (title, html, markdown)
 
@@ -228,7 +273,10 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
                 "every larger peak; refined by a parabola through the log-amplitudes. Each peak is named after "
                 "the nearest frequency within 2 % of the system modes that move the channel's point in its "
                 "direction: the case's equations (joint and modal coordinates) linearized about the initial "
-                "state (<code>flexmbd modes CASE --system</code>, docs/formulation.md §10). Peaks below half "
+                "state (<code>flexmbd modes CASE --system</code>, docs/formulation.md §10). A peak none of "
+                f"them explains is matched against the same system with {FINER} times the retained modes per "
+                "beam (labels ending '(N modes)'): such a peak, of a finer solver, is a mode the retained set "
+                "truncates or places too high. Peaks below half "
                 "the lowest of them are the forced, quasi-static response and are not listed. A system whose configuration or spin changes much during the run "
                 "(a swinging double pendulum, a spun-up beam) vibrates at shifting frequencies, and its peaks "
                 "may stand apart from these.</p>")
@@ -290,8 +338,8 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     atomic_write(d / "index.html", "".join(page) + "\n")
     atomic_write(d / "index.md", "\n".join(md))
     verdicts = {s: accuracy.verdict(r.status, s, ref, acc) for s, r in res.items()}
-    summary = [[case.name, s, verdicts[s].text, accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s]
-               for s, r in res.items()]
+    summary = [[case.name, s, verdicts[s].text, accuracy.worst(acc, s) if s != ref else np.nan,
+                r.wall_s if ran(r) else np.nan] for s, r in res.items()]
     return {"accuracy": acc, "summary": summary, "verdicts": [verdicts[s] for s in res]}
 
 
