@@ -132,3 +132,36 @@ def for_case(case, about: str = "initial") -> list:
     if about == "equilibrium":
         q, v = equilibrium(model, q), np.zeros(model.nv)
     return system_modes(model, q, v, 0.0)
+
+
+def frozen_joints(model: Model, recorded) -> bool:
+    """Whether the joint coordinates `recorded` (names) fix the configuration of every free joint:
+    each free joint moves one coordinate and is recorded."""
+    free = [i for i in range(1, model.nb + 1) if model.jnt_nv[i] and not model.jnt_prescribed[i]]
+    return bool(free) and all(model.jnt_nv[i] == 1 and model.jnt_names[i] in recorded for i in free)
+
+
+def along(case, t, coords: dict, instants) -> list:
+    """[(instant s, [SystemMode])]: the system linearized about the states of a run at `instants`,
+    frozen: each free joint at its recorded coordinate and rate (`coords`: joint name -> (n,)
+    coordinate at the samples t (n,); rates by differences), every modal coordinate and rate at
+    zero, prescribed joints on their profile. A swinging or spinning system's vibration
+    frequencies change with its configuration and rate; these are their values at each instant
+    (a frozen-time approximation, which the elastic deformation itself does not enter). An
+    InputError when `coords` do not fix every free joint (`frozen_joints`)."""
+    model = model_of(case)
+    if not frozen_joints(model, coords):
+        raise InputError(f"{case.path}: the recorded joint coordinates ({', '.join(coords) or 'none'}) do not fix "
+                         f"every free joint (each must be a one-coordinate joint with a joint_angle channel)")
+    t = np.asarray(t, dtype=float)
+    rates = {name: np.gradient(np.asarray(y, dtype=float), t) for name, y in coords.items()}
+    out = []
+    for s in instants:
+        k = int(np.argmin(np.abs(t - s)))
+        q, v = model.q0.copy(), np.zeros(model.nv)          # modal coordinates of q0: zero
+        for i in range(1, model.nb + 1):
+            name = model.jnt_names[i]
+            if name in coords and model.jnt_nv[i] == 1 and not model.jnt_prescribed[i]:
+                q[model.jnt_qadr[i]], v[model.jnt_vadr[i]] = coords[name][k], rates[name][k]
+        out.append((float(t[k]), system_modes(model, q, v, float(t[k]))))
+    return out

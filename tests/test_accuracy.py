@@ -54,6 +54,6 @@ def test_a_peak_only_the_finer_system_explains_is_named_after_its_mode():
     t = np.arange(0.0, 2.0 + 2.5e-4, 5e-4)
     y = np.sin(2 * np.pi * 24.3 * t) + np.sin(2 * np.pi * 426.0 * t)
     r = Result(solver="x", case=CASE.name, t=t, channels={"tip_deflection": y})
-    got = accuracy.peak_table(CASE, {"x": r}, {"tip_deflection": modes}, 5e-4, finer=finer)
+    got = accuracy.peak_table(CASE, {"x": r}, {"tip_deflection": modes}, 5e-4, others=[finer])
     assert [g["mode"] for g in got] == ["beam xy1", "beam xy5 (24 modes)"]
     assert got[1]["difference"] == pytest.approx(426.0 / 427.6 - 1, abs=1e-3)

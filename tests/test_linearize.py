@@ -62,3 +62,24 @@ def test_a_rigid_mode_without_stiffness_is_not_reported_as_a_slow_vibration():
     for count in (12, 24):
         modes = linearize.for_case(cases.load("pendulum", [f"bodies.beam.modes.count={count}"]))
         assert min(m.freq_hz for m in modes) == pytest.approx(3.6847, rel=1e-3), count
+
+
+def test_frozen_linearization_along_a_swing_follows_the_rigid_pendulum():
+    """A rigid pendulum (no modes) frozen at angle theta (0 horizontal) at rest: qdd = -(m g d / I_O)
+    cos(theta), so omega^2 = (3 g / 2 L) (-sin theta): the compound rate hanging down, less on the
+    way up; within 1 % (the section's own inertia)."""
+    case = cases.load("pendulum", ["bodies.beam.modes.count=0"])
+    L = case["bodies"]["beam"]["length"]
+    t = np.linspace(0.0, 1.0, 11)
+    for theta in (-np.pi / 2, -np.pi / 4, -np.pi / 8):
+        (at, modes), = linearize.along(case, t, {"pivot": np.full(t.size, theta)}, [0.5])
+        assert at == pytest.approx(0.5)
+        assert modes[0].freq_hz == pytest.approx(np.sqrt(1.5 * 9.81 / L * -np.sin(theta)) / (2 * np.pi), rel=0.01)
+
+
+def test_frozen_linearization_needs_every_free_joint_recorded():
+    case = cases.load("double_pendulum")
+    model = linearize.model_of(case)
+    assert linearize.frozen_joints(model, {"pivot1", "pivot2"}) and not linearize.frozen_joints(model, {"pivot1"})
+    with pytest.raises(InputError, match="do not fix every free joint"):
+        linearize.along(case, np.linspace(0, 1, 5), {"pivot1": np.zeros(5)}, [0.5])

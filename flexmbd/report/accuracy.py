@@ -141,16 +141,17 @@ def truncation(fp: float, f_sys) -> str:
 
 
 def peak_table(case, results: dict, modes: dict, output_dt: float, tol: float = 0.02,
-               finer: dict | None = None) -> list[dict]:
+               others=()) -> list[dict]:
     """Identified spectral peaks of each deflection channel, each matched to the system modes that
     move its point, `modes[channel]` = [(frequency Hz, label)] (linearize.py): rows (solver,
     channel, f_identified, mode, f_system, difference). Peaks are sought above half the lowest of
     those modes (below lies the forced, quasi-static response). A peak within `tol` of a mode below
     the Nyquist frequency 1 / (2 dt) is named after it; else one within `tol` of the alias of a mode
-    above it is named 'alias of ...'; else one within `tol` of a mode of the finer model's system
-    (`finer[channel]`, the same case with more retained modes: a mode the retained set truncates
-    or places too high) is named after that; else 'none within 2 %', with the truncation note
-    (`truncation`) where the peak lies at the top of the retained modes."""
+    above it is named 'alias of ...'; else one within `tol` of a mode of `others`, channel -> modes
+    dicts tried in turn (the finer model's system, the same case with more retained modes: a mode
+    the retained set truncates or places too high; the system frozen at instants of the run: a
+    swinging system's shifting frequencies) is named after that; else 'none within 2 %', with the
+    truncation note (`truncation`) where the peak lies at the top of the retained modes."""
     fs = 1.0 / output_dt
     out = []
     for ch, chm in modes.items():
@@ -158,7 +159,7 @@ def peak_table(case, results: dict, modes: dict, output_dt: float, tol: float = 
         if not f_sys.size:
             continue
         below, above = f_sys <= fs / 2, f_sys > fs / 2
-        fine = [(f, lab) for f, lab in (finer or {}).get(ch, []) if f <= fs / 2]
+        more = [[(f, lab) for f, lab in other.get(ch, []) if f <= fs / 2] for other in others]
         for name, r in results.items():
             if not r.ok or ch not in r.channels or not np.any(r.channels[ch]):
                 continue
@@ -167,7 +168,8 @@ def peak_table(case, results: dict, modes: dict, output_dt: float, tol: float = 
                 k = int(np.argmin(np.where(below, np.abs(f_sys - fp), np.inf))) if below.any() else 0
                 d = fp / f_sys[k] - 1.0
                 alias = [(abs(aliased(f, fs) / fp - 1.0), j) for j, f in enumerate(f_sys) if above[j]]
-                near = min(fine, key=lambda m: abs(m[0] - fp)) if fine else None
+                near = next((m for m in (min(ms, key=lambda m: abs(m[0] - fp)) for ms in more if ms)
+                             if abs(fp / m[0] - 1.0) <= tol), None)
                 if below.any() and abs(d) <= tol:
                     row.update(mode=chm[k][1], f_system=f_sys[k], difference=d)
                 elif alias and min(alias)[0] <= tol:
@@ -175,7 +177,7 @@ def peak_table(case, results: dict, modes: dict, output_dt: float, tol: float = 
                     row.update(mode=f"alias of {chm[j][1]} ({f_sys[j]:.4g} Hz above the Nyquist "
                                     f"frequency {fs / 2:.4g} Hz)", f_system=aliased(f_sys[j], fs),
                                difference=fp / aliased(f_sys[j], fs) - 1.0)
-                elif near and abs(fp / near[0] - 1.0) <= tol:
+                elif near:
                     row.update(mode=near[1], f_system=near[0], difference=fp / near[0] - 1.0)
                 else:
                     row.update(mode=f"none within {tol:.0%} (nearest {chm[k][1]}){truncation(fp, f_sys)}",

@@ -119,6 +119,44 @@ def spectral_modes(case) -> tuple[dict, dict]:
     return own, fine
 
 
+FROZEN = (41, 11)       # instants of the frozen linearization: up to 64 coordinates, and beyond
+
+
+def frozen_modes(case, ok: dict) -> tuple[str, list] | None:
+    """(the solver whose run gave the states, [(instant s, [(Hz, label)])]): the system linearized
+    about the states of a run at evenly spaced instants (`linearize.along`: the joints at their
+    recorded angles and rates), from the reference's run or else the first ok run that records every
+    free joint's angle. None when no run does, or when the joints hardly move (below 0.05 rad):
+    then the initial state's modes hold throughout."""
+    from flexmbd import linearize
+    angles = {n: c["joint"] for n, c in case["channels"].items() if c["kind"] == "joint_angle"}
+    model = linearize.model_of(case)
+    if not angles or not linearize.frozen_joints(model, set(angles.values())):
+        return None
+    order = [case["report"]["reference"]] + [s for s in ok if s != case["report"]["reference"]]
+    for s in order:
+        r = ok.get(s)
+        if r is None or not all(n in r.channels for n in angles) or len(r.t) < 3:
+            continue
+        coords = {j: r.channels[n] for n, j in angles.items()}
+        if max(np.ptp(y) for y in coords.values()) < 0.05:
+            return None
+        n = FROZEN[0] if model.nv <= 64 else FROZEN[1]
+        sweep = linearize.along(case, r.t, coords, np.linspace(r.t[0], r.t[-1], n))
+        return s, [(at, [(m.freq_hz, m.label) for m in modes]) for at, modes in sweep]
+    return None
+
+
+def frozen_channel_modes(case, sweep: list) -> dict:
+    """Deflection channel -> the frozen system modes that move its point (`channel_modes` at each
+    instant), labelled '... at t = T s (frozen)'."""
+    out = {}
+    for at, modes in sweep:
+        for ch, ms in channel_modes(case, modes).items():
+            out.setdefault(ch, []).extend((f, f"{lab} at t = {at:.3g} s (frozen)") for f, lab in ms)
+    return out
+
+
 def prepare(chosen_cases, notice=None) -> None:
     """What page building needs that may run long native code (the system modes: the first one
     compiles flexmbd's kernel), done before any page is staged: SIGINT / SIGTERM end it at once.
@@ -243,7 +281,9 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     system = system_modes(case)
     dt = case["integrator"]["output_dt"]
     own, fine = spectral_modes(case)
-    peaks = accuracy.peak_table(case, ok, own, dt, finer=fine)
+    frozen = frozen_modes(case, ok)
+    peaks = accuracy.peak_table(case, ok, own, dt,
+                                others=[fine] + ([frozen_channel_modes(case, frozen[1])] if frozen else []))
     d = stage / case.name
     sections = []                                             # (title, html, markdown)
 
@@ -277,9 +317,13 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
                 f"them explains is matched against the same system with {FINER} times the retained modes per "
                 "beam (labels ending '(N modes)'): such a peak, of a finer solver, is a mode the retained set "
                 "truncates or places too high. Peaks below half "
-                "the lowest of them are the forced, quasi-static response and are not listed. A system whose configuration or spin changes much during the run "
-                "(a swinging double pendulum, a spun-up beam) vibrates at shifting frequencies, and its peaks "
-                "may stand apart from these.</p>")
+                "the lowest of them are the forced, quasi-static response and are not listed. A system whose "
+                "configuration or spin changes much during the run (a swinging double pendulum) vibrates at "
+                "shifting frequencies: its peaks are matched last against the system linearized about the run's "
+                "state at evenly spaced instants (joints at their recorded angles and rates, modal coordinates "
+                "at rest; labels ending 'at t = T s (frozen)'), a frozen-time approximation. A vibration whose "
+                "amplitude the swing modulates also shows sidebands at its frequency plus and minus the swing's, "
+                "which no mode explains.</p>")
         if high:
             note += (f"<p class='outside'>{len(high)} system mode{'s lie' if len(high) > 1 else ' lies'} above "
                      f"the Nyquist frequency "
@@ -287,6 +331,10 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
                      + ", ".join(f"{f:.4g} Hz, {html.escape(lab)}" for f, lab in high[:3])
                      + "); sampled without filtering, they show as aliases at |f - k / dt|, which the table "
                        "names.</p>")
+        if frozen:
+            shown = [f for f, _ in system if f <= 0.5 / dt]
+            fmax = min(0.5 / dt, 1.15 * max(shown)) if shown else 0.5 / dt
+            spec.append(figures.frozen(case, frozen[0], frozen[1], 0.5 * min(shown or [1.0]), fmax, d / "frozen.png"))
         sections.append(("FFT spectra and identified frequencies",
                          "".join(f"<p><img src='{i}' alt='{i}'></p>" for i in spec) + note + tables.html_table(head, rows),
                          "".join(f"![{i}]({i})\n\n" for i in spec)

@@ -332,3 +332,22 @@ def work_precision_figure(rows: list):
     if handles:
         fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncol=min(len(handles), 5), fontsize=8)
     return fig
+
+
+def frozen(case, solver: str, sweep: list, fmin: float, fmax: float, path: Path) -> str:
+    """The system's frequencies along a run (`report.build.frozen_modes`: linearized about the
+    run's state at each instant, frozen) against time, from fmin to fmax on a log scale: how far a
+    swinging or spun system's vibration frequencies move."""
+    fig, ax = plt.subplots(figsize=(9, 4.2))
+    for at, modes in sweep:
+        fs = [f for f, _ in modes if fmin <= f <= fmax]
+        ax.semilogy([at] * len(fs), fs, "k.", ms=3)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("frequency [Hz]")
+    ax.set_ylim(fmin, fmax)
+    ax.grid(alpha=0.3, which="both")
+    ax.set_title(f"{case.name}: the system's frequencies about {solver}'s state at each instant "
+                 "(frozen linearization)", fontsize=10)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return save(fig, path)
