@@ -11,7 +11,7 @@ import pytest
 
 from flexmbd import cases, flexbody, metrics, solvers
 from flexmbd.cli import main
-from flexmbd.report import regress, tables
+from flexmbd.report import build, regress, tables
 
 FAST = "analytic,fe-linear"
 
@@ -350,3 +350,14 @@ def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(repor
     for page in (out / "index.html", out / "index.md"):
         text = page.read_text()
         assert "Work and precision" not in text and "work_precision" not in text and "benchmark" not in text
+
+
+def test_a_channel_is_matched_against_the_modes_that_move_its_point_in_its_direction():
+    """The double pendulum's in-plane tip deflection of beam2: the modes led by the joints (beam2's
+    in-plane bending is led by its hinge, pivot2) and by beam1's in-plane bending (18.1 Hz, which
+    shakes beam2's root in-plane), none led by an out-of-plane (xz) bending or a torsion."""
+    case = cases.load("double_pendulum")
+    labels = [lab for _, lab in build.channel_modes(case, build.system_modes(case))["tip_deflection_2"]]
+    assert any(lab.startswith("joint ") for lab in labels)
+    assert "beam1 bending xy 1" in labels
+    assert not any(" xz " in lab or "torsion" in lab for lab in labels), labels

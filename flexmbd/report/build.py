@@ -172,19 +172,28 @@ def prepare(chosen_cases, notice=None) -> None:
 
 def channel_modes(case, system: list) -> dict:
     """Deflection channel -> the system modes [(Hz, label)] that can move its point in its
-    direction: those led by a joint, or by a retained mode of the channel's body (or of one of its
-    segments) whose shape moves that node in that direction."""
+    direction: those led by a joint; by a retained mode of the channel's body (or of one of its
+    segments) whose shape moves that node in that direction; or by a retained mode of another
+    body that moves any of its nodes in that direction of its own frame (in a planar system, the
+    same plane: beam1's in-plane bending shakes beam2's tip in-plane, its out-of-plane bending
+    does not)."""
     bodies = flexbody.for_case(case)
     out = {}
     for ch, c in case["channels"].items():
         if c["kind"] != "deflection" or c["body"] not in bodies:
             continue
+        axis = 3 + "xyz".index(c["component"])
         fb = bodies[c["body"]]
-        w = np.abs(fb.Phi[fb.node_at(c["at"]), 3 + "xyz".index(c["component"])])
-        moving = {str(lab) for lab, x in zip(fb.labels, w) if x > 1e-6 * w.max()} if w.max() > 0 else set()
-        mine = lambda label: (label.startswith("joint ") or any(
-            label.startswith(prefix) and label.partition(" ")[2] in moving
-            for prefix in (c["body"] + " ", c["body"] + ":")))
+        w = np.abs(fb.Phi[fb.node_at(c["at"]), axis])
+        moving = {c["body"]: {str(lab) for lab, x in zip(fb.labels, w) if x > 1e-6 * w.max()} if w.max() > 0 else set()}
+        for name, other in bodies.items():
+            if name != c["body"]:
+                w = np.abs(other.Phi[:, axis]).max(axis=0)
+                moving[name] = {str(lab) for lab, x in zip(other.labels, w) if x > 1e-6 * w.max()} if w.max() > 0 else set()
+
+        def mine(label: str, moving=moving) -> bool:
+            head, _, mode = label.partition(" ")       # 'joint pivot', 'beam1 bending xy 1', 'rod:3 axial 1'
+            return head == "joint" or mode in moving.get(head.split(":")[0], set())
         out[ch] = [(f, lab) for f, lab in system if mine(lab)]
     return out
 
