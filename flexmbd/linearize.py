@@ -135,10 +135,12 @@ def for_case(case, about: str = "initial") -> list:
 
 
 def frozen_joints(model: Model, recorded) -> bool:
-    """Whether the joint coordinates `recorded` (names) fix the configuration of every free joint:
-    each free joint moves one coordinate and is recorded."""
-    free = [i for i in range(1, model.nb + 1) if model.jnt_nv[i] and not model.jnt_prescribed[i]]
-    return bool(free) and all(model.jnt_nv[i] == 1 and model.jnt_names[i] in recorded for i in free)
+    """Whether the joint coordinates `recorded` (names) fix the configuration of every free joint
+    (each free joint moves one coordinate and is recorded) and something moves: a free joint or a
+    prescribed one."""
+    moving = [i for i in range(1, model.nb + 1) if model.jnt_nv[i]]
+    free = [i for i in moving if not model.jnt_prescribed[i]]
+    return bool(moving) and all(model.jnt_nv[i] == 1 and model.jnt_names[i] in recorded for i in free)
 
 
 def along(case, t, coords: dict, instants) -> list:

@@ -83,3 +83,13 @@ def test_frozen_linearization_needs_every_free_joint_recorded():
     assert linearize.frozen_joints(model, {"pivot1", "pivot2"}) and not linearize.frozen_joints(model, {"pivot1"})
     with pytest.raises(InputError, match="do not fix every free joint"):
         linearize.along(case, np.linspace(0, 1, 5), {"pivot1": np.zeros(5)}, [0.5])
+
+
+def test_frozen_linearization_of_a_driven_hub_follows_its_profile():
+    """The spin-up beam frozen at t = 20 s, after its hub reached 6 rad/s (spin_up profile), has the
+    frequencies of the same beam spun at a constant 6 rad/s linearized about its initial state
+    (constant_rate): the profile's rate enters, and nothing else of the two cases differs."""
+    spun = linearize.along(cases.load("spinup_beam"), np.linspace(0.0, 30.0, 301), {}, [0.0, 20.0])
+    steady = linearize.for_case(cases.load("rotating_cantilever", ["joints.hub.motion.rate=6.0"]))
+    assert [m.freq_hz for m in spun[0][1]][:3] == pytest.approx([0.0403, 0.2525, 0.6044], rel=1e-3)
+    assert [m.freq_hz for m in spun[1][1]] == pytest.approx([m.freq_hz for m in steady], rel=1e-6)

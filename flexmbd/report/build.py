@@ -125,21 +125,23 @@ FROZEN = (41, 11)       # instants of the frozen linearization: up to 64 coordin
 def frozen_modes(case, ok: dict) -> tuple[str, list] | None:
     """(the solver whose run gave the states, [(instant s, [(Hz, label)])]): the system linearized
     about the states of a run at evenly spaced instants (`linearize.along`: the joints at their
-    recorded angles and rates), from the reference's run or else the first ok run that records every
-    free joint's angle. None when no run does, or when the joints hardly move (below 0.05 rad):
-    then the initial state's modes hold throughout."""
+    recorded angles and rates, prescribed joints on their profile), from the reference's run or
+    else the first ok run that records every free joint's angle. None when no run does, or when
+    nothing is driven and the joints hardly move (below 0.05 rad): then the initial state's modes
+    hold throughout."""
     from flexmbd import linearize
     angles = {n: c["joint"] for n, c in case["channels"].items() if c["kind"] == "joint_angle"}
     model = linearize.model_of(case)
-    if not angles or not linearize.frozen_joints(model, set(angles.values())):
+    if not linearize.frozen_joints(model, set(angles.values())):
         return None
+    driven = bool(model.jnt_prescribed[1:].any())
     order = [case["report"]["reference"]] + [s for s in ok if s != case["report"]["reference"]]
     for s in order:
         r = ok.get(s)
         if r is None or not all(n in r.channels for n in angles) or len(r.t) < 3:
             continue
         coords = {j: r.channels[n] for n, j in angles.items()}
-        if max(np.ptp(y) for y in coords.values()) < 0.05:
+        if not driven and max(np.ptp(y) for y in coords.values()) < 0.05:
             return None
         n = FROZEN[0] if model.nv <= 64 else FROZEN[1]
         sweep = linearize.along(case, r.t, coords, np.linspace(r.t[0], r.t[-1], n))
