@@ -329,10 +329,11 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
                 "beam (labels ending '(N modes)'): such a peak, of a finer solver, is a mode the retained set "
                 "truncates or places too high. Peaks below half "
                 "the lowest of them are the forced, quasi-static response and are not listed. A system whose "
-                "configuration or spin changes much during the run (a swinging double pendulum) vibrates at "
-                "shifting frequencies: its peaks are matched last against the system linearized about the run's "
-                "state at evenly spaced instants (joints at their recorded angles and rates, modal coordinates "
-                "at rest; labels ending 'at t = T s (frozen)'), a frozen-time approximation. A vibration whose "
+                "configuration or spin changes much during the run (a swinging double pendulum, a spun-up beam) "
+                "vibrates at shifting frequencies: its peaks are matched last against the system linearized about "
+                "the run's state at evenly spaced instants (free joints at their recorded angles and rates, driven "
+                "ones on their profile, modal coordinates at rest; labels ending 'at t = T s (frozen)'), a "
+                "frozen-time approximation. A vibration whose "
                 "amplitude the swing modulates also shows sidebands at its frequency plus and minus the swing's, "
                 "which no mode explains.</p>")
         if high:
