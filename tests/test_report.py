@@ -361,3 +361,19 @@ def test_a_channel_is_matched_against_the_modes_that_move_its_point_in_its_direc
     assert any(lab.startswith("joint ") for lab in labels)
     assert "beam1 bending xy 1" in labels
     assert not any(" xz " in lab or "torsion" in lab for lab in labels), labels
+
+
+def test_frozen_frequencies_only_where_they_move():
+    """A hub spun at a constant rate has the same system at every instant: no frozen sweep. A hub
+    spun up has one, its in-plane bending stiffening with the rate (0.604 Hz at rest)."""
+    from flexmbd.results import Result
+    t = np.linspace(0.0, 20.0, 201)
+    steady = cases.load("rotating_cantilever")
+    r = Result(solver="flexmbd", case=steady.name, t=t, channels={"hub_angle": 4.0 * t})
+    assert build.frozen_modes(steady, {steady["report"]["reference"]: r}) is None
+    spun = cases.load("spinup_beam")
+    r = Result(solver="flexmbd", case=spun.name, t=t, channels={"hub_angle": np.zeros_like(t)})
+    solver, sweep = build.frozen_modes(spun, {spun["report"]["reference"]: r})
+    inplane = [[f for f, lab in modes if "xy 1" in lab][0] for _, modes in sweep]
+    assert solver == spun["report"]["reference"] and inplane[0] == pytest.approx(0.6044, rel=1e-3)
+    assert inplane[-1] > 0.7

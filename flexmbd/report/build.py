@@ -126,9 +126,9 @@ def frozen_modes(case, ok: dict) -> tuple[str, list] | None:
     """(the solver whose run gave the states, [(instant s, [(Hz, label)])]): the system linearized
     about the states of a run at evenly spaced instants (`linearize.along`: the joints at their
     recorded angles and rates, prescribed joints on their profile), from the reference's run or
-    else the first ok run that records every free joint's angle. None when no run does, or when
-    nothing is driven and the joints hardly move (below 0.05 rad): then the initial state's modes
-    hold throughout."""
+    else the first ok run that records every free joint's angle. None when no run does, when
+    nothing is driven and the joints hardly move (below 0.05 rad), or when the frequencies do not
+    move (a steady spin): then the initial state's modes hold throughout."""
     from flexmbd import linearize
     angles = {n: c["joint"] for n, c in case["channels"].items() if c["kind"] == "joint_angle"}
     model = linearize.model_of(case)
@@ -145,6 +145,10 @@ def frozen_modes(case, ok: dict) -> tuple[str, list] | None:
             return None
         n = FROZEN[0] if model.nv <= 64 else FROZEN[1]
         sweep = linearize.along(case, r.t, coords, np.linspace(r.t[0], r.t[-1], n))
+        first = [m.freq_hz for m in sweep[0][1]]
+        if all(np.allclose([m.freq_hz for m in modes], first, rtol=1e-6) if len(modes) == len(first) else False
+               for _, modes in sweep):
+            return None                                  # a steady spin: the initial state's modes hold throughout
         return s, [(at, [(m.freq_hz, m.label) for m in modes]) for at, modes in sweep]
     return None
 
