@@ -20,7 +20,6 @@ of this machine's.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import re
 from pathlib import Path
@@ -119,7 +118,7 @@ def table(case, path: Path, failed: bool) -> tuple[np.ndarray, dict, str]:
     if t[-1] < duration - dt_out and not failed:
         raise InputError(f"{path}: column t ends at {t[-1]:g} s, before the case's duration {duration:g} s "
                          f"(a run that failed early: give its status in --meta)")
-    return t, {c: df[c].to_numpy(dtype=float) for c in names}, hashlib.sha256(text.encode()).hexdigest()
+    return t, {c: df[c].to_numpy(dtype=float) for c in names}, results.sha256(text)
 
 
 def load(case, name: str, path: Path, meta_path: Path | None = None) -> Result:

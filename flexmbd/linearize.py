@@ -143,15 +143,16 @@ def frozen_joints(model: Model, recorded) -> bool:
     return bool(moving) and all(model.jnt_nv[i] == 1 and model.jnt_names[i] in recorded for i in free)
 
 
-def along(case, t, coords: dict, instants) -> list:
+def along(case, t, coords: dict, instants, model: Model | None = None) -> list:
     """[(instant s, [SystemMode])]: the system linearized about the states of a run at `instants`,
     frozen: each free joint at its recorded coordinate and rate (`coords`: joint name -> (n,)
     coordinate at the samples t (n,); rates by differences), every modal coordinate and rate at
     zero, prescribed joints on their profile. A swinging or spinning system's vibration
     frequencies change with its configuration and rate; these are their values at each instant
     (a frozen-time approximation, which the elastic deformation itself does not enter). An
-    InputError when `coords` do not fix every free joint (`frozen_joints`)."""
-    model = model_of(case)
+    InputError when `coords` do not fix every free joint (`frozen_joints`). `model`: the case's
+    (`model_of`), when the caller has it."""
+    model = model_of(case) if model is None else model
     if not frozen_joints(model, coords):
         raise InputError(f"{case.path}: the recorded joint coordinates ({', '.join(coords) or 'none'}) do not fix "
                          f"every free joint (each must be a one-coordinate joint with a joint_angle channel)")

@@ -91,16 +91,16 @@ def finer(case):
     mesh allows), against whose system a finer solver's peaks are matched; None when no beam can
     take more (a beam split into segments keeps its modes)."""
     from flexmbd import cases
-    more = []
+    more, fine = [], None
     for name, b in case["bodies"].items():
         if b.get("type", "beam") == "beam" and b.get("segments", 1) == 1 and (b.get("modes") or {}).get("count"):
             item = f"bodies.{name}.modes.count={FINER * b['modes']['count']}"
             try:
-                cases.load(str(case.path), list(case.overrides) + more + [item])
+                fine = cases.load(str(case.path), list(case.overrides) + more + [item])
                 more.append(item)
             except InputError:                          # more modes than the mesh holds: keep this beam's
                 continue
-    return cases.load(str(case.path), list(case.overrides) + more) if more else None
+    return fine
 
 
 def spectral_modes(case) -> tuple[dict, dict]:
@@ -144,7 +144,7 @@ def frozen_modes(case, ok: dict) -> tuple[str, list] | None:
         if not driven and max(np.ptp(y) for y in coords.values()) < 0.05:
             return None
         n = FROZEN[0] if model.nv <= 64 else FROZEN[1]
-        sweep = linearize.along(case, r.t, coords, np.linspace(r.t[0], r.t[-1], n))
+        sweep = linearize.along(case, r.t, coords, np.linspace(r.t[0], r.t[-1], n), model)
         first = [m.freq_hz for m in sweep[0][1]]
         if all(np.allclose([m.freq_hz for m in modes], first, rtol=1e-6) if len(modes) == len(first) else False
                for _, modes in sweep):
@@ -156,9 +156,9 @@ def frozen_modes(case, ok: dict) -> tuple[str, list] | None:
 def frozen_channel_modes(case, sweep: list) -> dict:
     """Deflection channel -> the frozen system modes that move its point (`channel_modes` at each
     instant), labelled '... at t = T s (frozen)'."""
-    out = {}
+    out, moving = {}, moving_modes(case)
     for at, modes in sweep:
-        for ch, ms in channel_modes(case, modes).items():
+        for ch, ms in filtered(moving, modes).items():
             out.setdefault(ch, []).extend((f, f"{lab} at t = {at:.3g} s (frozen)") for f, lab in ms)
     return out
 
@@ -178,30 +178,40 @@ def prepare(chosen_cases, notice=None) -> None:
 
 def channel_modes(case, system: list) -> dict:
     """Deflection channel -> the system modes [(Hz, label)] that can move its point in its
-    direction: those led by a joint; by a retained mode of the channel's body (or of one of its
-    segments) whose shape moves that node in that direction; or by a retained mode of another
-    body that moves any of its nodes in that direction of its own frame (in a planar system, the
-    same plane: beam1's in-plane bending shakes beam2's tip in-plane, its out-of-plane bending
-    does not)."""
+    direction (`moving_modes`): those led by a joint, or by a retained mode the channel's
+    filter keeps."""
+    return filtered(moving_modes(case), system)
+
+
+def moving_modes(case) -> dict:
+    """Deflection channel -> {body: labels of its retained modes that can move the channel's
+    point in its direction}: of the channel's body (or of one of its segments), the modes whose
+    shape moves that node in that direction; of another body, those that move any of its nodes in
+    that direction of its own frame (in a planar system, the same plane: beam1's in-plane bending
+    shakes beam2's tip in-plane, its out-of-plane bending does not)."""
     bodies = flexbody.for_case(case)
+
+    def labels(fb, w) -> set:
+        return {str(lab) for lab, x in zip(fb.labels, w) if x > 1e-6 * w.max()} if w.max() > 0 else set()
+
     out = {}
     for ch, c in case["channels"].items():
         if c["kind"] != "deflection" or c["body"] not in bodies:
             continue
         axis = 3 + "xyz".index(c["component"])
         fb = bodies[c["body"]]
-        w = np.abs(fb.Phi[fb.node_at(c["at"]), axis])
-        moving = {c["body"]: {str(lab) for lab, x in zip(fb.labels, w) if x > 1e-6 * w.max()} if w.max() > 0 else set()}
-        for name, other in bodies.items():
-            if name != c["body"]:
-                w = np.abs(other.Phi[:, axis]).max(axis=0)
-                moving[name] = {str(lab) for lab, x in zip(other.labels, w) if x > 1e-6 * w.max()} if w.max() > 0 else set()
-
-        def mine(label: str, moving=moving) -> bool:
-            head, _, mode = label.partition(" ")       # 'joint pivot', 'beam1 bending xy 1', 'rod:3 axial 1'
-            return head == "joint" or mode in moving.get(head.split(":")[0], set())
-        out[ch] = [(f, lab) for f, lab in system if mine(lab)]
+        out[ch] = {name: labels(other, np.abs(other.Phi[:, axis]).max(axis=0)) for name, other in bodies.items()}
+        out[ch][c["body"]] = labels(fb, np.abs(fb.Phi[fb.node_at(c["at"]), axis]))
     return out
+
+
+def filtered(moving: dict, system: list) -> dict:
+    """Deflection channel -> the system modes [(Hz, label)] led by a joint or by a mode in the
+    channel's `moving` sets (labels 'joint pivot', 'beam1 bending xy 1', 'rod:3 axial 1')."""
+    def mine(label: str, sets: dict) -> bool:
+        head, _, mode = label.partition(" ")
+        return head == "joint" or mode in sets.get(head.split(":")[0], set())
+    return {ch: [(f, lab) for f, lab in system if mine(lab, sets)] for ch, sets in moving.items()}
 
 
 def mode_shapes(case, d: Path) -> tuple[str, str] | None:
