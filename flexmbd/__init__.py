@@ -44,7 +44,9 @@ def compare(case, solvers=None, t_end: float | None = None):
     """Run the solvers (default: the case's report list) and compare each with the case's reference
     solver: a DataFrame with one row per (solver, channel): RMS, largest and peak differences over
     the reference's largest magnitude, the tolerance and `passes` (RMS within tolerance).
-    `df.attrs["status"]` maps each solver to its status line."""
+    `df.attrs["status"]` maps each solver to its status line; `df.attrs["not_graded"]` is '' or,
+    for a case without a reference solver (no `[report]` table), why nothing is graded (the
+    solvers run, and the DataFrame has no rows)."""
     import pandas as pd
 
     from flexmbd import solvers as registry
@@ -52,7 +54,7 @@ def compare(case, solvers=None, t_end: float | None = None):
     case = _case(case)
     names = list(solvers or case["report"]["solvers"] or registry.NAMES)
     ref = case["report"]["reference"]
-    if ref not in names:
+    if ref is not None and ref not in names:
         names.insert(0, ref)
     for n in names:
         registry.check_name(n, "solvers")
@@ -63,6 +65,7 @@ def compare(case, solvers=None, t_end: float | None = None):
     df = pd.DataFrame(rows, columns=["case", "solver", "reference", "channel", "rms", "max", "peak", "tolerance"])
     df["passes"] = df["rms"] <= df["tolerance"]
     df.attrs["status"] = {n: str(r.status) for n, r in res.items()}
+    df.attrs["not_graded"] = accuracy.ungraded(case)
     return df
 
 

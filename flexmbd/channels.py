@@ -274,6 +274,47 @@ def reaction(f, kind: str, component: str) -> np.ndarray:
     return f[:, "xyz".index(component) + (3 if kind == "reaction_force" else 0)].copy()
 
 
+def physical_scale(case, name: str, kinetic_max: float | None = None) -> float:
+    """The scale of channel `name` in the case, in its unit, that its differences are measured
+    against where the reference's own magnitude can be noise (`metrics.channel_norm`):
+
+        energy       the largest kinetic energy of the case's reference run (`kinetic_max`, J),
+                     else the closed form `gravity_energy`
+        deflection   its beam's length, m
+        stress_vm    its beam's Young's modulus, Pa (the stress of a unit strain)
+        joint_angle  1 (rad, or m for a prismatic joint)
+        reaction_*   0: no scale (its reference's magnitude alone)
+    """
+    c = case["channels"][name]
+    kind = c["kind"]
+    if kind == "energy":
+        return float(kinetic_max) if kinetic_max else gravity_energy(case)
+    if kind == "deflection":
+        return float(case["bodies"][c["body"]]["length"])
+    if kind == "stress_vm":
+        return float(case["materials"][case["bodies"][c["body"]]["material"]]["E"])
+    return 1.0 if kind == "joint_angle" else 0.0
+
+
+def gravity_energy(case) -> float:
+    """|g| sum_b m_b l_b (J): the energy scale of a system moved by gravity, each body's mass m_b
+    times the length l_b of the chain from the ground to its far end (beam lengths, a rigid body's
+    centre of mass offset), the most its mass can descend by. 0 without gravity."""
+    g = float(np.linalg.norm(case["gravity"]))
+    parent = {j["child"]: j["parent"] for j in case["joints"].values()}
+
+    def reach(name: str) -> float:
+        b = case["bodies"][name]
+        own = b["length"] if b["type"] == "beam" else float(np.linalg.norm(b["com"]))
+        return own + (reach(parent[name]) if parent[name] != "ground" else 0.0)
+
+    def mass(b) -> float:
+        return case["materials"][b["material"]]["rho"] * flexbody.beam_section(b).A * b["length"] \
+            if b["type"] == "beam" else b["mass"]
+
+    return g * sum(mass(b) * reach(n) for n, b in case["bodies"].items())
+
+
 def channels(case, traj: Trajectory) -> dict:
     """Every channel of the case, (n,) each. A reaction the solver does not recover is left out."""
     out, n = {}, len(traj.t)

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import functools
 import json
+import math
 import os
 import signal
 import sys
@@ -22,7 +24,7 @@ from pathlib import Path
 
 import flexmbd
 from flexmbd import cases, cost, files, solvers
-from flexmbd.errors import InputError, Interrupted
+from flexmbd.errors import InputError
 
 OK, DIFFERENT, BAD_INPUT, INTERNAL = 0, 1, 2, 3
 
@@ -39,12 +41,14 @@ def _load(args) -> cases.Case:
 
 
 def _positive(text: str) -> float:
+    """A finite positive number (an option's value): inf, like nan, is refused, since no run can
+    last forever."""
     try:
         x = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not x > 0:
-        raise argparse.ArgumentTypeError(f"must be positive, got {text}")
+    if not (x > 0 and math.isfinite(x)):
+        raise argparse.ArgumentTypeError(f"must be a finite positive number, got {text}")
     return x
 
 
@@ -57,7 +61,7 @@ def cmd_list(args) -> int:
     for name in cases.available():
         c = _case(name)
         rows.append({"case": name, "title": c["title"], "bodies": list(c["bodies"]),
-                     "solvers": {s: solvers.status_for(c, s) or "ok" for s in solvers.NAMES}})
+                     "solvers": {s: solvers.status_for(c, s) or "ok" for s in (*solvers.NAMES, *solvers.REFUSED)}})
     if args.json:
         print(json.dumps(rows, indent=2))
         return 0
@@ -71,7 +75,7 @@ def cmd_list(args) -> int:
 def cmd_modes(args) -> int:
     from flexmbd import flexbody
     case = _load(args)
-    cost.check([(case, None)], allow_large=args.allow_large)
+    cost.check([(case, None)], allow_large=args.allow_large, about=args.about if args.system else None)
     if args.system:
         return system_modes(case, args.about, args.json)
     if args.save:
@@ -96,10 +100,15 @@ def cmd_modes(args) -> int:
 
 
 def system_modes(case, about: str, as_json: bool) -> int:
-    """The assembled system's frequencies, damping and labels (linearize.py)."""
+    """The assembled system's frequencies, damping and labels (linearize.py), with a progress bar
+    past a couple of seconds."""
     from flexmbd import linearize
+    from flexmbd.kernel import jit
+    if not jit.is_cached():
+        warn("compiling the solver's kernel once for this source version, to linearize the case "
+             "(about a minute; cached afterwards)")
     with files.signals_exit():                          # may compile the kernel; writes nothing
-        modes = linearize.for_case(case, about)
+        modes = linearize.for_case(case, about, progress=True)
     rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping if abs(m.damping) > 1e-9 else 0.0,
              "label": m.label, "share": m.share} for k, m in enumerate(modes)]
     if as_json:
@@ -157,9 +166,23 @@ def _solver_list(text: str | None, flag: str) -> list:
 
 
 def run_all(jobs: list, out: Path, allow_large: bool = False) -> None:
-    """Run (case, solver) jobs into out/results with a progress bar; failures become results."""
-    from flexmbd import results
+    """Run (case, solver) jobs into out/results with a progress bar; failures become results.
+    Before any runs, the cost of every job and the sizes of the imported results that the jobs'
+    pages will read beside them are checked."""
+    check_all(jobs, out, allow_large)
+    run_checked(jobs, out)
+
+
+def check_all(jobs: list, out: Path, allow_large: bool = False) -> None:
+    """The cost of every (case, solver) job and the sizes of the imported results that the jobs'
+    pages will read beside them, within the limits (cost.check, cost.check_stored)."""
     cost.check(jobs, allow_large=allow_large)
+    cost.check_stored(stored_sidecars(out, [(c, []) for c in {c.name: c for c, _ in jobs}.values()]), allow_large)
+
+
+def run_checked(jobs: list, out: Path) -> None:
+    """Run jobs already checked (`check_all`) into out/results with a progress bar."""
+    from flexmbd import results
     t0 = time.perf_counter()
     for k, (c, s) in enumerate(jobs, 1):
         progress(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
@@ -167,6 +190,15 @@ def run_all(jobs: list, out: Path, allow_large: bool = False) -> None:
             r = solvers.run(c, s)
         results.write(r, results.folder(out))
     progress_done(len(jobs), time.perf_counter() - t0)
+
+
+def stored_sidecars(out, pages) -> list:
+    """The sidecars of the stored results that case pages will read, for their sizes
+    (`cost.check_stored`): pages [(case, the solvers read from storage)], each with the results
+    imported for its case (`build.page_solvers`)."""
+    from flexmbd import results
+    from flexmbd.report import build
+    return [results.folder(out) / c.name / f"{s}.json" for c, names in pages for s in build.page_solvers(out, c, names)]
 
 
 def results_folder(out) -> Path:
@@ -184,10 +216,14 @@ def warn(line: str) -> None:
 
 
 def _verdict(args, summary: list, acc: list) -> int:
-    """With --strict, DIFFERENT when a solver failed or a comparison missed its tolerance."""
+    """With --strict, DIFFERENT when a solver failed, a comparison missed its tolerance, or
+    nothing could be compared (no run with a tolerance against a reference: one line says so)."""
     failed = any(str(row[2]).startswith(("failed", "unavailable: stored result", "unavailable: stale"))
                  for row in summary)
-    return DIFFERENT if args.strict and (failed or any(a["pass"] == "fail" for a in acc)) else OK
+    compared = any(a["pass"] in ("pass", "fail") for a in acc)
+    if args.strict and not compared and not failed:
+        warn("--strict: nothing was compared with a tolerance against a reference")
+    return DIFFERENT if args.strict and (failed or not compared or any(a["pass"] == "fail" for a in acc)) else OK
 
 
 def _show(args, what: str, page: Path, summary: list, acc: list) -> None:
@@ -210,18 +246,18 @@ def _show(args, what: str, page: Path, summary: list, acc: list) -> None:
 
 
 def _jsonable(x):
-    """x with numbers as floats and NaN as None, for json.dumps(allow_nan=False)."""
+    """x with numbers as floats and NaN and +-inf as None, for json.dumps(allow_nan=False)."""
     if isinstance(x, dict):
         return {k: _jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
         return [_jsonable(v) for v in x]
-    if isinstance(x, (str, bool)) or x is None:
+    if isinstance(x, (str, bool, int)) or x is None:
         return x
     try:
         f = float(x)
     except (TypeError, ValueError):
         return str(x)
-    return None if f != f else (int(x) if isinstance(x, int) else f)
+    return f if math.isfinite(f) else None
 
 
 def cmd_report(args) -> int:
@@ -233,7 +269,16 @@ def cmd_report(args) -> int:
     files.writable_dir(out, "--out")
     jobs = [(c, s) for c in loaded for s in build.jobs(c, chosen)]
     if not args.no_run:
-        run_all(jobs, out, args.allow_large)
+        check_all(jobs, out, args.allow_large)
+    else:                                                   # their sizes, before any is read
+        cost.check_stored(stored_sidecars(out, [(c, build.jobs(c, chosen)) for c in loaded]), args.allow_large)
+    for c in loaded:
+        ref = next((s for s in build.jobs(c, chosen) if s not in chosen), None)
+        if ref:
+            warn(f"{c.name}: its reference {ref} {'is read' if args.no_run else 'runs'} too "
+                 f"(every comparison is against it)")
+    if not args.no_run:
+        run_checked(jobs, out)
     build.prepare(loaded, warn)
     t0 = time.perf_counter()
     index, summary, acc = build.write(out, loaded, chosen, warn,
@@ -249,9 +294,14 @@ def cmd_compare(args) -> int:
     case = _load(args)
     chosen = _solver_list(args.solvers, "--solvers")
     files.writable_dir(out, "--out")
-    run_all([(case, s) for s in chosen], out, args.allow_large)
+    names = build.with_reference(case, chosen)
+    jobs = [(case, s) for s in names]
+    check_all(jobs, out, args.allow_large)
+    if names != chosen:
+        warn(f"{case.name}: its reference {names[0]} runs too (every comparison is against it)")
+    run_checked(jobs, out)
     build.prepare([case], warn)
-    got = build.case_page(out, case, chosen, warn)
+    got = build.case_page(out, case, names, warn)
     _show(args, "page", out / case.name / "index.html", got["summary"], got["accuracy"])
     return _verdict(args, got["summary"], got["accuracy"])
 
@@ -323,14 +373,14 @@ def cmd_regress(args) -> int:
                 raise InputError(f"{case_name} / {solver}: {r.status}; baseline not written")
             print(f"updated {regress.write(base, case, r)}")
             continue
-        rows += regress.compare(case, r, stored[case_name, solver])
+        rows += regress.compare(case, r, stored[case_name, solver], regress.reference_kinetic(base, case))
     progress_done(len(pairs), time.perf_counter() - t0)
     if args.update:
         return OK
     if args.json:
         print(json.dumps(_jsonable({"moved": sum(r["moved"] for r in rows), "rows": rows}), allow_nan=False, indent=1))
         return DIFFERENT if any(r["moved"] for r in rows) else OK
-    head = ["case", "solver", "channel", "RMS diff / max|baseline|", "tolerance", "moved", "note"]
+    head = ["case", "solver", "channel", "RMS diff / norm", "tolerance", "moved", "note"]
     body = [[r["case"], r["solver"], r["channel"], r["rms"], r["tolerance"], "MOVED" if r["moved"] else "ok",
              r["why"]] for r in rows]
     print(tables.markdown(head, body), end="")
@@ -386,6 +436,66 @@ def progress(k: int, n: int, label: str, elapsed: float) -> None:
 
 def progress_done(n: int, elapsed: float) -> None:
     sys.stderr.write(f"[{'#' * 20}] {n}/{n} done{'':<36} {elapsed:6.1f} s\n")
+
+
+# ---------------------------------------------------------------------------------------------
+# stdout: what a command prints is its answer, so a stdout that cannot take it is an unusable location
+
+
+def stdout_checked(command):
+    """`command` (a cmd_ function) with its output checked: a closed stdout is refused before any
+    work, and a write to stdout that fails ends the command (`Stdout`), each as one line naming
+    stdout (InputError: exit 2); what the command wrote to files before is complete."""
+    @functools.wraps(command)
+    def checked(args) -> int:
+        if sys.stdout is None or getattr(sys.stdout, "closed", False):
+            raise InputError("stdout: closed (the command's output goes there: redirect it to a file or "
+                             "/dev/null instead)")
+        real, sys.stdout = sys.stdout, Stdout(sys.stdout)
+        try:
+            code = command(args)
+            sys.stdout.flush()
+        finally:
+            sys.stdout = real
+        return code
+    return checked
+
+
+class Stdout:
+    """sys.stdout while a command runs: a write or flush that fails (a full device, a descriptor
+    not open for writing) is an InputError naming stdout and why, and what is left unwritten is
+    dropped, so that the interpreter does not try again at its exit and print a second error. A
+    reader that left (BrokenPipeError) is `main`'s to handle."""
+
+    def __init__(self, stream):
+        self.stream = stream
+
+    def write(self, text):
+        return self._checked(self.stream.write, text)
+
+    def flush(self):
+        return self._checked(self.stream.flush)
+
+    def _checked(self, call, *a):
+        try:
+            return call(*a)
+        except BrokenPipeError:
+            raise
+        except OSError as e:
+            drop_output(self.stream)
+            raise files.unusable("stdout", e) from None
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+
+def drop_output(stream) -> None:
+    """Send what is left of a stream's output to /dev/null (its descriptor, when it has one)."""
+    try:
+        fd = stream.fileno()
+    except (OSError, ValueError):
+        return
+    os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -520,12 +630,9 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout (the compared channels)")
     s.add_argument("--strict", action="store_true", help="accepted for symmetry: a failed solver is always a difference")
     s.set_defaults(func=cmd_regress)
+    for command in sub.choices.values():                # every command's output checked
+        command.set_defaults(func=stdout_checked(command.get_default("func")))
     return p
-
-
-def _terminate(signum, frame):
-    """SIGTERM (and SIGINT) as an exception, raised at the next safe point."""
-    raise Interrupted(signum)
 
 
 def save_traceback(e: BaseException) -> Path:
@@ -542,23 +649,30 @@ def save_traceback(e: BaseException) -> Path:
 
 
 def main(argv=None) -> int:
-    """Run one command; its exit status (module docstring)."""
+    """Run one command; its exit status (module docstring). One handler takes SIGINT and SIGTERM
+    for the whole command (files.signals_handled): a signal ends it with one line and status
+    128 + the signal, at once or once a swap of files is done; a signal ignored when the command
+    starts (a background job's SIGINT) stays ignored."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    debug = "--debug" in argv
-    handlers = {}
-    if threading.current_thread() is threading.main_thread():
-        handlers = {signal.SIGTERM: signal.signal(signal.SIGTERM, _terminate),
-                    signal.SIGXFSZ: signal.signal(signal.SIGXFSZ, signal.SIG_IGN)}   # EFBIG, not a kill
+    try:
+        with files.signals_handled():
+            return _command(argv, "--debug" in argv)
+    except KeyboardInterrupt as e:                          # Interrupted, or SIGINT outside the main thread
+        signum = getattr(e, "signum", signal.SIGINT)
+        print(f"flexmbd: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
+        return 128 + signum
+
+
+def _command(argv: list, debug: bool) -> int:
+    """The command's exit status, with every error but a signal's told in its one line (main)."""
+    here = threading.current_thread() is threading.main_thread()         # where handlers can be set
+    xfsz = signal.signal(signal.SIGXFSZ, signal.SIG_IGN) if here else None  # the file size limit: EFBIG, not a kill
     try:
         args = parser().parse_args(argv)
         return args.func(args)
     except InputError as e:
         print(f"flexmbd: {' '.join(str(e).split())}", file=sys.stderr)
         return BAD_INPUT
-    except KeyboardInterrupt as e:
-        signum = getattr(e, "signum", signal.SIGINT)
-        print(f"flexmbd: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
-        return 128 + signum
     except BrokenPipeError:                                 # the reader of stdout left (| head): not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 128 + signal.SIGPIPE
@@ -570,8 +684,8 @@ def main(argv=None) -> int:
     except Exception as e:                                  # noqa: BLE001 - the one place
         return _internal(e, debug)
     finally:
-        for sig, old in handlers.items():
-            signal.signal(sig, old if old is not None else signal.SIG_DFL)
+        if here:
+            signal.signal(signal.SIGXFSZ, signal.SIG_DFL if xfsz is None else xfsz)
 
 
 def _internal(e: BaseException, debug: bool) -> int:

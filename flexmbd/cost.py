@@ -4,21 +4,28 @@ that drives its cost (`check`, InputError; `--allow-large` lifts the refusal).
 
 A stage is one step of a solver whose cost a few numbers of the case decide: the FE modes of a
 beam (its nodes and retained modes), the integration (its steps and the cost of one step), the
-output table and the channels computed from it (its samples). Each estimate is a formula in
-those numbers with a constant measured on this project's reference machine (2 cores), rounded up;
-they are meant to be right within a factor of a few, which is what a guard needs.
+output table and the channels computed from it (its samples x channels), the linearized system
+of `flexmbd modes --system` (its coordinates), and, for pages built from stored results, the
+reading and drawing of each stored result (its samples x columns, from its sidecar and file size,
+before it is read). Each estimate is a formula in those numbers with a constant measured on this
+project's reference machine (2 cores), rounded up; they are meant to be right within a factor of
+a few, which is what a guard needs. What no formula knows is how an adaptive integrator's step
+size will go: a model that nears a singular configuration (a beam so soft that it folds) makes
+it take far smaller steps than estimated, which the progress bar then shows.
 
 The limits (README.md, "Cost limits"): no stage may need more than MEMORY_LIMIT bytes (so that
 the process stays under 4 GB with its libraries), nor take more than SILENT_LIMIT seconds
-without showing progress on stderr; a stage that shows progress (the in-house integrator's bar)
-may take up to PROGRESS_LIMIT seconds.
+without showing progress on stderr; a stage that shows progress (the in-house integrator's bar,
+the linearization's) may take up to PROGRESS_LIMIT seconds.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from dataclasses import dataclass
+from pathlib import Path
 
 from flexmbd import flexbody, solvers
 from flexmbd.errors import InputError
@@ -43,12 +50,14 @@ class Stage:
 # the refusal
 
 
-def check(jobs, t_end: float | None = None, allow_large: bool = False) -> None:
+def check(jobs, t_end: float | None = None, allow_large: bool = False, about: str | None = None) -> None:
     """Refuse (InputError, one line) the first (case, solver) job with a stage beyond the limits;
-    solver None: only the FE modes (`flexmbd modes`). Nothing is computed here but estimates.
-    With `allow_large` each such stage is announced on stderr instead, and the work goes on."""
+    solver None: only the FE modes (`flexmbd modes`), and with `about` the linearization about
+    that state too (`flexmbd modes --system`). Nothing is computed here but estimates. With
+    `allow_large` each such stage is announced on stderr instead, and the work goes on."""
     for case, solver in jobs:
-        for st in stages(case, solver, t_end):
+        more = system(case, about) if about and solver is None else []
+        for st in stages(case, solver, t_end) + more:
             why = excess(st)
             if why and not allow_large:
                 raise InputError(f"{case.path}: {st.key}: {st.what} {why}; change {st.key} "
@@ -56,6 +65,21 @@ def check(jobs, t_end: float | None = None, allow_large: bool = False) -> None:
             if why:
                 print(f"flexmbd: note: {case.name}{' / ' + solver if solver else ''}: {st.key}: {st.what} {why}; "
                       f"going on (--allow-large)", file=sys.stderr, flush=True)
+
+
+def check_stored(sidecars, allow_large: bool = False) -> None:
+    """Refuse (InputError, one line naming the sidecar) the first stored result whose reading and
+    drawing (`stored`) is beyond the limits, before any is read; with `allow_large` announce it
+    on stderr instead."""
+    for js in sidecars:
+        st = stored(js)
+        why = excess(st) if st else ""
+        if why and not allow_large:
+            raise InputError(f"{js}: {st.key}: {st.what} {why}; resample it to fewer samples (flexmbd import) "
+                             f"or pass --allow-large")
+        if why:
+            print(f"flexmbd: note: {js}: {st.key}: {st.what} {why}; going on (--allow-large)", file=sys.stderr,
+                  flush=True)
 
 
 def excess(st: Stage) -> str:
@@ -108,16 +132,70 @@ def _time_key(case, t_end: float, step_key: str, step: float, default: float) ->
     return "duration" if t_end == case["duration"] else "--t-end"
 
 
+# One value of the result table (a channel at a sample): forming it from the trajectory
+# (channels.channels and the points and section strains it reads: 0.04 us a deflection, 0.13 us
+# a stress channel), the divergence rule, and writing it into the CSV (pandas' to_csv with
+# float_format, 2.3-3.2 us; 1.7 us with few columns), with its arrays and the table's text alive
+# (40-93 B). Measured on the pendulum with 500 to 5000 deflection or stress channels over 4001
+# samples (`flexmbd run`: 5000 deflections 52 s and 1.6 GB, 1.2 GB above the 0.39 GB of 4
+# channels) and on tables of 4001 x 50 to 400001 x 5 values, 2 cores shared.
+VALUE_S = 3e-6              # s
+VALUE_B = 64.0              # bytes
+
+
 def output(case, t_end: float) -> Stage:
     """The result table and the channels computed from it: every sample holds the states, the
-    per-body frames and forces of one evaluation (flexmbd) and each channel; computing the
-    channels of a sample takes about 0.1 ms per body."""
+    per-body frames and forces of one evaluation (flexmbd), which take 0.15 ms and 0.05 ms per
+    body to compute (the energies, the trajectory and the validity measures; measured: the
+    pendulum 0.21 ms a sample, the double pendulum 0.26 ms, the flexible pendulum's 20 segments
+    0.71 ms), and each channel, formed and written as one value of the table (VALUE_S, VALUE_B).
+    The key is `channels` when the channels cost a sample more than its states do."""
     n, res = samples(case, t_end), case.segmented.resolved
-    nb = len(res.bodies)
-    per_sample = 8 * (100 * (nb + 1) + 2 * (res.nq + res.nv) + 4 * len(case["channels"]) + 20)
+    nb, nc = len(res.bodies), len(case["channels"])
+    per_sample = 8 * (100 * (nb + 1) + 2 * (res.nq + res.nv) + 20)
+    state_s = 1.5e-4 + 5e-5 * nb
     key = _time_key(case, t_end, "integrator.output_dt", case["integrator"]["output_dt"], 1e-3)
-    return Stage(f"storing {n} output samples (duration / output_dt) and their channels", key,
-                 memory=n * per_sample, seconds=n * (1e-4 + 1e-4 * nb))
+    if nc * VALUE_S > state_s:
+        key = "channels"
+    return Stage(f"forming and storing {nc} channels at {n} output samples (duration / output_dt), "
+                 f"{n * (nc + 1):.3g} values", key, memory=n * (per_sample + VALUE_B * (nc + 1)),
+                 seconds=n * (state_s + VALUE_S * (nc + 1)))
+
+
+# One stored value (a column of a stored result at a sample) on a case page: read and checked
+# (0.2-0.4 us), compared (accuracy measures, spectra) and drawn (PNG and SVG; matplotlib's
+# legend placement goes over every point). Measured with `report --no-run` on the pendulum with
+# an imported result of 3e5, 1e6 and 3e6 samples x 5 columns beside flexmbd's: 2.6, 2.5 and 5.3
+# us and 84, 78 and 83 B a value more than without it (the 3e6: 80 s and 1.2 GB more), 2 cores
+# shared. A value takes 14.7-16.1 B of CSV text, at most 18 (%.10g: 17 characters and a comma).
+STORED_S = 6e-6             # s
+STORED_B = 96.0             # bytes
+CSV_B = 18.0                # bytes of CSV per value, at most
+SIDECAR_MAX = 16e6          # bytes: a larger sidecar is not opened for its size (its CSV's is used)
+
+
+def stored(js) -> Stage | None:
+    """Reading and drawing the stored result of sidecar `js` (RESULTS/CASE/SOLVER.json), estimated
+    before it is read: its values are the sidecar's samples x (channels + 1), or its CSV's size
+    over CSV_B when that is more (a sidecar that does not say, or a CSV that is not its own). None
+    when neither tells (reading the result says what is wrong with it)."""
+    js = Path(js)
+    csv = js.with_suffix(".csv")
+    try:
+        meta = json.loads(js.read_bytes()) if js.stat().st_size <= SIDECAR_MAX else {}
+        rows, cols = int(meta["samples"]), len(meta["channels"]) + 1
+    except (OSError, ValueError, TypeError, KeyError, RecursionError):
+        rows, cols = 0, 0
+    try:
+        size = csv.stat().st_size
+    except OSError:
+        size = 0
+    values = max(rows * cols, size / CSV_B)
+    if not values:
+        return None
+    what = (f"reading and drawing its {rows} samples x {cols} columns" if rows * cols >= size / CSV_B else
+            f"reading and drawing about {values:.3g} values ({size / 1e6:.3g} MB of CSV)")
+    return Stage(what, "samples", memory=STORED_B * values, seconds=STORED_S * values)
 
 
 def beams(case, rigid: bool = False) -> list:
@@ -149,29 +227,53 @@ def modes(case, rigid: bool = False) -> list:
     return out
 
 
+def evaluation(case) -> float:
+    """Seconds of one evaluation of the in-house equations (forward dynamics of the segmented
+    tree): 10 us per body, and per flexible body 3e-8 m^2 + 2.5e-10 m^3 s for its m retained modes
+    (its modal blocks); the mesh does not enter. Measured, the best of 5 x 50 right-hand sides at
+    the initial state (2 cores shared): the pendulum 16 us (12 modes; 13 us with 1000 elements),
+    the double pendulum 30 us, 20 segments of 8 modes 312 us, 5 segments of 40 modes 351 us, one
+    beam of 100 modes 325 us, 200 modes 2.5 ms, 400 modes 17.8 ms; the formula is within a factor
+    of 2 of each."""
+    return sum(1e-5 + 3e-8 * b.modes ** 2 + 2.5e-10 * b.modes ** 3 for b in case.segmented.resolved.bodies)
+
+
+# h omega (step x the highest retained frequency, rad/s) of each adaptive method's steps at rtol
+# 1e-8: accuracy, not stability, sets it. Measured on the pendulum (437 Hz, t_end 0.5 s): adams
+# 0.092, dopri5 0.095, rk45 0.096, dop853 0.35. It grows about as rtol^0.15 (dopri5: 0.154 at rtol
+# 1e-6, 0.039 at 1e-10) up to the method's stability bound (adams 0.102 at 1e-6).
+REACH = {"adams": 0.09, "dopri5": 0.095, "rk45": 0.095, "dop853": 0.35}
+STABLE = {"adams": 0.1, "dopri5": 3.3, "rk45": 2.8, "dop853": 4.0}
+# right-hand sides per step (pendulum: adams 1.84, dopri5 6.3, rk45 6.0, dop853 12.0, fox-goodwin
+# 2.0) and the Python around each one (s; pendulum, against 16 us for the right-hand side: adams
+# 18.6 us, rk4 30 us, rk45 53 us, dop853 36 us; dopri5 and fox-goodwin are compiled whole)
+EVALS = {"adams": 2, "dopri5": 7, "rk45": 7, "dop853": 13, "rk4": 4, "fox-goodwin": 2}
+AROUND = {"adams": 3e-6, "rk4": 1.5e-5, "rk45": 4e-5, "dop853": 2e-5, "dopri5": 0.0, "fox-goodwin": 0.0}
+
+
 def flexmbd(case, t_end: float) -> list:
-    """The in-house integrator: evaluations x the cost of one (its modal terms grow with modes^2).
-    Adaptive methods take at least duration / max_step steps; rk45 and dop853 show no progress."""
-    ig, res = case["integrator"], case.segmented.resolved
-    m2 = sum(b.modes ** 2 for b in res.bodies)
-    nodes = sum(b.nodes for b in res.bodies)
-    per_eval = 1e-5 + 5e-8 * m2 + 2e-8 * nodes
+    """The in-house integrator: evaluations x the cost of one (`evaluation`). Adaptive methods
+    take at least duration / max_step steps, and about duration x the highest retained frequency
+    / REACH (at rtol 1e-8, scaled as rtol^0.15, at most STABLE); a run whose step size collapses
+    (a singular moment) takes more, which no estimate knows. rk45 and dop853 show no progress."""
+    ig = case["integrator"]
     method = ig["method"]
     if method in ("rk4", "fox-goodwin"):
         steps = t_end / ig["dt"]
-        evals = steps * (4 if method == "rk4" else res.nv + 3)
+        evals = steps * EVALS[method] + case.segmented.resolved.nv + 2
         key, how = _time_key(case, t_end, "integrator.dt", ig["dt"], 1e-4), "duration / dt"
     else:
         omega, beam = highest_frequency(case)
-        reach = {"adams": 1.0, "dopri5": 3.0, "rk45": 3.0, "dop853": 4.0}[method]     # stable h omega
+        reach = min(REACH[method] * (ig["rtol"] / 1e-8) ** 0.15, STABLE[method])
         steps = max(t_end / ig["max_step"], t_end * omega / reach)
-        evals = steps * {"adams": 2, "dopri5": 7, "rk45": 7, "dop853": 13}[method]
+        evals = steps * EVALS[method]
         key, how = _time_key(case, t_end, "integrator.max_step", ig["max_step"], 1e-3), "at least duration / max_step"
         if t_end * omega / reach > t_end / ig["max_step"]:
             key = "duration" if t_end == case["duration"] else "--t-end"
-            how = f"at least duration x the highest retained frequency of beam {beam!r}, {omega / (2 * math.pi):.3g} Hz"
-    return [Stage(f"integrating {steps:.3g} {method} steps ({how})", key, memory=0.0, seconds=evals * per_eval,
-                  progress=method not in ("rk45", "dop853"))]
+            how = (f"duration x the highest retained frequency of beam {beam!r}, {omega / (2 * math.pi):.3g} Hz, "
+                   f"over h omega = {reach:.2g}")
+    return [Stage(f"integrating {steps:.3g} {method} steps ({how})", key, memory=0.0,
+                  seconds=evals * (evaluation(case) + AROUND[method]), progress=method not in ("rk45", "dop853"))]
 
 
 def highest_frequency(case) -> tuple[float, str]:
@@ -194,6 +296,33 @@ def highest_frequency(case) -> tuple[float, str]:
         mesh = max(2.0 * math.sqrt(12.0 * E * max(sec.Iy, sec.Iz) / (rho * sec.A * le ** 4)), 2.0 * math.sqrt(E / rho) / le)
         best = max(best, (min(freqs[m - 1], mesh), name))
     return best
+
+
+def system(case, about: str = "initial") -> list:
+    """`flexmbd modes --system` (linearize.py) beyond the FE modes: the state matrix by central
+    differences, 4 evaluations per free coordinate and one energy per coordinate (`evaluation`
+    each), with progress shown; its dense eigenproblem, 2n x 2n, no progress (one LAPACK call:
+    7e-9 (2n)^3 s, measured with numpy's eig of random 400^2 to 1600^2 matrices on 2 busy cores;
+    the system's own matrices take 2-5e-9; A, its blocks, eigenvectors and workspace 80 B (2n)^2);
+    and with `about` = 'equilibrium' the descent to it, about 2.5 n^2 energies (BFGS with
+    difference gradients: 1539, 10737 and 25080 of them for 26, 64 and 114 coordinates), no
+    progress. The key: the beam with the most modal coordinates (its modes.count, or its
+    segments when they multiply them more)."""
+    res = case.segmented.resolved
+    n, per = res.nv, evaluation(case)
+    biggest = max(((b["modes"]["count"] * b["segments"], name, b) for name, b in case["bodies"].items()
+                   if b["type"] == "beam" and not b["rigid"]), default=(0, "", None))
+    key = "bodies" if biggest[2] is None else (f"bodies.{biggest[1]}.segments"
+                                               if biggest[2]["segments"] > biggest[2]["modes"]["count"]
+                                               else f"bodies.{biggest[1]}.modes.count")
+    out = [Stage(f"linearizing {n} coordinates by central differences ({4 * n} evaluations)", key,
+                 memory=8.0 * 6 * n * n, seconds=5 * n * per, progress=True),
+           Stage(f"solving the {2 * n} x {2 * n} eigenproblem of the linearized system", key,
+                 memory=80.0 * (2 * n) ** 2, seconds=7e-9 * (2 * n) ** 3)]
+    if about == "equilibrium":
+        out.append(Stage(f"descending to the static equilibrium over {n} coordinates (about {2.5 * n * n:.3g} "
+                         f"energy evaluations)", key, memory=8.0 * 2 * n * n, seconds=2.5 * n * n * per))
+    return out
 
 
 def fixed_step(case, t_end: float, dt: float, key: str, per_step: float) -> list:

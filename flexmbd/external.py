@@ -30,8 +30,6 @@ from flexmbd import cases, results, solvers
 from flexmbd.errors import InputError
 from flexmbd.results import Result
 
-NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+-]{0,63}")
-
 # key -> (what it must be, a check)
 META = {
     "solver_version": ("a string", lambda v: isinstance(v, str)),
@@ -40,8 +38,8 @@ META = {
                lambda v: isinstance(v, str)),
     "wall_s": ("a number >= 0 (s)", lambda v: _number(v) and v >= 0),
     "setup_s": ("a number >= 0 (s)", lambda v: _number(v) and v >= 0),
-    "steps": ("an integer >= 0", lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0),
-    "rhs_evals": ("an integer >= 0", lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0),
+    "steps": ("an integer >= 0", lambda v: _number(v) and isinstance(v, int) and v >= 0),
+    "rhs_evals": ("an integer >= 0", lambda v: _number(v) and isinstance(v, int) and v >= 0),
     "kinetic_max_J": ("a number > 0 (J): the run's largest kinetic energy, against which energy "
                       "differences are measured", lambda v: _number(v) and v > 0),
     "machine": ("a string", lambda v: isinstance(v, str)),
@@ -51,14 +49,15 @@ META = {
 
 
 def _number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)
+    """A finite number within the magnitude a stored result may hold (results.LARGEST)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= results.LARGEST
 
 
 def check_name(case, name: str) -> None:
-    """An imported result's name: a file-name-safe word that no solver of the registry uses."""
-    if not NAME.fullmatch(name):
-        raise InputError(f"--solver: {name!r} cannot name an imported result (letters, digits and . _ + -, "
-                         f"at most 64, starting with a letter or digit)")
+    """An imported result's name: a file-name-safe word (`results.bad_name`) that no solver of the
+    registry uses."""
+    if results.bad_name(name):
+        raise InputError(f"--solver: an imported result's name: {results.bad_name(name)}")
     if name in solvers.NAMES:
         raise InputError(f"--solver: {name} is one of flexmbd's solvers; name an imported result otherwise "
                          f"(for example {name}-external)")
@@ -68,10 +67,7 @@ def metadata(path: Path | None) -> dict:
     """The metadata file, checked against META; {} without one."""
     if path is None:
         return {}
-    try:
-        meta = json.loads(results.read_text(path))
-    except json.JSONDecodeError as e:
-        raise InputError(f"{path}: not JSON ({e.msg}, line {e.lineno})") from None
+    meta = results.read_json(path)
     if not isinstance(meta, dict):
         raise InputError(f"{path}: expected a JSON object with any of the keys {', '.join(META)}")
     for key, value in meta.items():

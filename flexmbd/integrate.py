@@ -174,10 +174,10 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
         elif method == "dopri5":
             k, steps, evals, status = _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar)
             count[0] += evals
-        elif method == "adams":
-            k, steps, status = _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, model.nq)
+        elif method == "adams":         # the bar moves with every evaluation: VODE's steps may collapse
+            k, steps, status = _adams(bar.tracking(f) if bar else f, y0, t_out, Y, rtol, atol, max_step, bar, model.nq)
         elif method == "rk4":
-            k, steps, status = _rk4(f, y0, t_out, Y, dt, bar, model.nq)
+            k, steps, status = _rk4(bar.tracking(f) if bar else f, y0, t_out, Y, dt, bar, model.nq)
         else:
             k, steps, status = _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step)
     except Stop as e:
@@ -443,28 +443,55 @@ def _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step):
 
 
 class Progress:
-    """A progress bar on stderr for runs that take longer than a couple of seconds."""
+    """A progress bar on stderr for work that takes longer than a couple of seconds: the first line
+    `after_s` past the start, then one every `every_s` (redrawn in place on a terminal; elsewhere
+    a new line every 10 s). `update(t)` says how far the work is: t of `t_end`, a simulated time
+    in s, or, with another `unit`, a count of that unit ('coordinates')."""
 
-    def __init__(self, t_end: float, label: str, after_s: float = 2.0, every_s: float = 0.5):
-        self.t_end, self.label, self.after, self.every = t_end, label, after_s, every_s
-        self.start = self.last = time.perf_counter()
-        self.shown = False
+    def __init__(self, t_end: float, label: str, after_s: float = 2.0, every_s: float | None = None,
+                 unit: str = "s"):
+        self.t_end, self.label, self.after, self.unit = t_end, label, after_s, unit
         self.tty = sys.stderr.isatty()
-        if not self.tty:
-            self.every = 10.0
+        self.every = every_s if every_s is not None else (0.5 if self.tty else 10.0)
+        self.start, self.last = time.perf_counter(), float("-inf")
+        self.shown = False
+
+    def due(self, now: float) -> bool:
+        """Whether a line is due at `now` (time.perf_counter(), s): from `after` past the start, one
+        every `every`."""
+        return now - self.start >= self.after and now - self.last >= self.every
 
     def update(self, t: float) -> None:
         now = time.perf_counter()
-        if now - self.start < self.after or now - self.last < self.every:
+        if not self.due(now):
             return
         self.last, self.shown = now, True
-        frac = t / self.t_end
+        frac = min(max(t / self.t_end, 0.0), 1.0) if self.t_end > 0 else 1.0
         bar = "#" * int(30 * frac)
         eta = (now - self.start) * (1 - frac) / max(frac, 1e-9)
         end = "\r" if self.tty else "\n"
-        sys.stderr.write(f"{self.label} [{bar:<30}] t = {t:.3f}/{self.t_end:g} s, {now - self.start:.0f} s, "
-                         f"~{eta:.0f} s left{end}")
+        at = f"t = {t:.3f}/{self.t_end:g} s" if self.unit == "s" else f"{t:.0f}/{self.t_end:g} {self.unit}"
+        sys.stderr.write(f"{self.label} [{bar:<30}] {at}, {now - self.start:.0f} s, ~{eta:.0f} s left{end}")
         sys.stderr.flush()
+
+    def tracking(self, f):
+        """The right-hand side f(t, y), updating the bar with the time of each evaluation: the bar
+        moves within an output interval too, and shows the simulated time standing still when an
+        adaptive method's step size collapses (a model nearing a singular configuration). Once f
+        has raised (Stop), the bar is left alone: VODE goes on calling back with the exception
+        pending until it returns, and a clock read then would fail (SystemError)."""
+        raised = [False]
+
+        def g(t, y):
+            try:
+                yd = f(t, y)
+            except BaseException:
+                raised[0] = True
+                raise
+            if not raised[0]:
+                self.update(t)
+            return yd
+        return g
 
     def close(self) -> None:
         if self.shown and self.tty:

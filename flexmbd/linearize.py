@@ -18,6 +18,7 @@ from scipy import optimize
 from flexmbd import dynamics, flexbody, joints
 from flexmbd.build import from_case
 from flexmbd.errors import InputError
+from flexmbd.integrate import Progress
 from flexmbd.kernel.entry import forward_dynamics
 from flexmbd.model import Model, make_data
 
@@ -43,9 +44,10 @@ def perturbed(model: Model, q, i: int, h: float) -> np.ndarray:
     return q + h * joints.qdot(model.arrays, q, e, np.zeros(model.nq))
 
 
-def state_matrix(model: Model, q, v, t: float = 0.0) -> np.ndarray:
+def state_matrix(model: Model, q, v, t: float = 0.0, bar=None) -> np.ndarray:
     """A (2n, 2n) of d/dt [dq; dv] = A [dq; dv] over the n free coordinates, by central differences
-    of forward dynamics: A = [[0, I], [d qdd/dq, d qdd/dv]]."""
+    of forward dynamics: A = [[0, I], [d qdd/dq, d qdd/dv]]. `bar` (integrate.Progress over the n
+    coordinates), when given, is told each coordinate done."""
     free, data = dynamics.free_velocities(model), make_data(model)
 
     def qdd(q, v):
@@ -59,6 +61,8 @@ def state_matrix(model: Model, q, v, t: float = 0.0) -> np.ndarray:
         dv = np.zeros(model.nv)
         dv[i] = STEP
         Jv[:, c] = (qdd(q, v + dv) - qdd(q, v - dv)) / (2 * STEP)
+        if bar:
+            bar.update(c + 1)
     return np.block([[np.zeros((n, n)), np.eye(n)], [Jq, Jv]])
 
 
@@ -100,13 +104,14 @@ def coordinate_names(model: Model) -> list:
 ROUNDOFF = 1e-10    # relative error of the central differences (step 1e-6: roundoff eps / h)
 
 
-def system_modes(model: Model, q, v, t: float = 0.0) -> list:
+def system_modes(model: Model, q, v, t: float = 0.0, bar=None) -> list:
     """The oscillating eigenvalues of the linearized system (one per conjugate pair, ascending
     frequency) with damping and label. Non-oscillating roots (rigid-body modes, overdamped or
     unstable ones) are left out, and so are roots within sqrt(ROUNDOFF max|A|) of zero: a rigid
-    mode without stiffness is a double zero root, which an error e in A moves by sqrt(e)."""
+    mode without stiffness is a double zero root, which an error e in A moves by sqrt(e). `bar`:
+    the progress of the state matrix (`state_matrix`)."""
     free = dynamics.free_velocities(model)
-    A = state_matrix(model, q, v, t)
+    A = state_matrix(model, q, v, t, bar)
     lam, vec = np.linalg.eig(A)
     zero = np.sqrt(ROUNDOFF * np.abs(A).max(initial=0.0))       # how far the differences move a double zero root
     n = free.size
@@ -125,13 +130,21 @@ def system_modes(model: Model, q, v, t: float = 0.0) -> list:
     return sorted(out)
 
 
-def for_case(case, about: str = "initial") -> list:
-    """System modes of a case about its initial state (t = 0) or its static equilibrium at rest."""
+def for_case(case, about: str = "initial", progress: bool = False) -> list:
+    """System modes of a case about its initial state (t = 0) or its static equilibrium at rest;
+    with `progress`, a bar on stderr over the coordinates of the state matrix (4 evaluations
+    each: `cost.system`) when they take more than a couple of seconds."""
     model = model_of(case)
     q, v = model.q0.copy(), model.v0.copy()
     if about == "equilibrium":
         q, v = equilibrium(model, q), np.zeros(model.nv)
-    return system_modes(model, q, v, 0.0)
+    bar = Progress(dynamics.free_velocities(model).size, f"{case.name} / linearizing", unit="coordinates") \
+        if progress else None
+    try:
+        return system_modes(model, q, v, 0.0, bar)
+    finally:
+        if bar:
+            bar.close()
 
 
 def frozen_joints(model: Model, recorded) -> bool:

@@ -23,13 +23,24 @@ def scale(ref) -> float:
     return m if m > 0 else 1.0
 
 
-def channel_norm(kind: str, ref, kinetic_max: float | None = None) -> float:
-    """What a channel's differences are measured against: the reference's maximum magnitude;
-    for a total energy, which a conservative run keeps near its (arbitrary) start value, the
-    run's largest kinetic energy when it is known (J)."""
-    if kind == "energy" and kinetic_max:
-        return float(kinetic_max)
-    return scale(ref)
+NOISE = 1e-9    # a reference smaller than this fraction of its channel's physical scale is numerical noise
+
+
+def channel_norm(kind: str, ref, physical: float = 0.0) -> float:
+    """What a channel's differences are measured against, in the channel's unit. `physical`: the
+    channel's scale in the case (`channels.physical_scale`: for a total energy the case's largest
+    kinetic energy, for a deflection its beam's length, ...; 0 when the case has none).
+
+    A total energy, whose level is arbitrary and which a conservative run keeps constant, is
+    measured against the case's largest kinetic energy. Any other channel is measured against the
+    reference's largest magnitude, but never against less than NOISE times its physical scale: a
+    reference that small (a rigid peer's deflection) is roundoff, and measured against itself its
+    noise would read as a difference of order one."""
+    if kind == "energy" and physical > 0:
+        return float(physical)
+    m = float(np.nanmax(np.abs(ref))) if len(ref) else 0.0
+    m = max(m, NOISE * physical) if kind != "energy" else m
+    return m if m > 0 else 1.0
 
 
 def rms_diff(ref, y, norm: float | None = None) -> float:

@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from flexmbd.errors import InputError
-from flexmbd.files import signals_held, temporary, unusable
+from flexmbd.files import swap, temporary, unusable
 
 DEPENDENCIES = ("numpy", "scipy", "pandas", "matplotlib", "numba", "exudyn", "pin", "mujoco")
 
@@ -215,6 +215,21 @@ def sha256(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+# a solver's (or an imported result's) name names its files, SOLVER.csv and SOLVER.json: a word
+# that is a file name in any file system, never a path
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+-]{0,63}")
+
+
+def bad_name(name) -> str:
+    """'' when `name` can name a result's files (registered solvers, plug-ins, `import --solver`),
+    else why not: a word of letters, digits and . _ + -, starting with a letter or digit, so that
+    no name is a path (`../x`, `a/b`), hidden (`.x`) or holds spaces or control characters."""
+    if isinstance(name, str) and NAME.fullmatch(name):
+        return ""
+    return (f"{name!r} cannot name a result file (letters, digits and . _ + -, at most 64, starting with a "
+            f"letter or digit)")
+
+
 def folder(out) -> Path:
     """Where the results of a report folder OUT live: OUT/results/CASE/SOLVER.{csv,json}, the one
     layout of `run`, `import`, `compare`, `report` and `regress --results`."""
@@ -227,8 +242,8 @@ def imported(out_dir: Path, case: str) -> list[str]:
     names = []
     for js in sorted((Path(out_dir) / case).glob("*.json")):
         try:
-            meta = json.loads(js.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            meta = read_json(js)
+        except InputError:
             continue
         if isinstance(meta, dict) and "imported" in meta and meta.get("solver") == js.stem:
             names.append(js.stem)
@@ -237,24 +252,19 @@ def imported(out_dir: Path, case: str) -> list[str]:
 
 def write(r: Result, out_dir: Path) -> tuple[Path, Path]:
     """Write `out_dir/CASE/SOLVER.csv` and `.json` as a pair; return both paths. A run without
-    samples (unavailable, or failed before the first output) has no CSV."""
+    samples (unavailable, or failed before the first output) has no CSV. Both are written to
+    temporaries and swapped in together (`files.swap`): after any fault or signal the old pair
+    is there as it was, and no temporary is left."""
     base = Path(out_dir) / r.case
     csv, js = base / f"{r.solver}.csv", base / f"{r.solver}.json"
     table = r.table().to_csv(index=False, float_format="%.10g") if len(r.t) else None
     meta = json.dumps(sidecar(r, sha256(table) if table is not None else None), indent=2) + "\n"
-    tmps = []
-    try:
-        tmps = [temporary(csv, table) if table is not None else None, temporary(js, meta)]
-        with signals_held():
-            if table is not None:
-                os.replace(tmps[0], csv)
-            else:
-                csv.unlink(missing_ok=True)
-            os.replace(tmps[1], js)
-    finally:
-        for tmp in tmps:
-            if tmp is not None:
-                Path(tmp).unlink(missing_ok=True)
+    with temporary(js, meta) as new_js:
+        if table is None:
+            swap([(None, csv), (new_js, js)])
+            return csv, js
+        with temporary(csv, table) as new_csv:
+            swap([(new_csv, csv), (new_js, js)])
     return csv, js
 
 
@@ -268,11 +278,50 @@ def read_text(path: Path) -> str:
         raise unusable(path, e, "cannot be read") from None
 
 
+# the largest magnitude of a stored or imported value, as of a case's numbers (cases.LARGEST): the
+# comparisons square differences of two values and sum them over the samples, at most
+# (2e100)^2 = 4e200 each, which no number of samples brings near the largest double (1.8e308)
+LARGEST = 1e100
+MAX_DEPTH = 100         # lists and objects nested deeper in a JSON file are refused (`read_json`)
+
+
+def read_json(path: Path, what: str = "not JSON"):
+    """A JSON file's value (a sidecar, an imported result's metadata); an InputError naming it when
+    it cannot be read, is not text, is not JSON (`what` says what it is then not), or nests lists
+    and objects deeper than MAX_DEPTH (deeper would exhaust the parser's or the writer's recursion)."""
+    text = read_text(path)
+    deep = InputError(f"{path}: {what} (lists or objects nested more than {MAX_DEPTH} deep)")
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise InputError(f"{path}: {what} ({e.msg}, line {e.lineno})") from None
+    except ValueError as e:                             # an integer of more digits than Python converts
+        raise InputError(f"{path}: {what} ({' '.join(str(e).split())[:80]})") from None
+    except RecursionError:
+        raise deep from None
+    if depth(value) > MAX_DEPTH:
+        raise deep
+    return value
+
+
+def depth(value) -> int:
+    """How deeply lists and objects nest in a JSON value (0: a number, string or null), counted
+    without recursion."""
+    deepest, todo = 0, [(value, 0)]
+    while todo:
+        v, d = todo.pop()
+        if isinstance(v, (list, dict)):
+            deepest = max(deepest, d + 1)
+            todo.extend((e, d + 1) for e in (v.values() if isinstance(v, dict) else v))
+    return deepest
+
+
 def read_table(path: Path, text: str, columns: list | None = None, samples: int | None = None,
                comment: str | None = None) -> pd.DataFrame:
     """A stored table (`t` and channels) from its text, checked: parseable, a `t` column
-    (and exactly `columns` when given), `samples` rows when given, every cell a finite number,
-    `t` increasing. An InputError naming `path` and the first problem otherwise."""
+    (and exactly `columns` when given), `samples` rows when given and at least one row, every cell
+    a finite number of magnitude at most LARGEST, `t` increasing. An InputError naming `path` and
+    the first problem otherwise."""
     try:
         df = pd.read_csv(io.StringIO(text), comment=comment)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as e:
@@ -283,6 +332,8 @@ def read_table(path: Path, text: str, columns: list | None = None, samples: int 
         raise InputError(f"{path}: columns {', '.join(map(str, df.columns))}, expected {', '.join(columns)}")
     if samples is not None and len(df) != samples:
         raise InputError(f"{path}: {len(df)} rows, expected {samples} (truncated or extended)")
+    if not len(df):
+        raise InputError(f"{path}: no rows (a header without values)")
     for c in df.columns:
         if not pd.api.types.is_numeric_dtype(df[c]) or pd.api.types.is_bool_dtype(df[c]):
             bad = pd.to_numeric(df[c], errors="coerce").isna() & df[c].notna()
@@ -292,33 +343,70 @@ def read_table(path: Path, text: str, columns: list | None = None, samples: int 
         if not np.all(np.isfinite(y)):
             row = int(np.flatnonzero(~np.isfinite(y))[0])
             raise InputError(f"{path}: column {c}, row {row + 1}: {y[row]} (every value must be a finite number)")
+        if np.abs(y).max() > LARGEST:
+            row = int(np.argmax(np.abs(y) > LARGEST))
+            raise InputError(f"{path}: column {c}, row {row + 1}: {y[row]:g} is beyond {LARGEST:g} in magnitude "
+                             f"(the comparisons square differences of values, which would overflow)")
     if len(df) > 1 and not np.all(np.diff(df["t"].to_numpy(dtype=float)) > 0):
         raise InputError(f"{path}: column t is not increasing")
     return df
 
 
+# what the unavailable result of a stored result that cannot be used says, and of one run for
+# another version of the case (`report.build.load_results`): a reader's words, never a run's status
+UNUSABLE, STALE = "stored result unusable", "stale stored result"
+
+
+def _real(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+_TEXT = ("a string", lambda v: isinstance(v, str))
+_TABLE = ("a JSON object", lambda v: isinstance(v, dict))
+_COUNT = ("a whole number >= 0", lambda v: type(v) is int and 0 <= v <= LARGEST)
+_SECONDS = ("a number >= 0 (s), or NaN when not known", lambda v: _real(v) and (v != v or 0 <= v <= LARGEST))
+_NAMES = ("a list of strings", lambda v: isinstance(v, list) and all(isinstance(c, str) for c in v))
+
+# a sidecar key -> (what it must be, a check), for every key a page, a table or a comparison uses:
+# `read` refuses any other value, naming the key, so that none of them meets a value it cannot use
+SIDECAR = {
+    "solver": _TEXT, "case": _TEXT, "status": _TEXT, "channels": _NAMES, "samples": _COUNT,
+    "steps": _COUNT, "rhs_evals": _COUNT, "wall_s": _SECONDS, "setup_s": _SECONDS, "compile_s": _SECONDS,
+    "failed_at_s": ("a finite number (s), or null", lambda v: v is None or (_real(v) and abs(v) <= LARGEST)),
+    "kinetic_max_J": ("a number >= 0 (J), or NaN when not known", lambda v: _real(v) and (v != v or 0 <= v <= LARGEST)),
+    "csv_sha256": ("a SHA-256 in hex, or null", lambda v: v is None or isinstance(v, str)),
+    "solver_version": _TEXT, "case_sha256": _TEXT, "python": _TEXT, "git_commit": _TEXT, "date": _TEXT,
+    "machine": _TEXT, "settings": _TABLE, "versions": _TABLE, "imported": _TABLE, "overrides": _NAMES,
+}
+
+
 def read(out_dir: Path, case: str, solver: str) -> Result:
     """Read a stored result back, checked: the JSON sidecar parses and belongs to (case,
-    solver), its CSV belongs to it (the SHA-256) and is a table of `t` and the sidecar's
-    channels with its number of samples, every value finite. Anything else is an InputError
-    naming the file."""
+    solver), each of its keys holds what SIDECAR says, its CSV belongs to it (the SHA-256) and is
+    a table of `t` and the sidecar's channels with its number of samples, every value finite
+    (`read_table`). Anything else is an InputError naming the file (and the key)."""
     base = Path(out_dir) / case
+    if bad_name(solver):
+        raise InputError(f"{base}: solver {bad_name(solver)}")
     js, csv = base / f"{solver}.json", base / f"{solver}.csv"
     if not js.is_file():
         raise InputError(f"{js}: missing (no stored result of {solver} on {case})")
-    try:
-        meta = json.loads(read_text(js))
-    except json.JSONDecodeError as e:
-        raise InputError(f"{js}: not a result sidecar (JSON error: {e.msg}, line {e.lineno})") from None
+    meta = read_json(js, "not a result sidecar: not JSON")
     if not isinstance(meta, dict) or not {"status", "solver", "case", "samples", "channels"} <= set(meta):
         raise InputError(f"{js}: not a result sidecar (expected the keys status, solver, case, samples, channels)")
+    for key, (what, ok) in SIDECAR.items():
+        if key in meta and not ok(meta[key]):
+            raise InputError(f"{js}: {key}: expected {what}, got {json.dumps(meta[key])[:40]}")
     if (meta["case"], meta["solver"]) != (case, solver):
         raise InputError(f"{js}: holds {meta['solver']} on {meta['case']}, not {solver} on {case}")
     try:
-        status = Status.parse(str(meta["status"]))
-        samples, chans = int(meta["samples"]), [str(c) for c in meta["channels"]]
-    except (TypeError, ValueError) as e:
-        raise InputError(f"{js}: not a result sidecar ({e})") from None
+        status = Status.parse(meta["status"])
+    except ValueError:
+        raise InputError(f"{js}: status: not a run status: {meta['status'][:60]!r}") from None
+    if status.kind == "unavailable" and status.why.startswith((UNUSABLE, STALE)):
+        raise InputError(f"{js}: status: {meta['status'][:60]!r} is what a report says of a stored result, "
+                         f"not the status of a run")
+    samples, chans = meta["samples"], meta["channels"]
     want = meta.get("csv_sha256")
     if want is None and samples == 0:
         df = pd.DataFrame({"t": []})

@@ -7,7 +7,8 @@ A solver is a module with
     run(case, t_end, settings) -> Result    fills t, channels, steps, rhs_evals, wall_s, setup_s
 Solvers that are not part of this build are listed (so case files may name them) and reported
 as unavailable. Other packages add solvers through the entry-point group `flexmbd.solvers`
-(docs/plugins.md).
+(docs/plugins.md); a plug-in that fails to load, or whose name cannot name a result file
+(`results.bad_name`), is unavailable, saying why, and never ends a command.
 
 `run` is the one place where a solver's exception becomes a result, where the divergence
 rule (`results.first_failure`) is applied to every solver's channels (a failed run keeps the
@@ -22,6 +23,7 @@ import dataclasses
 import importlib
 import time
 import traceback
+from importlib.metadata import entry_points
 
 from flexmbd import cases, channels, results
 from flexmbd.errors import InputError
@@ -44,23 +46,57 @@ GROUP = "flexmbd.solvers"           # entry-point group of solver plug-ins (docs
 def plugins() -> dict:
     """Installed plug-in solvers: entry-point name -> module path (the value names a module). A
     plug-in may not take a built-in name."""
-    from importlib.metadata import entry_points
     return {ep.name: ep.value.partition(":")[0] for ep in entry_points(group=GROUP) if ep.name not in BUILT_IN}
 
 
-MODULES = {**BUILT_IN, **plugins()}
+def registry() -> tuple[dict, dict]:
+    """(name -> module path of every solver, name -> why not of every plug-in refused for its
+    name): a solver's name names its result files, so one that cannot (`results.bad_name`: a
+    path, hidden, spaces, control characters) is never run, chosen or written; `flexmbd list`
+    shows it as unavailable, saying why."""
+    named = {**BUILT_IN, **plugins()}
+    refused = {n: f"plug-in name {results.bad_name(n)}" for n in named if results.bad_name(n)}
+    return {n: path for n, path in named.items() if n not in refused}, refused
+
+
+MODULES, REFUSED = registry()
 NAMES = tuple(MODULES)
+CALLS = ("version", "applies", "run")       # what a solver module must define (docs/plugins.md)
+
+
+def load(name: str) -> tuple[object, str]:
+    """(the solver's module, '') when it can be used here, else (None, 'unavailable: why'). A
+    built-in solver whose dependency is missing (ImportError) is unavailable; so is a plug-in
+    that raises anything while it loads or lacks one of CALLS: a broken plug-in is its own
+    status, never the end of a command (a built-in's other exception is a bug, and raised)."""
+    if name in REFUSED:
+        return None, f"unavailable: {REFUSED[name]}"
+    path = MODULES[name]
+    if path is None:
+        return None, "unavailable: not part of this version of flexmbd"
+    plugin = name not in BUILT_IN
+    try:
+        mod = importlib.import_module(path)
+    except (Exception, SystemExit) as e:                # noqa: BLE001 - a plug-in's failure is its status
+        if not plugin and not isinstance(e, ImportError):
+            raise
+        return None, f"unavailable: plug-in {name} failed to load: {_error(e)}" if plugin else f"unavailable: {e}"
+    lacks = [c for c in CALLS if not callable(getattr(mod, c, None))] if plugin else []
+    if lacks:
+        return None, (f"unavailable: plug-in {name} failed to load: its module {path} lacks "
+                      f"{', '.join(lacks)} (docs/plugins.md)")
+    return mod, ""
+
+
+def _error(e: BaseException) -> str:
+    """An exception as one line: its type and message."""
+    msg = " ".join(str(e).split())
+    return f"{type(e).__name__}{': ' + msg if msg else ''}"
 
 
 def module(name: str):
-    """The solver's module, or None when it is not available here."""
-    path = MODULES[name]
-    if path is None:
-        return None
-    try:
-        return importlib.import_module(path)
-    except ImportError:
-        return None
+    """The solver's module, or None when it is not available here (`load`)."""
+    return load(name)[0]
 
 
 def settings_schema(name: str) -> dict:
@@ -70,6 +106,8 @@ def settings_schema(name: str) -> dict:
 
 def check_name(name, key: str, where: str = "") -> str:
     """A registered solver name, else InputError naming where (file) and key it was given at."""
+    if isinstance(name, str) and name in REFUSED:
+        raise InputError(f"{where + ': ' if where else ''}{key}: {REFUSED[name]}")
     if name not in NAMES:
         raise InputError(f"{where + ': ' if where else ''}{key}: unknown solver {name!r}{cases.hint(str(name), NAMES)} "
                          f"(known: {', '.join(NAMES)})")
@@ -100,15 +138,8 @@ def check(case) -> None:
 
 
 def unavailable_reason(name: str) -> str:
-    """'' when the solver can be used on this machine, else why not."""
-    path = MODULES[name]
-    if path is None:
-        return "unavailable: not part of this version of flexmbd"
-    try:
-        importlib.import_module(path)
-    except ImportError as e:
-        return f"unavailable: {e}"
-    return ""
+    """'' when the solver can be used on this machine, else why not (`load`)."""
+    return load(name)[1]
 
 
 def status_for(case, name: str) -> str:
@@ -119,10 +150,15 @@ def status_for(case, name: str) -> str:
 
 def _precondition(case, name: str) -> results.Status | None:
     """None when `name` can run `case`, else the unavailable / not applicable status."""
-    why = unavailable_reason(name)
+    mod, why = load(name)
     if why:
         return results.unavailable(why.removeprefix("unavailable: "))
-    why = module(name).applies(case)
+    try:
+        why = mod.applies(case)
+    except Exception as e:                              # noqa: BLE001 - a plug-in's failure is its status
+        if name in BUILT_IN:
+            raise
+        return results.unavailable(f"plug-in {name} failed: its applies(case) raised {_error(e)}")
     return results.not_applicable(why) if why else None
 
 

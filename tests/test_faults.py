@@ -26,6 +26,7 @@ import pytest
 
 import flexmbd
 from flexmbd.cli import main
+from flexmbd.errors import Interrupted
 from flexmbd.report import regress
 
 ROOT = Path(flexmbd.__file__).resolve().parent.parent
@@ -33,7 +34,9 @@ ROOT = Path(flexmbd.__file__).resolve().parent.parent
 # decomposition of a report's FE modes take seconds, native code in which no signal handler runs.
 ENV = dict(os.environ, PYTHONPATH=str(ROOT), OPENBLAS_NUM_THREADS="1")
 CASE, SOLVER = "cantilever_step", "analytic"
-ONE = ["--cases", CASE, "--solvers", SOLVER]
+# with the case's reference (fe-linear, as cheap), which a report runs anyway (said in one line)
+ONE = ["--cases", CASE, "--solvers", f"fe-linear,{SOLVER}"]
+BASE = ["--cases", CASE, "--solvers", SOLVER]          # regress: the analytic baseline alone
 # progress lines: run_all's bar and the integrators' bar
 PROGRESS = re.compile(r"^\[[# ]{20}\] \d+/\d+ |^.* \[[# ]{30}\] t = ")
 
@@ -124,7 +127,7 @@ def base(tmp_path) -> Path:
 
 
 def regress_stored(base: Path, results: Path, status: int, lines: int = 1, names=(), extra=()) -> list[str]:
-    return cli(["regress", "--baseline", base, "--results", results.parent, *ONE, *extra], status, lines, names)
+    return cli(["regress", "--baseline", base, "--results", results.parent, *BASE, *extra], status, lines, names)
 
 
 def edit_csv(path: Path, change) -> None:
@@ -263,7 +266,7 @@ def test_bench_out_is_a_file(tmp_path):
 
 def test_regress_update_into_a_file(tmp_path, results):
     (tmp_path / "f").write_text("keep")
-    cli(["regress", "--update", "--baseline", tmp_path / "f", "--results", results.parent, *ONE], 2,
+    cli(["regress", "--update", "--baseline", tmp_path / "f", "--results", results.parent, *BASE], 2,
         names=[tmp_path / "f", "--baseline"])
 
 
@@ -288,7 +291,7 @@ def test_report_past_the_file_size_limit_keeps_the_old_report(report):
 
 def test_regress_update_past_the_file_size_limit_keeps_the_old_baseline(base, results):
     before = snapshot(base)
-    process(["regress", "--update", "--baseline", base, "--results", results.parent, *ONE], 2, fsize=16 * 1024,
+    process(["regress", "--update", "--baseline", base, "--results", results.parent, *BASE], 2, fsize=16 * 1024,
             names=[base / CASE / f"{SOLVER}.csv", "file too large"])
     assert snapshot(base) == before
     no_leftovers(base)
@@ -322,7 +325,50 @@ def test_a_full_disk_during_a_report_keeps_the_old_report(report, monkeypatch):
 
 
 # ---------------------------------------------------------------------------------------------
-# signals: a report is of one generation, no temporary is left
+# signals: a report is of one generation, no temporary is left, no signal is lost, an ignored one
+# stays ignored. A test that signals a child waits for what the child says (a readiness file, a
+# progress line), starts it with the dispositions it means (pytest started as a background job
+# has SIGINT ignored, which a child inherits) and stops it whether the test passes or not.
+
+
+@contextlib.contextmanager
+def child(cmd, ignored=(), env=None, **kw):
+    """`cmd` started with SIGINT and SIGTERM at their defaults (those in `ignored`: ignored) and
+    unblocked; killed (if still running) and waited for when the block ends."""
+    def dispositions():
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.SIG_IGN if s in ignored else signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, (signal.SIGINT, signal.SIGTERM))
+
+    with subprocess.Popen([str(c) for c in cmd], preexec_fn=dispositions, env=env or ENV, **kw) as p:
+        try:
+            yield p
+        finally:
+            if p.poll() is None:
+                p.kill()
+
+
+def wait_for(marker: Path, p) -> None:
+    """Until the child `p` has created `marker` (FLEXMBD_READY_FILE: its signal handlers are in
+    place); a failure if it ends first, or has not within 120 s (it hangs)."""
+    deadline = time.monotonic() + 120
+    while not marker.exists():
+        if p.poll() is not None:
+            pytest.fail(f"the child ended ({p.returncode}) before it was ready")
+        if time.monotonic() > deadline:
+            pytest.fail("the child never said it was ready")
+        time.sleep(0.002)
+
+
+@pytest.fixture
+def signals_default():
+    """In this process for the test: SIGINT raising KeyboardInterrupt, SIGTERM at its default,
+    whatever pytest was started with (a command respects an ignored signal); put back after."""
+    old = {signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler),
+           signal.SIGTERM: signal.signal(signal.SIGTERM, signal.SIG_DFL)}
+    yield
+    for s, handler in old.items():
+        signal.signal(s, signal.SIG_DFL if handler is None else handler)
 
 
 def plant_signal(monkeypatch, module, name: str, sig) -> None:
@@ -336,12 +382,14 @@ def plant_signal(monkeypatch, module, name: str, sig) -> None:
     monkeypatch.setattr(module, name, wrapped)
 
 
+@pytest.mark.signals
 @pytest.mark.parametrize("module, name, sig", [("figures", "savefig", signal.SIGTERM),
                                               ("tables", "latex_document", signal.SIGTERM),
                                               ("tables", "html_table", signal.SIGINT)],
                          ids=["SIGTERM while a figure is written", "SIGTERM while a table is written",
                               "SIGINT while a page is written"])
-def test_a_signal_while_the_report_is_written_leaves_the_old_report(report, monkeypatch, module, name, sig):
+def test_a_signal_while_the_report_is_written_leaves_the_old_report(report, monkeypatch, signals_default, module,
+                                                                     name, sig):
     from flexmbd.report import figures, tables
     target = {"figures": figures.plt.Figure, "tables": tables}[module]
     plant_signal(monkeypatch, target, name, sig)
@@ -351,34 +399,178 @@ def test_a_signal_while_the_report_is_written_leaves_the_old_report(report, monk
     no_leftovers(report)
 
 
-def test_sigterm_while_compare_draws_leaves_the_old_page(report, monkeypatch):
+@pytest.mark.signals
+def test_sigterm_while_compare_draws_leaves_the_old_page(report, monkeypatch, signals_default):
     from flexmbd.report import figures
     plant_signal(monkeypatch, figures.plt.Figure, "savefig", signal.SIGTERM)
     before = snapshot(report / CASE)
-    cli(["compare", CASE, "--solvers", SOLVER, "--out", report], 143, names=["interrupted (SIGTERM)"])
+    cli(["compare", CASE, "--solvers", f"fe-linear,{SOLVER}", "--out", report], 143, names=["interrupted (SIGTERM)"])
     assert snapshot(report / CASE) == before
     no_leftovers(report)
+
+
+@pytest.mark.signals
+@pytest.mark.parametrize("where", ["replace", "rmtree"], ids=["right after a swap", "while the old pages go"])
+def test_a_signal_after_the_swap_leaves_no_staging_folder(tmp_path, monkeypatch, signals_default, where):
+    """SIGTERM right after each entry of a generation is swapped in, or while the old entries
+    are removed: it waits for the swap and the removal, so `dest` holds the whole new set and
+    neither the `.new-*` staging folder nor an old entry kept aside is left."""
+    from flexmbd import files
+    dest = tmp_path / "rep"
+    (dest / CASE).mkdir(parents=True)
+    for page in ("index.html", f"{CASE}/index.html"):
+        (dest / page).write_text("old")
+    plant_signal(monkeypatch, files.os if where == "replace" else files.shutil, where, signal.SIGTERM)
+    with pytest.raises(Interrupted), files.signals_handled(), files.generation(dest) as stage:
+        (stage / CASE).mkdir()
+        for page in ("index.html", f"{CASE}/index.html"):
+            (stage / page).write_text("new")
+    monkeypatch.undo()
+    assert [(dest / page).read_text() for page in ("index.html", f"{CASE}/index.html")] == ["new", "new"]
+    no_leftovers(dest)
+
+
+SWAPPER = """
+import contextlib, json, os, random, signal, sys, time
+from flexmbd import files
+
+
+def loop(w, handled):
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, signal.SIG_DFL)
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 2)             # the line of signals_exit
+    try:
+        with files.signals_handled() if handled else contextlib.nullcontext():
+            os.write(w, b"in")
+            while True:
+                for stretch in (files.signals_held, files.signals_exit, files.signals_kept):
+                    with stretch():
+                        pass
+    except KeyboardInterrupt as e:
+        os._exit(128 + e.signum)
+
+
+ended = []
+for k in range(int(sys.argv[1])):
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.close(r)
+        loop(w, handled=k % 2)
+    os.close(w)
+    os.read(r, 2)                                           # it is in its loop
+    os.close(r)
+    time.sleep(random.random() * 1e-3)                      # at a random point of it
+    os.kill(pid, signal.SIGTERM)
+    deadline = time.monotonic() + 60
+    while not (done := os.waitpid(pid, os.WNOHANG))[0] and time.monotonic() < deadline:
+        time.sleep(1e-4)
+    if not done[0]:                                         # the signal was lost: it loops for ever
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        ended.append("lost")
+        break
+    ended.append(os.waitstatus_to_exitcode(done[1]))
+print(json.dumps(ended))
+"""
+
+
+@pytest.mark.signals
+def test_no_signal_is_lost_while_stretches_begin_and_end():
+    """200 processes each entering and leaving the held, exit and kept stretches in a tight loop
+    (every other one within a command's handler, the others installing and putting back the
+    handler at each stretch) get a SIGTERM at a random point: every one ends by it, at once (no
+    stretch here holds it long), as killed by the signal or with status 143; a process still
+    looping 60 s after it (a signal lost between two handlers) ends the run."""
+    with child([sys.executable, "-c", SWAPPER, "200"], stdout=subprocess.PIPE, text=True) as p:
+        out, _ = p.communicate(timeout=1200)
+    ended = json.loads(out)
+    assert len(ended) == 200 and set(ended) <= {-signal.SIGTERM, 128 + signal.SIGTERM}, ended
+
+
+FINALIZER = """
+import os, sys, time
+from flexmbd import files
+
+
+class Slow:
+    def __del__(self):
+        sys.stdout.write("finalizing\\n")
+        sys.stdout.flush()
+        end = time.monotonic() + 60
+        while time.monotonic() < end:                      # until the signal ends it
+            pass
+
+
+try:
+    with files.signals_handled():
+        Slow()
+        end = time.monotonic() + 60
+        while time.monotonic() < end:
+            pass
+except KeyboardInterrupt as e:
+    os._exit(128 + e.signum)
+"""
+
+
+@pytest.mark.signals
+def test_a_signal_while_a_finalizer_runs_is_not_lost():
+    """A SIGTERM that comes while a finalizer (`__del__`) runs, once the child says it is in it:
+    Python cannot pass the handler's exception on from there (it would print it and go on);
+    the command still ends by the signal, with nothing printed (no loop of 60 s left)."""
+    with child([sys.executable, "-c", FINALIZER], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as p:
+        assert p.stdout.readline() == "finalizing\n"
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=200)
+    assert (p.returncode, err) == (128 + signal.SIGTERM, "")
+
+
+@pytest.mark.signals
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_an_ignored_signal_stays_ignored(sig, tmp_path):
+    """Started with a signal ignored (as `cmd &` leaves SIGINT in a non-interactive shell), the
+    command ignores it throughout (README.md, "Exit statuses"): sent from the moment its loading
+    handlers are in place until it ends, the signal changes nothing, the run finishes with
+    status 0 and its result is written."""
+    ready, out = tmp_path / "ready", tmp_path / "out"
+    cmd = [sys.executable, "-m", "flexmbd", "run", CASE, "--solver", SOLVER, "--out", out]
+    with child(cmd, ignored=(sig,), env=dict(ENV, FLEXMBD_READY_FILE=str(ready)), stdout=subprocess.PIPE,
+               stderr=subprocess.PIPE, text=True) as p:
+        wait_for(ready, p)
+        sent = 0
+        while p.poll() is None and sent < 20000:
+            p.send_signal(sig)
+            sent += 1
+            time.sleep(0.002)
+        _, err = p.communicate(timeout=120)
+    check(p.returncode, err, 0, 0, [])
+    assert sent > 1
+    assert flexmbd.results.read(out / "results", CASE, SOLVER).ok
+    no_leftovers(out)
 
 
 PAGES = ("index.html", "index.md", "accuracy.csv", "accuracy.md", "accuracy.tex", f"{CASE}/index.html",
          f"{CASE}/tip_deflection.png")
 
 
+@pytest.mark.signals
 @pytest.mark.parametrize("sig, status, delay", [(signal.SIGTERM, 143, 0.1), (signal.SIGTERM, 143, 0.4),
                                                 (signal.SIGINT, 130, 0.25)])
 def test_a_real_signal_during_a_report_ends_it_with_one_generation(report, sig, status, delay):
-    """A real signal to a `report` process once it has started work: it ends with exit
-    128 + signal and one line, and the pages are all of the old report or all of the new one."""
+    """A real signal to a `report` process once it says it is at work (its first progress line),
+    `delay` s later, wherever that is: it ends with exit 128 + signal and one line, or finished
+    before the signal came, and the pages are all of the old report or all of the new one."""
     old = {p: (report / p).stat().st_ino for p in PAGES}
-    p = subprocess.Popen([sys.executable, "-m", "flexmbd.cli", "report", *ONE, "--out", str(report)],
-                         stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
-                         env=ENV)
-    first = p.stderr.readline()                      # the progress line: main is at work
-    assert PROGRESS.match(first), first
-    time.sleep(delay)
-    p.send_signal(sig)
-    err = first + p.stderr.read()
-    p.wait(timeout=10)
+    cmd = [sys.executable, "-m", "flexmbd.cli", "report", *ONE, "--out", report]
+    with child(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True) as p:
+        said = [p.stderr.readline()]
+        while said[-1] and not PROGRESS.match(said[-1]):   # until the first progress line: main is at work
+            said.append(p.stderr.readline())
+        assert PROGRESS.match(said[-1]), said
+        time.sleep(delay)                            # the moment only: every outcome is checked below
+        p.send_signal(sig)
+        err = "".join(said) + p.stderr.read()
+        p.wait(timeout=60)
     if p.returncode in (0, -sig):                    # finished before the signal came (or while exiting)
         assert p.returncode == 0 or "interrupted" not in err, (p.returncode, err[-300:])
         check(0, err, 0, 0, [])
@@ -542,7 +734,8 @@ def test_report_no_run_with_a_broken_sidecar(report):
 
 
 def test_report_takes_a_case_path(tmp_path):
-    cli(["report", "--cases", ROOT / "cases" / f"{CASE}.toml", "--solvers", SOLVER, "--out", tmp_path], 0, 0)
+    cli(["report", "--cases", ROOT / "cases" / f"{CASE}.toml", "--solvers", f"fe-linear,{SOLVER}", "--out", tmp_path],
+        0, 0)
     assert (tmp_path / CASE / "index.html").is_file()
 
 
@@ -558,31 +751,54 @@ def test_report_with_a_missing_case_path_runs_nothing(tmp_path):
     assert not (tmp_path / "rep").exists()
 
 
+SOLVING = """import sys
+from flexmbd import integrate
+real = integrate.Progress.update
+def update(self, t):
+    if not getattr(update, "said", False):
+        update.said = True
+        sys.stderr.write("solving\\n")
+        sys.stderr.flush()
+    return real(self, t)
+integrate.Progress.update = update
+from flexmbd.cli import exit_with, main
+exit_with(main(sys.argv[1:]))
+"""
+
+
 @pytest.mark.slow
+@pytest.mark.signals
 def test_sigterm_ends_an_exudyn_solve(tmp_path):
     """Exudyn's solver is native code; it runs Python's signal handlers between steps and would
-    turn the exception into a failed result (files.signals_kept raises it again)."""
+    turn the exception into a failed result (files.signals_kept raises it again). The signal
+    comes once the child says the solver is at its steps (a line from its progress callback)."""
     pytest.importorskip("exudyn")
-    p = subprocess.Popen([sys.executable, "-m", "flexmbd.cli", "run", "pendulum", "--solver", "exudyn-beam",
-                          "--out", str(tmp_path)], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
-                         env=ENV)
-    time.sleep(1.8)                                   # imported, set up, solving (until about 3.5 s)
-    p.send_signal(signal.SIGTERM)
-    err = p.stderr.read()
-    p.wait(timeout=10)
+    cmd = [sys.executable, "-c", SOLVING, "run", "pendulum", "--solver", "exudyn-beam", "--out", tmp_path]
+    with child(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True) as p:
+        lines = []
+        while not lines or lines[-1] not in ("solving\n", ""):
+            lines.append(p.stderr.readline())
+        assert lines[-1] == "solving\n", lines
+        p.send_signal(signal.SIGTERM)
+        err = "".join(lines[:-1]) + p.stderr.read()
+        p.wait(timeout=60)
     check(p.returncode, err, 143, 1, ["interrupted (SIGTERM)"])    # how soon: benchmarks/signal_latency.py
     assert not (tmp_path / "pendulum" / "exudyn-beam.json").exists()
     no_leftovers(tmp_path)
 
 
+@pytest.mark.signals
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_a_signal_while_the_modules_load_is_one_line(sig, tmp_path):
-    """`python -m flexmbd` (the `flexmbd` command's entry): a signal 0.3 s in, while numpy, numba and
-    the solvers load, ends it with the same line and status as later on, and writes nothing."""
-    p = subprocess.Popen([sys.executable, "-m", "flexmbd", "run", CASE, "--solver", SOLVER, "--out", str(tmp_path)],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
-    time.sleep(0.3)
-    p.send_signal(sig)
-    out, err = p.communicate(timeout=60)
+    """`python -m flexmbd` (the `flexmbd` command's entry): a signal once it says its loading
+    handlers are in place (FLEXMBD_READY_FILE), while numpy, numba and the solvers load, ends it
+    with the same line and status as later on, and writes nothing."""
+    ready, out = tmp_path / "ready", tmp_path / "out"
+    cmd = [sys.executable, "-m", "flexmbd", "run", CASE, "--solver", SOLVER, "--out", out]
+    with child(cmd, env=dict(ENV, FLEXMBD_READY_FILE=str(ready)), stdout=subprocess.PIPE,
+               stderr=subprocess.PIPE, text=True) as p:
+        wait_for(ready, p)
+        p.send_signal(sig)
+        _, err = p.communicate(timeout=120)
     check(p.returncode, err, 128 + sig, 1, [f"interrupted ({signal.Signals(sig).name})"])
-    assert not any(tmp_path.iterdir())
+    assert not out.exists()

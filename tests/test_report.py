@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flexmbd import cases, flexbody, metrics, solvers
+from flexmbd import cases, channels, flexbody, metrics, solvers
 from flexmbd.cli import main
 from flexmbd.report import build, regress, tables
 
@@ -181,10 +181,50 @@ def test_regress_measures_a_conserved_energy_against_the_kinetic_energy(tmp_path
     regress.write(tmp_path, case, base)
     stored = regress.read(tmp_path, "pendulum", "flexmbd")
     assert float(stored.attrs["kinetic_max_J"]) == 12.9
-    [row] = regress.compare(case, fresh, stored)
+    kinetic = regress.reference_kinetic(tmp_path, case)         # flexmbd is the pendulum's reference
+    assert kinetic == 12.9
+    [row] = regress.compare(case, fresh, stored, kinetic)
     assert row["rms"] < 1e-10 and not row["moved"]
     drifted = Result(solver="flexmbd", case="pendulum", t=t, channels={"energy": 0.02 * 12.9 * t})
-    assert regress.compare(case, drifted, stored)[0]["moved"]
+    assert regress.compare(case, drifted, stored, kinetic)[0]["moved"]      # RMS 0.0115 > 0.01
+
+
+def test_regress_measures_a_rigid_peer_s_energy_noise_against_the_case_s_scale(tmp_path):
+    """A rigid peer records no kinetic energy and its conserved total is integration noise (about
+    1e-11 J): measured against its own largest magnitude, 9e-11 J of noise read as 22 %. Against
+    the reference run's largest kinetic energy (its baseline's header), or without one against the
+    gravity closed form |g| sum m l (25.9 J for the pendulum: m g L with m = 1.76 kg, L = 1.5 m),
+    it reads about 1e-11."""
+    from flexmbd.results import Result
+    case = cases.load("pendulum")
+    t = np.linspace(0.0, 1.0, 101)
+    rng = np.random.default_rng(1)
+    noise = lambda: 6e-11 * rng.standard_normal(101)
+    regress.write(tmp_path, case, Result(solver="pinocchio", case="pendulum", t=t, channels={"energy": noise()}))
+    stored = regress.read(tmp_path, "pendulum", "pinocchio")
+    fresh = Result(solver="pinocchio", case="pendulum", t=t, channels={"energy": noise()})
+    assert regress.reference_kinetic(tmp_path, case) is None
+    assert channels.gravity_energy(case) == pytest.approx(9.81 * 7820.0 * 0.01 * 0.015 * 1.5 * 1.5, rel=1e-12)
+    [row] = regress.compare(case, fresh, stored, None)
+    assert row["rms"] < 1e-10 and not row["moved"], row
+    shutil.copy(regress.BASELINES / "pendulum" / "flexmbd.csv", tmp_path / "pendulum")
+    kinetic = regress.reference_kinetic(tmp_path, case)
+    assert 12.0 < kinetic < 14.0                                  # m g L / 2 = 12.9 J released horizontally
+    [row] = regress.compare(case, fresh, stored, kinetic)
+    assert row["rms"] < 1e-10 and not row["moved"], row
+
+
+def test_a_reference_of_roundoff_is_measured_against_the_physical_scale():
+    """metrics.channel_norm: the reference's largest magnitude, never below 1e-9 of the channel's
+    physical scale (a rigid peer's deflection of 1e-17 m on a 1.5 m beam is measured against
+    1.5e-9 m); an energy against its scale alone."""
+    case = cases.load("pendulum")
+    tiny = np.array([0.0, 1e-17, -2e-17])
+    assert metrics.channel_norm("deflection", tiny, channels.physical_scale(case, "tip_deflection")) == \
+        pytest.approx(1.5e-9)
+    assert metrics.channel_norm("deflection", np.array([0.0, 3e-3]), 1.5) == 3e-3
+    assert metrics.channel_norm("energy", np.array([1.0, 2.0]), 12.9) == 12.9
+    assert metrics.channel_norm("stress_vm", np.zeros(3), 0.0) == 1.0
 
 
 def test_baselines_carry_provenance():
@@ -377,3 +417,28 @@ def test_frozen_frequencies_only_where_they_move():
     inplane = [[f for f, lab in modes if "xy 1" in lab][0] for _, modes in sweep]
     assert solver == spun["report"]["reference"] and inplane[0] == pytest.approx(0.6044, rel=1e-3)
     assert inplane[-1] > 0.7
+
+
+def test_report_runs_the_reference_it_compares_against(tmp_path, capsys):
+    """`--solvers analytic` on cantilever_step, whose reference is fe-linear: the reference runs
+    too (said in one line) and analytic is compared with it; with tolerances of 1e-12 (a copy of
+    the case file) --strict exits 1, and without tolerances nothing is compared: --strict exits 1
+    saying so."""
+    args = ["--cases", "cantilever_step", "--solvers", "analytic", "--strict", "--out", str(tmp_path / "a")]
+    assert main(["report", *args]) == 0
+    out, err = capsys.readouterr()
+    assert "cantilever_step: its reference fe-linear runs too" in err
+    assert (tmp_path / "a" / "results" / "cantilever_step" / "fe-linear.json").is_file()
+    assert out.startswith("2 runs: 1 pass, 1 reference"), out
+    text = (cases.find("cantilever_step")).read_text()
+    tight = re.sub(r"(?m)^tolerances = .*$", "tolerances = { tip_deflection = 1e-12, stress_vm = 1e-12 }", text)
+    none = re.sub(r"(?m)^tolerances = .*$", "", text)
+    for name, body, want in (("tight", tight, "1 fail"), ("none", none, "1 not compared")):
+        path = tmp_path / name / "cantilever_step.toml"
+        path.parent.mkdir()
+        path.write_text(body)
+        assert main(["report", "--cases", str(path), "--solvers", "analytic", "--strict",
+                     "--out", str(tmp_path / name)]) == 1, name
+        out, err = capsys.readouterr()
+        assert want in out.splitlines()[0], (name, out)
+    assert "--strict: nothing was compared" in err

@@ -1,12 +1,18 @@
 """Result files and the run status: one status type, one divergence rule, the CSV/JSON pair."""
 
+import contextlib
+import errno
+import io
 import json
 import os
 import re
+import resource
 import signal
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -128,37 +134,185 @@ def test_a_result_without_samples_has_no_csv(tmp_path):
 
 
 WRITER = """
+import os
 import sys
 import numpy as np
-from flexmbd import results
+from flexmbd import files, results
 k = 0
-print("ready", flush=True)
-while True:
-    k += 1
-    n = 50 + k % 7
-    results.write(results.Result(solver="s", case="c", t=np.arange(n) * 0.1,
-                                 channels={"x": np.full(n, float(k))}, settings={"k": k}), sys.argv[1])
+try:
+    with files.signals_handled():
+        while True:
+            k += 1
+            n = 50 + k % 7
+            results.write(results.Result(solver="s", case="c", t=np.arange(n) * 0.1,
+                                         channels={"x": np.full(n, float(k))}, settings={"k": k}), sys.argv[1])
+            if k == 1:
+                print("ready", flush=True)                  # a pair is there, and the handler in place
+except KeyboardInterrupt as e:
+    os._exit(128 + e.signum)
 """
 
 
+@contextlib.contextmanager
+def child(cmd, **kw):
+    """`cmd` started with SIGINT and SIGTERM at their defaults and unblocked (pytest started as a
+    background job has SIGINT ignored, which a child inherits); killed (if still running) and
+    waited for when the block ends."""
+    def dispositions():
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, (signal.SIGINT, signal.SIGTERM))
+
+    with subprocess.Popen([str(c) for c in cmd], preexec_fn=dispositions, **kw) as p:
+        try:
+            yield p
+        finally:
+            if p.poll() is None:
+                p.kill()
+
+
+def listing(folder: Path) -> dict:
+    """Every entry under `folder`, hidden ones included: relative path -> (inode, bytes, or None
+    for a folder)."""
+    return {str(q.relative_to(folder)): (q.stat().st_ino, q.read_bytes() if q.is_file() else None)
+            for q in sorted(Path(folder).rglob("*"))}
+
+
+@pytest.mark.signals
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupted_writer_leaves_a_matching_pair(tmp_path, sig):
-    """A process that keeps rewriting one result is stopped by a real signal at random moments;
-    every time, the CSV on disk belongs to the JSON beside it."""
+    """A process that keeps rewriting one result is stopped by a real signal at random moments
+    (once it says its first pair is written); every time it ends by the signal, the CSV on disk
+    belongs to the JSON beside it, and no temporary is left."""
     rng = np.random.default_rng(int(sig))
     for trial in range(6):
         out = tmp_path / f"trial{trial}"
-        p = subprocess.Popen([sys.executable, "-c", WRITER, str(out)], stdout=subprocess.PIPE,
-                             stderr=subprocess.DEVNULL, text=True)
-        assert p.stdout.readline().strip() == "ready"
-        time.sleep(0.2 + 0.3 * rng.random())
-        os.kill(p.pid, sig)
-        p.wait(timeout=20)
+        with child([sys.executable, "-c", WRITER, out], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                   text=True) as p:
+            assert p.stdout.readline().strip() == "ready", p.stderr.read()
+            time.sleep(0.2 * rng.random())          # the moment only: any is checked below
+            os.kill(p.pid, sig)
+            try:
+                p.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                pytest.fail(f"trial {trial}: still writing 60 s after the signal (lost): {p.communicate()[1][-3000:]}")
+        assert p.returncode == 128 + sig, p.stderr.read()
         meta = json.loads((out / "c" / "s.json").read_text())
         back = results.read(out, "c", "s")
         k = meta["settings"]["k"]
         assert len(back.t) == meta["samples"] == 50 + k % 7
         assert np.all(back.channels["x"] == k), (trial, k, back.channels["x"][:3])
+        assert sorted(q.name for q in (out / "c").iterdir()) == ["s.csv", "s.json"]
+
+
+# ---------------------------------------------------------------------------------------------
+# faults while a pair is written (`flexmbd run`): exit 2 naming the file, the old pair there byte
+# for byte (the same files), no temporary or kept copy left
+
+CASE, SOLVER = "cantilever_step", "analytic"
+ROOT = Path(results.__file__).resolve().parent.parent
+
+
+def run(out: Path) -> tuple[int, str]:
+    """`flexmbd run CASE --solver SOLVER --out OUT` in this process: (exit status, stderr)."""
+    from flexmbd.cli import main
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(["run", CASE, "--solver", SOLVER, "--out", str(out)])
+    return code, err.getvalue()
+
+
+@pytest.fixture
+def old(tmp_path) -> Path:
+    """The folder of a stored pair, OUT/results/CASE."""
+    assert run(tmp_path) == (0, "")
+    return tmp_path / "results" / CASE
+
+
+def test_a_sidecar_that_cannot_be_replaced_keeps_the_old_pair(old, monkeypatch):
+    """An immutable old sidecar (chattr +i; planted: renaming onto it fails with EPERM), met after
+    the CSV was swapped in: the old CSV is put back."""
+    from flexmbd import files
+    before, real = listing(old), os.replace
+
+    def replace(src, dst, **kw):
+        if Path(dst) == old / f"{SOLVER}.json":
+            raise PermissionError(errno.EPERM, "Operation not permitted", str(src), None, str(dst))
+        return real(src, dst, **kw)
+
+    monkeypatch.setattr(files.os, "replace", replace)
+    code, err = run(old.parent.parent)
+    monkeypatch.undo()
+    assert (code, err) == (2, f"flexmbd: {old / SOLVER}.json: not writable (operation not permitted)\n")
+    assert listing(old) == before
+
+
+def test_a_folder_where_the_sidecar_goes_is_refused_before_any_replace(old):
+    (old / f"{SOLVER}.json").unlink()
+    (old / f"{SOLVER}.json").mkdir()
+    (old / f"{SOLVER}.json" / "keep").write_text("keep")
+    before = listing(old)
+    assert run(old.parent.parent) == (2, f"flexmbd: {old / SOLVER}.json: a folder is there, not a file\n")
+    assert listing(old) == before
+
+
+def test_a_failing_second_temporary_leaves_no_first(old, monkeypatch):
+    """A full disk met while the second temporary of the pair is written (planted: ENOSPC)."""
+    from flexmbd import files
+    before, real, opened = listing(old), os.fdopen, []
+
+    def full(fd, *a, **k):
+        opened.append(fd)
+        if len(opened) == 2:
+            os.close(fd)
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(fd, *a, **k)
+
+    monkeypatch.setattr(files.os, "fdopen", full)
+    code, err = run(old.parent.parent)
+    monkeypatch.undo()
+    assert (code, err) == (2, f"flexmbd: {old / SOLVER}.csv: no space left on the device\n")
+    assert listing(old) == before
+
+
+@pytest.mark.parametrize("limit, name", [(1024, f"{SOLVER}.json"), (16 * 1024, f"{SOLVER}.csv")],
+                         ids=["ulimit -f 1: the first temporary", "16 KiB: the second temporary"])
+def test_past_the_file_size_limit_the_old_pair_stays(old, limit, name):
+    """`ulimit -f` (RLIMIT_FSIZE, bytes here) below the size of one of the pair's files, in a real
+    process (SIGXFSZ ignored by the command: EFBIG)."""
+    before = listing(old)
+    fsize = lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+    r = subprocess.run([sys.executable, "-m", "flexmbd.cli", "run", CASE, "--solver", SOLVER, "--out",
+                        str(old.parent.parent)], capture_output=True, text=True, preexec_fn=fsize, timeout=300,
+                       env=dict(os.environ, PYTHONPATH=str(ROOT), OPENBLAS_NUM_THREADS="1"))
+    assert (r.returncode, r.stderr) == (2, f"flexmbd: {old / name}: file too large (the file size limit, ulimit -f, "
+                                           f"was reached)\n")
+    assert listing(old) == before
+
+
+@pytest.mark.signals
+def test_a_signal_while_the_temporaries_are_made_leaves_none(old, monkeypatch):
+    """SIGTERM while the second temporary of the pair is made: exit 143 with its line, no temporary
+    left, the old pair as it was."""
+    from flexmbd import files
+    before, real, made = listing(old), tempfile.mkstemp, []
+
+    def mkstemp(*a, **k):
+        made.append(1)
+        if len(made) == 2:
+            os.kill(os.getpid(), signal.SIGTERM)
+        return real(*a, **k)
+
+    monkeypatch.setattr(files.tempfile, "mkstemp", mkstemp)
+    previous = signal.signal(signal.SIGTERM, signal.SIG_DFL)     # whatever pytest was started with
+    try:
+        code, err = run(old.parent.parent)
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+        monkeypatch.undo()
+    assert (code, err) == (143, "flexmbd: interrupted (SIGTERM)\n") and len(made) == 2
+    assert listing(old) == before
 
 
 def test_the_sidecar_records_every_override_and_the_versions(tmp_path):

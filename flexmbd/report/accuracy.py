@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd import metrics
+from flexmbd import channels, metrics
 
 DEFORMATION = ("deflection", "stress_vm")
 
@@ -32,6 +32,16 @@ def dominant_frequency(t, y, fmin: float) -> float:
     return pk[0][0] if pk else np.nan
 
 
+def ungraded(case) -> str:
+    """'' when the case grades its runs, else why not: a case that names no reference solver has
+    nothing to compare a run with and no tolerance to hold it to."""
+    if case["report"]["reference"] is not None:
+        return ""
+    return ("the case names no reference solver (report.reference; a case file without a [report] table names "
+            "none), so no run is compared and no tolerance applies")
+
+
+@np.errstate(over="ignore")        # a difference beyond the largest double is inf: a fail, shown as such
 def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
     """One row per (solver, channel) compared with the reference. `results`: solver -> Result."""
     ref_name = case["report"]["reference"]
@@ -48,7 +58,8 @@ def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
                 continue
             y = metrics.on_grid(ref.t, r.t, r.channels[ch])
             x = ref.channels[ch]
-            k = metrics.channel_norm(case["channels"][ch]["kind"], x, ref.extra.get("kinetic_max_J"))
+            k = metrics.channel_norm(case["channels"][ch]["kind"], x,
+                                     channels.physical_scale(case, ch, ref.extra.get("kinetic_max_J")))
             row = {"case": case.name, "solver": name, "reference": ref_name, "channel": ch,
                    "rms": metrics.rms_diff(x, y, k), "max": metrics.max_diff(x, y, k),
                    "peak": metrics.peak_diff(x, y, k),
@@ -89,6 +100,9 @@ def verdict(status, solver: str, reference: str, rows_: list[dict]) -> Verdict:
     outside = f" (outside linear validity: {status.why})" if status.outside else ""
     if solver == reference:
         return Verdict("reference", "reference" + outside)
+    if reference is None:
+        return Verdict("not compared", "not compared: the case names no reference solver (report.reference)"
+                       + outside)
     mine = [r for r in rows_ if r["solver"] == solver and np.isfinite(r["tolerance"])]
     bad = [r for r in mine if not r["rms"] <= r["tolerance"]]
     if bad:

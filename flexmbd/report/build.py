@@ -37,8 +37,31 @@ def plain(text: str) -> str:
 
 
 def jobs(case, names) -> list:
-    """The solvers of `names` that the case's report runs (its `report.solvers`, when given)."""
-    return [s for s in names if not case["report"]["solvers"] or s in case["report"]["solvers"]]
+    """The solvers of `names` that the case's report runs (its `report.solvers`, when given), with
+    the case's reference first when they need it (`with_reference`)."""
+    listed = (case["report"] or {}).get("solvers")
+    return with_reference(case, [s for s in names if not listed or s in listed])
+
+
+def with_reference(case, names) -> list:
+    """`names` and, when one of them is to be compared with the case's reference solver and the
+    reference is not among them, the reference first: every comparison needs its run."""
+    ref = added_reference(case, names)
+    return [ref] + list(names) if ref else list(names)
+
+
+def added_reference(case, names) -> str | None:
+    """The case's reference solver when `names` lacks it but holds a solver to compare with it;
+    None otherwise (no `[report]` reference, or nothing to compare)."""
+    ref = (case["report"] or {}).get("reference")
+    return ref if ref and names and ref not in names else None
+
+
+def page_solvers(out: Path, case, names) -> list:
+    """The solvers whose stored results a case page reads: `names` and those imported for the case
+    (`results.imported`). The command line estimates their sizes from the same list before any is
+    read (`cost.check_stored`)."""
+    return list(names) + [s for s in results.imported(results.folder(out), case.name) if s not in names]
 
 
 def load_results(out: Path, case, names, warn=None) -> dict:
@@ -47,17 +70,18 @@ def load_results(out: Path, case, names, warn=None) -> dict:
     kept as an unavailable result saying why, never as ok; `warn(line)` is told."""
     got = {}
     for s in names:
+        note = ""                                       # what is wrong with the stored result
         try:
             r = results.read(results.folder(out), case.name, s)
             why = results.stale(r, case.sha256, case["channels"])
             if why:
                 note = f"{out / 'results' / case.name / (s + '.json')}: stale: {why}"
-                r = Result(solver=s, case=case.name, status=results.unavailable(f"stale stored result: {why}"),
+                r = Result(solver=s, case=case.name, status=results.unavailable(f"{results.STALE}: {why}"),
                            solver_version=r.solver_version, settings=r.settings, case_sha256=r.case_sha256)
         except InputError as e:
             note = str(e)
-            r = Result(solver=s, case=case.name, status=results.unavailable(f"stored result unusable: {e}"))
-        if not r.status.ok and r.status.why.startswith(("stored result unusable", "stale stored result")) and warn:
+            r = Result(solver=s, case=case.name, status=results.unavailable(f"{results.UNUSABLE}: {e}"))
+        if note and warn:
             warn(f"warning: {note}")
         got[s] = r
     return got
@@ -296,12 +320,15 @@ def case_page(out: Path, case, names, warn=None) -> dict:
 def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) -> dict:
     """One case's page from the results under `out`, written into `stage/CASE/`; it links to the
     report's index when there is one (`indexed`), and says how to build one otherwise."""
-    names = list(names) + [s for s in results.imported(results.folder(out), case.name) if s not in names]
+    names = page_solvers(out, case, names)
     res = load_results(out, case, names, warn)
     ok = {s: r for s, r in res.items() if r.ok}
     mods = {s: solvers.module(s) if s in solvers.MODULES else None for s in res}     # None: imported
     freqs = fe_frequencies(case)
     ref = case["report"]["reference"]
+    ungraded = accuracy.ungraded(case)
+    if ungraded and warn:
+        warn(f"warning: {case.path}: nothing graded: {ungraded}")
     acc = accuracy.rows(case, ok, mods, freqs)
     system = system_modes(case)
     dt = case["integrator"]["output_dt"]
@@ -386,7 +413,8 @@ def _case_page(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
 
     # accuracy
     head, rows = tables.accuracy_rows(acc)
-    note = (f"<p>Reference: <b>{html.escape(ref)}</b>. Differences are normalised by the reference's maximum "
+    note = (f"<p>Nothing graded: {html.escape(ungraded)}.</p>" if ungraded else
+            f"<p>Reference: <b>{html.escape(ref)}</b>. Differences are normalised by the reference's maximum "
             "magnitude; the result compares the RMS difference with the case's tolerance. Phase-robust measures "
             "(DESIGN.md §2): dominant frequency, RMS difference of the amplitude envelopes and of the slow "
             "(low-pass below half the lowest natural frequency) parts.</p>")

@@ -4,6 +4,7 @@ modes of its flexible bodies; the index's work-precision figure of a benchmark r
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import matplotlib
@@ -12,7 +13,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from flexmbd import metrics  # noqa: E402
+from flexmbd import channels, metrics  # noqa: E402
 from flexmbd.files import atomic_write  # noqa: E402
 
 UNITS = {"deflection": ("mm", 1e3), "stress_vm": ("MPa", 1e-6), "joint_angle": ("rad", 1.0),
@@ -36,9 +37,11 @@ def save(fig, path: Path) -> str:
     """Write the figure atomically (`files.atomic_write`) as PNG, and as SVG beside it; return the
     PNG's file name (pages link relatively)."""
     try:
-        atomic_write(path, lambda f: fig.savefig(f, dpi=90, format="png"))
-        fig.set_layout_engine("none")           # the SVG keeps the PNG's layout, not computed again
-        atomic_write(path.with_suffix(".svg"), lambda f: fig.savefig(f, format="svg"))
+        with warnings.catch_warnings():         # drawing: matplotlib's advice (a legend placed slowly over a
+            warnings.simplefilter("ignore")     # long history) is no line of the command's on stderr
+            atomic_write(path, lambda f: fig.savefig(f, dpi=90, format="png"))
+            fig.set_layout_engine("none")       # the SVG keeps the PNG's layout, not computed again
+            atomic_write(path.with_suffix(".svg"), lambda f: fig.savefig(f, format="svg"))
     finally:
         plt.close(fig)
     return path.name
@@ -128,7 +131,8 @@ def channel_figure(case, name: str, results: dict, reference: str):
     diffs = {s: np.abs(metrics.on_grid(ref[0], t, y) - ref[1]) for s, (t, y) in curves.items()
              if ref is not None and s != reference}
     kinetic = results[reference].extra.get("kinetic_max_J") if ref is not None else None
-    floor = floor_of(diffs, metrics.channel_norm(kind, ref[1], kinetic and kinetic * k) if ref is not None else 1.0)
+    floor = floor_of(diffs, metrics.channel_norm(kind, ref[1], channels.physical_scale(case, name, kinetic) * k)
+                     if ref is not None else 1.0)
     f = vibration_hz(*ref) if ref is not None and kind != "energy" else np.nan
     windows = zoom_windows(ref[0], f) if ref is not None else []
     line = lambda s, n: {**style(s, n), **({"lw": 2.2, "alpha": 0.6} if s == reference else {"lw": 1.0})}
@@ -147,9 +151,8 @@ def channel_figure(case, name: str, results: dict, reference: str):
     if kind == "energy":
         ylabel = "energy change from t = 0 [J]"
         title = f"{case.name}: {name}, change of the total energy (kinetic + gravity + strain) from t = 0"
-        if kinetic:
-            title += (f"\naccuracy table: differences over {reference}'s largest kinetic energy, "
-                      f"{kinetic:.3g} J")
+        over = f"{reference}'s largest kinetic energy" if kinetic else "the case's gravity energy scale |g| sum m l"
+        title += f"\naccuracy table: differences over {over}, {channels.physical_scale(case, name, kinetic):.3g} J"
     else:
         ylabel, title = f"{name} [{unit}]", where(case, name)
     top.set_title(title, fontsize=10)

@@ -4,7 +4,7 @@ A baseline is a result table with a provenance header (lines starting with '#': 
 version, settings, date, units, columns, and the run's largest kinetic energy where the solver
 reports it). `compare` measures every channel's RMS difference from the baseline with the
 accuracy table's normalisation (`metrics.channel_norm`: the baseline's maximum magnitude, a
-total energy against the largest kinetic energy) and flags what moved beyond the case's
+total energy against the largest kinetic energy of the case's reference run) and flags what moved beyond the case's
 tolerance for that channel.
 """
 
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import metrics, results, solvers
+from flexmbd import channels, metrics, results, solvers
 from flexmbd.errors import InputError
 from flexmbd.files import atomic_write
 from flexmbd.results import Result
@@ -116,11 +116,26 @@ def baseline(base: Path, case, solver: str) -> tuple[pd.DataFrame, str]:
     return df, why
 
 
-def compare(case, r: Result, baseline: pd.DataFrame) -> list[dict]:
-    """One row per baseline channel: normalised RMS difference, tolerance, moved?"""
+def reference_kinetic(base: Path, case) -> float | None:
+    """The largest kinetic energy (J) of the case's reference run, from the header of its
+    baseline under `base` (None when there is no such baseline, or it records none): the scale
+    of every solver's energy channel (`channels.physical_scale`), as in the report."""
+    ref = (case["report"] or {}).get("reference")
+    path = Path(base) / case.name / f"{ref}.csv"
+    if not ref or not path.is_file():
+        return None
+    try:
+        kinetic = float(read(base, case.name, ref).attrs.get("kinetic_max_J", "nan"))
+    except InputError:
+        return None                     # the reference's own comparison names what is wrong with it
+    return kinetic if np.isfinite(kinetic) and kinetic > 0 else None
+
+
+def compare(case, r: Result, baseline: pd.DataFrame, kinetic: float | None = None) -> list[dict]:
+    """One row per baseline channel: normalised RMS difference, tolerance, moved? Each channel is
+    normalised as in the accuracy table (`metrics.channel_norm`), an energy by the case's
+    reference run's largest kinetic energy `kinetic` (`reference_kinetic`; J)."""
     tol = case["report"]["tolerances"]
-    kinetic = float(baseline.attrs["kinetic_max_J"]) if "kinetic_max_J" in baseline.attrs \
-        else r.extra.get("kinetic_max_J")
     t_ref = baseline["t"].to_numpy()
     rows = []
     for ch in baseline.columns:
@@ -133,7 +148,8 @@ def compare(case, r: Result, baseline: pd.DataFrame) -> list[dict]:
             continue
         y = metrics.on_grid(t_ref, r.t, r.channels[ch])
         ref = baseline[ch].to_numpy()
-        d = metrics.rms_diff(ref, y, metrics.channel_norm(case["channels"][ch]["kind"], ref, kinetic))
+        d = metrics.rms_diff(ref, y, metrics.channel_norm(case["channels"][ch]["kind"], ref,
+                                                          channels.physical_scale(case, ch, kinetic)))
         short = np.isnan(y).any()
         rows.append({"case": case.name, "solver": r.solver, "channel": ch, "rms": d, "tolerance": limit,
                      "moved": bool(short or not d <= limit), "why": "shorter run" if short else ""})
