@@ -5,7 +5,7 @@ objects. Importing flexmbd is cheap; solvers and their compiled kernels load on 
 
 from __future__ import annotations
 
-__version__ = "0.1.0"
+from flexmbd.version import __version__
 
 __all__ = ["load_case", "run", "compare", "system_modes", "__version__"]
 
@@ -50,17 +50,17 @@ def compare(case, solvers=None, t_end: float | None = None):
     import pandas as pd
 
     from flexmbd import solvers as registry
-    from flexmbd.report import accuracy, build
+    from flexmbd.report import accuracy, spectra
     case = _case(case)
-    names = list(solvers or case["report"]["solvers"] or registry.NAMES)
-    ref = case["report"]["reference"]
+    names = list(solvers or case.report.solvers or registry.NAMES)
+    ref = case.report.reference
     if ref is not None and ref not in names:
         names.insert(0, ref)
     for n in names:
         registry.check_name(n, "solvers")
     res = {n: registry.run(case, n, t_end) for n in names}
     ok = {n: r for n, r in res.items() if r.ok}
-    freqs = build.fe_frequencies(case)
+    freqs = spectra.fe_frequencies(case)
     rows = accuracy.rows(case, ok, {n: registry.module(n) for n in ok}, freqs)
     df = pd.DataFrame(rows, columns=["case", "solver", "reference", "channel", "rms", "max", "peak", "tolerance"])
     df["passes"] = df["rms"] <= df["tolerance"]

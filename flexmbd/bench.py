@@ -128,7 +128,7 @@ def deflection_error(case, ref, r) -> float:
     if not r.ok:
         return np.nan
     errs = [metrics.rms_diff(ref.channels[c], metrics.on_grid(ref.t, r.t, r.channels[c]))
-            for c, ch in case["channels"].items() if ch["kind"] == "deflection" and c in r.channels]
+            for c, ch in case.channels.items() if ch.kind == "deflection" and c in r.channels]
     return float(max(errs)) if errs else np.nan
 
 

@@ -10,12 +10,13 @@ from flexmbd.model import Arrays, Model, empty_arrays, empty_loads
 
 
 def from_case(case, bodies: dict | None = None) -> Model:
-    """Build the Model of a case; `bodies`: reduced flexible bodies by name (built when None)."""
+    """Build the Model of a resolved case (`cases.Resolved`: the tree as given, every beam whole;
+    the modal model of a Case is that of `case.modelled`); `bodies`: reduced flexible bodies by
+    name (built when None)."""
     if bodies is None:
         bodies = flexbody.for_case(case)
-    order = case.resolved.order
+    order = case.order
     index = {name: k + 1 for k, name in enumerate(order)}
-    by_child = {j["child"]: (jn, j) for jn, j in case["joints"].items()}
     nb = len(order)
     nm = max([fb.n_modes for fb in bodies.values()] + [0])
 
@@ -25,34 +26,32 @@ def from_case(case, bodies: dict | None = None) -> Model:
     nq = nv = 0
     for name in order:
         i = index[name]
-        jname, j = by_child[name]
-        jnames[i], motion[i] = jname, j["motion"]
-        A["jnt_prescribed"][i] = j["motion"] is not None
-        A["parent"][i] = 0 if j["parent"] == "ground" else index[j["parent"]]
-        t = JOINT_CODES[j["type"]]
+        j = case.joint_of(name)
+        jnames[i], motion[i] = j.name, j.motion
+        A["jnt_prescribed"][i] = j.motion is not None
+        A["parent"][i] = 0 if j.parent == "ground" else index[j.parent]
+        t = JOINT_CODES[j.type]
         A["jnt_type"][i], A["jnt_nv"][i] = t, NV[t]
-        A["jnt_axis"][i] = case.resolved.joints[jname].axis
-        attach(A, i, j, np.array(case.resolved.joints[jname].triad), case["bodies"].get(j["parent"]),
-               bodies.get(j["parent"]))
+        A["jnt_axis"][i] = j.axis
+        attach(A, i, j, case.bodies.get(j.parent), bodies.get(j.parent))
         A["jnt_qadr"][i], A["jnt_vadr"][i] = nq, nv
-        q0.extend(initial_q(t, j["q0"]))
-        v0.extend(j["qd0"])
+        q0.extend(initial_q(t, list(j.q0)))
+        v0.extend(j.qd0)
         nq, nv = nq + NQ[t], nv + NV[t]
 
-        body = case["bodies"][name]
-        if body["type"] == "rigid":
-            A["body_inertia"][i] = spatial.inertia(body["mass"], np.asarray(body["com"], dtype=float),
-                                                   inertia_matrix(body["inertia"]))
-            A["body_mass"][i] = body["mass"]
-        elif body["rigid"]:
-            fb = flexbody.undeformed(name, body,
-                                case["materials"][body["material"]])
+        body = case.bodies[name]
+        if body.type == "rigid":
+            A["body_inertia"][i] = spatial.inertia(body.mass, np.asarray(body.com, dtype=float),
+                                                   inertia_matrix(body.inertia))
+            A["body_mass"][i] = body.mass
+        elif body.rigid:
+            fb = flexbody.undeformed(name, body)
             A["body_inertia"][i] = rigid_inertia_of_beam(fb)
             A["body_mass"][i] = fb.m.sum()
         else:
             fb = bodies[name]
             k = fb.n_modes
-            invs[i] = invariants.invariants(fb, body["stiffening"])
+            invs[i] = invariants.invariants(fb, body.stiffening)
             A["body_mass"][i] = fb.m.sum()
             A["body_madr"][i], A["body_nm"][i] = nq, k
             A["flex_K"][i, :k, :k], A["flex_C"][i, :k, :k] = fb.Km, fb.Cm
@@ -63,26 +62,25 @@ def from_case(case, bodies: dict | None = None) -> Model:
     A.update(motion_arrays(motion, A["jnt_qadr"], A["jnt_nv"], q0))
     loads = point_loads(case, index, bodies, nm)
     arrays = Arrays(**A, inv=invariants.stack(invs, nm), **loads[0],
-                    gravity=np.asarray(case["gravity"], dtype=float))
+                    gravity=np.asarray(case.gravity, dtype=float))
     return Model(nb=nb, nq=nq, nv=nv, arrays=arrays, names=("ground",) + tuple(order),
                  jnt_names=tuple(jnames), jnt_motion=tuple(motion), load_profiles=loads[1],
                  bodies=dict(bodies), q0=np.array(q0, dtype=float), v0=np.array(v0, dtype=float))
 
 
-def attach(A: dict, i: int, j: dict, R, pbody: dict | None, fb: flexbody.FlexBody | None) -> None:
-    """Input triad of joint i (rotation R (3, 3) in the parent frame): on ground or a rigid body at
-    a point; on a beam at its snapped node."""
-    if pbody is None or pbody["type"] == "rigid":
-        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.asarray(j["at"], dtype=float))
-    elif pbody["rigid"]:          # a beam declared rigid: the snapped node's undeformed position
-        x = flexbody.snapped(pbody["length"], pbody["elements"], j["at"])
-        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.array([x, 0.0, 0.0]))
+def attach(A: dict, i: int, j, pbody, fb: flexbody.FlexBody | None) -> None:
+    """Input triad of joint i (`cases.Joint` j, its triad's rotation in the parent frame): on ground,
+    a rigid body or a beam declared rigid at its offset (a beam's snapped node); on a flexible beam
+    at its snapped node, which carries it."""
+    R = np.array(j.triad)
+    if pbody is None or pbody.type == "rigid" or pbody.rigid:
+        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.asarray(j.offset, dtype=float))
     else:
-        p = fb.node_at(j["at"])
+        p = j.point.node
         A["jnt_Xtriad"][i] = spatial.plux(R.T, np.zeros(3))
         A["jnt_node"][i], A["jnt_x0"][i] = p, fb.x0[p]
         A["jnt_Phi"][i, :, :fb.n_modes] = fb.Phi[p]
-        if pbody["stiffening"]:
+        if pbody.stiffening:
             A["jnt_D"][i, :fb.n_modes, :fb.n_modes] = fb.D[p]
 
 
@@ -104,27 +102,25 @@ def motion_arrays(motion: list, qadr, nv, q0: list) -> dict:
 
 def point_loads(case, index: dict, bodies: dict, nm: int):
     """Load arrays (see Arrays.load_*) and their time profiles."""
-    loads = list(case["loads"].values())
+    loads = list(case.loads.values())
     nl = len(loads)
     L = empty_loads(nl, nm)
     for k, ld in enumerate(loads):
-        L["load_body"][k] = index[ld["body"]]
-        L["load_force"][k] = ld["force"]
-        L["load_global"][k] = ld["frame"] == "global"
-        L["load_kind"][k], L["load_par"][k] = profiles.encode_load(ld["profile"])
-        body = case["bodies"][ld["body"]]
-        if body["type"] == "rigid":
-            L["load_point"][k] = ld["at"]
-        elif body["rigid"]:
-            L["load_point"][k] = [flexbody.snapped(body["length"], body["elements"], ld["at"]), 0.0, 0.0]
+        L["load_body"][k] = index[ld.body]
+        L["load_force"][k] = ld.force
+        L["load_global"][k] = ld.frame == "global"
+        L["load_kind"][k], L["load_par"][k] = profiles.encode_load(ld.profile)
+        body = case.bodies[ld.body]
+        if body.type == "rigid" or body.rigid:          # a beam declared rigid: its snapped node
+            L["load_point"][k] = ld.offset
         else:
-            fb = bodies[ld["body"]]
-            p = fb.node_at(ld["at"])
+            fb = bodies[ld.body]
+            p = ld.point.node
             L["load_point"][k] = fb.x0[p]
             L["load_Phi"][k, :, :fb.n_modes] = fb.Phi[p]
-            if body["stiffening"]:
+            if body.stiffening:
                 L["load_D"][k, :fb.n_modes, :fb.n_modes] = fb.D[p]
-    return L, tuple(ld["profile"] for ld in loads)
+    return L, tuple(ld.profile for ld in loads)
 
 
 def rigid_inertia_of_beam(fb: flexbody.FlexBody) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Channels (DESIGN.md §2): each kind computed by one function, from a solver-neutral trajectory.
+"""Channels: each kind computed by one function, from a solver-neutral trajectory.
 
 A solver — flexmbd or an adapter — reports what it knows of a run as a `Trajectory`: the
 coordinates of the joints the channels name, the parts of the energy, the joint reactions if it
@@ -76,9 +76,9 @@ def points_needed(case, body: str) -> list:
     """Positions x (m) whose points a Beam must hold: the root, the tip, every deflection
     channel's point and the shape points (`shape_positions`), in that order, without repeats (a
     shape point within 1e-9 L of a listed position is that position)."""
-    L = float(case["bodies"][body]["length"])
+    L = float(case.bodies[body].length)
     xs = [0.0, L]
-    xs += [c["at"] for c in case["channels"].values() if c["kind"] == "deflection" and c["body"] == body]
+    xs += [c.at for c in case.channels.values() if c.kind == "deflection" and c.body == body]
     xs = list(dict.fromkeys(xs))
     for x in evenly_spaced(case, body):
         if not any(abs(x - y) <= 1e-9 * L for y in xs):
@@ -88,7 +88,7 @@ def points_needed(case, body: str) -> list:
 
 def evenly_spaced(case, body: str) -> list:
     """`report.shape_points` positions evenly spaced from the root (0) to the tip (length), m."""
-    L, n = float(case["bodies"][body]["length"]), case["report"]["shape_points"]
+    L, n = float(case.bodies[body].length), case.report.shape_points
     return [L * k / (n - 1) for k in range(n)]          # L k / (n - 1): 0.45, not 3 x 0.15 = 0.44999999999999996
 
 
@@ -101,11 +101,11 @@ def shape_positions(case, body: str) -> list:
 
 def joints_needed(case) -> list:
     """Names of the joints whose coordinates the channels use."""
-    return list(dict.fromkeys(c["joint"] for c in case["channels"].values() if c["kind"] == "joint_angle"))
+    return list(dict.fromkeys(c.joint for c in case.channels.values() if c.kind == "joint_angle"))
 
 
 def wants_energy(case) -> bool:
-    return any(c["kind"] == "energy" for c in case["channels"].values())
+    return any(c.kind == "energy" for c in case.channels.values())
 
 
 def modal_points(fb: flexbody.FlexBody, xs, eta) -> tuple[dict, dict]:
@@ -127,6 +127,45 @@ def modal_root(fb: flexbody.FlexBody, eta) -> np.ndarray | None:
 def modal_strains(fb: flexbody.FlexBody, eta) -> dict:
     """{x: (n, 4)} section strains at the body's stress sections from modal coordinates eta (n, nm)."""
     return {float(x): eta @ fb.S_strain[k].T for k, x in enumerate(fb.stress_x)}
+
+
+def node_forces(m: np.ndarray, acc: np.ndarray, loads=(), joints=()) -> np.ndarray:
+    """(n, N, 3) net force on each node of a beam, body frame: the one node-force sum of every
+    modal solver (docs/formulation.md §7). m (N,) node masses, kg; acc (n, N, 3) each node's
+    acceleration relative to free fall (gravity taken off), body frame; `loads` the point loads
+    and `joints` the forces the beam's child joints exert on it, each (node, (n, 3) body frame)."""
+    F = -m[None, :, None] * acc
+    for p, f in loads:
+        F[:, p, :] += f
+    for p, f in joints:
+        F[:, p, :] += f
+    return F
+
+
+def axial_rule(stiffened: bool, stressed: bool, fb: flexbody.FlexBody) -> tuple[bool, bool]:
+    """(load, strain): where a modal beam's quasi-static axial force N(x) enters, the one rule of
+    every modal solver (docs/formulation.md §7). In a model without geometric stiffening it is a
+    validity measure (`axial_load`: the model is linear only while it is far below buckling); in
+    a stressed beam whose retained modes carry no axial motion (`flexbody.axial_free`) it adds
+    N / (E A) to the section strains. A solver computes the node forces (`node_forces`) when
+    either holds."""
+    return not stiffened, stressed and flexbody.axial_free(fb)
+
+
+def modal_beam(fb: flexbody.FlexBody, eta, mat, sec, points: dict, x0: dict, root, F=None,
+               rule: tuple = (False, False)) -> Beam:
+    """The Beam of a modal beam from its modal coordinates eta (n, nm): the solver's tracked
+    points and root rotation, the modal section strains and validity measures, and, as `rule`
+    (`axial_rule`) says, the quasi-static axial force from the node forces F (n, N, 3)
+    (`node_forces`) in the strains and in the measures. mat: the beam's `cases.Material`."""
+    load, strain = rule
+    strains = modal_strains(fb, eta)
+    extent = modal_extent(fb, eta, sec)
+    if load:
+        extent["axial_load"] = axial_load(axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), mat.E, sec, fb.length)
+    if strain:
+        strains = with_axial_strain(strains, {x: axial_force(fb.x0, F, x) for x in strains}, mat.E * sec.A)
+    return Beam(length=fb.length, points=points, x0=x0, root=root, strains=strains, extent=extent)
 
 
 def axial_force(x0: np.ndarray, F: np.ndarray, x: float) -> np.ndarray:
@@ -242,7 +281,7 @@ def shapes(case, traj: Trajectory, instants) -> dict:
     `displacement` there (root-node or chord frame, m). An instant farther than half an output
     interval from every sample (the run ended before it) is left out, as is a sample at which a
     beam's displacements are not finite; a beam without shape points or snapshots is left out."""
-    t, half = np.asarray(traj.t, dtype=float), 0.5 * case["integrator"]["output_dt"] * (1.0 + 1e-9)
+    t, half = np.asarray(traj.t, dtype=float), 0.5 * case.integrator.output_dt * (1.0 + 1e-9)
     picks = [int(np.argmin(np.abs(t - s))) for s in instants] if len(t) else []
     picks = list(dict.fromkeys(i for i, s in zip(picks, instants) if abs(t[i] - s) <= half))
     out = {}
@@ -285,14 +324,14 @@ def physical_scale(case, name: str, kinetic_max: float | None = None) -> float:
         joint_angle  1 (rad, or m for a prismatic joint)
         reaction_*   0: no scale (its reference's magnitude alone)
     """
-    c = case["channels"][name]
-    kind = c["kind"]
+    c = case.channels[name]
+    kind = c.kind
     if kind == "energy":
         return float(kinetic_max) if kinetic_max else gravity_energy(case)
     if kind == "deflection":
-        return float(case["bodies"][c["body"]]["length"])
+        return float(case.bodies[c.body].length)
     if kind == "stress_vm":
-        return float(case["materials"][case["bodies"][c["body"]]["material"]]["E"])
+        return float(case.bodies[c.body].material.E)
     return 1.0 if kind == "joint_angle" else 0.0
 
 
@@ -300,40 +339,37 @@ def gravity_energy(case) -> float:
     """|g| sum_b m_b l_b (J): the energy scale of a system moved by gravity, each body's mass m_b
     times the length l_b of the chain from the ground to its far end (beam lengths, a rigid body's
     centre of mass offset), the most its mass can descend by. 0 without gravity."""
-    g = float(np.linalg.norm(case["gravity"]))
-    parent = {j["child"]: j["parent"] for j in case["joints"].values()}
+    g = float(np.linalg.norm(case.gravity))
 
     def reach(name: str) -> float:
-        b = case["bodies"][name]
-        own = b["length"] if b["type"] == "beam" else float(np.linalg.norm(b["com"]))
-        return own + (reach(parent[name]) if parent[name] != "ground" else 0.0)
+        b, parent = case.bodies[name], case.joint_of(name).parent
+        own = b.length if b.type == "beam" else float(np.linalg.norm(b.com))
+        return own + (reach(parent) if parent != "ground" else 0.0)
 
     def mass(b) -> float:
-        return case["materials"][b["material"]]["rho"] * flexbody.beam_section(b).A * b["length"] \
-            if b["type"] == "beam" else b["mass"]
+        return b.material.rho * b.geometry.A * b.length if b.type == "beam" else b.mass
 
-    return g * sum(mass(b) * reach(n) for n, b in case["bodies"].items())
+    return g * sum(mass(b) * reach(n) for n, b in case.bodies.items())
 
 
 def channels(case, traj: Trajectory) -> dict:
     """Every channel of the case, (n,) each. A reaction the solver does not recover is left out."""
     out, n = {}, len(traj.t)
-    for name, c in case["channels"].items():
-        kind = c["kind"]
+    for name, c in case.channels.items():
+        kind = c.kind
         if kind == "joint_angle":
-            out[name] = np.array(traj.joints[c["joint"]], dtype=float)
+            out[name] = np.array(traj.joints[c.joint], dtype=float)
         elif kind == "energy":
             out[name] = energy(traj)
         elif kind in ("reaction_force", "reaction_moment"):
-            if c["joint"] in traj.reactions:
-                out[name] = reaction(traj.reactions[c["joint"]], kind, c["component"])
-        elif c["body"] not in traj.beams:
+            if c.joint in traj.reactions:
+                out[name] = reaction(traj.reactions[c.joint], kind, c.component)
+        elif c.body not in traj.beams:
             out[name] = np.zeros(n)
         elif kind == "deflection":
-            out[name] = deflection(traj.beams[c["body"]], c["at"], "xyz".index(c["component"]))
+            out[name] = deflection(traj.beams[c.body], c.at, "xyz".index(c.component))
         else:
-            body = case["bodies"][c["body"]]
-            mat = case["materials"][body["material"]]
-            out[name] = stress_vm(traj.beams[c["body"]].strains[float(c["at"])], mat["E"],
-                                  flexbody.shear_modulus(mat), flexbody.beam_section(body), c["fibre"])
+            body = case.bodies[c.body]
+            out[name] = stress_vm(traj.beams[c.body].strains[float(c.at)], body.material.E, body.material.G,
+                                  body.geometry, c.fibre)
     return out

@@ -1,4 +1,4 @@
-"""The `flexmbd` command (DESIGN.md §6).
+"""The `flexmbd` command, as README.md ("Using it") documents it.
 
 Exit statuses, one meaning each (README.md): 0 success; 1 a comparison or regression found a
 difference (with --strict, also a failed solver); 2 bad input or an unusable file or location
@@ -22,9 +22,10 @@ import time
 import traceback
 from pathlib import Path
 
-import flexmbd
 from flexmbd import cases, cost, files, solvers
 from flexmbd.errors import InputError
+from flexmbd.progress import job, jobs_done
+from flexmbd.version import __version__
 
 OK, DIFFERENT, BAD_INPUT, INTERNAL = 0, 1, 2, 3
 
@@ -60,7 +61,7 @@ def cmd_list(args) -> int:
     rows = []
     for name in cases.available():
         c = _case(name)
-        rows.append({"case": name, "title": c["title"], "bodies": list(c["bodies"]),
+        rows.append({"case": name, "title": c.title, "bodies": list(c.bodies),
                      "solvers": {s: solvers.status_for(c, s) or "ok" for s in (*solvers.NAMES, *solvers.REFUSED)}})
     if args.json:
         print(json.dumps(rows, indent=2))
@@ -103,7 +104,7 @@ def system_modes(case, about: str, as_json: bool) -> int:
     """The assembled system's frequencies, damping and labels (linearize.py), with a progress bar
     past a couple of seconds."""
     from flexmbd import linearize
-    from flexmbd.kernel import jit
+    from flexmbd import jit
     if not jit.is_cached():
         warn("compiling the solver's kernel once for this source version, to linearize the case "
              "(about a minute; cached afterwards)")
@@ -185,63 +186,53 @@ def run_checked(jobs: list, out: Path) -> None:
     from flexmbd import results
     t0 = time.perf_counter()
     for k, (c, s) in enumerate(jobs, 1):
-        progress(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
+        job(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
         with files.signals_exit():                      # nothing written while it runs
             r = solvers.run(c, s)
         results.write(r, results.folder(out))
-    progress_done(len(jobs), time.perf_counter() - t0)
+    jobs_done(len(jobs), time.perf_counter() - t0)
 
 
 def stored_sidecars(out, pages) -> list:
     """The sidecars of the stored results that case pages will read, for their sizes
     (`cost.check_stored`): pages [(case, the solvers read from storage)], each with the results
-    imported for its case (`build.page_solvers`)."""
+    imported for its case (`loading.page_solvers`)."""
     from flexmbd import results
-    from flexmbd.report import build
-    return [results.folder(out) / c.name / f"{s}.json" for c, names in pages for s in build.page_solvers(out, c, names)]
-
-
-def results_folder(out) -> Path:
-    """The results of the report folder `out` (results.folder), which must exist."""
-    from flexmbd import results
-    where = results.folder(out)
-    if not where.is_dir():
-        raise InputError(f"{where}: --results: no results folder (give the report folder DIR whose results are "
-                         f"DIR/results/CASE/SOLVER.json, as run, import, compare and report write them)")
-    return where
+    from flexmbd.report import loading
+    return [results.folder(out) / c.name / f"{s}.json" for c, names in pages for s in loading.page_solvers(out, c, names)]
 
 
 def warn(line: str) -> None:
     print(f"flexmbd: {line}", file=sys.stderr)
 
 
-def _verdict(args, summary: list, acc: list) -> int:
-    """With --strict, DIFFERENT when a solver failed, a comparison missed its tolerance, or
-    nothing could be compared (no run with a tolerance against a reference: one line says so)."""
-    failed = any(str(row[2]).startswith(("failed", "unavailable: stored result", "unavailable: stale"))
-                 for row in summary)
+def _verdict(args, runs: list, acc: list) -> int:
+    """With --strict, DIFFERENT when a solver failed (or its stored result could not be used), a
+    comparison missed its tolerance, or nothing could be compared (no run with a tolerance against
+    a reference: one line says so). `runs`: accuracy.Outcome."""
+    failed = any(o.status.kind == "failed" or o.status.unread for o in runs)
     compared = any(a["pass"] in ("pass", "fail") for a in acc)
     if args.strict and not compared and not failed:
         warn("--strict: nothing was compared with a tolerance against a reference")
     return DIFFERENT if args.strict and (failed or not compared or any(a["pass"] == "fail" for a in acc)) else OK
 
 
-def _show(args, what: str, page: Path, summary: list, acc: list) -> None:
+def _show(args, what: str, page: Path, runs: list, acc: list) -> None:
     """The verdict summary and the page on stdout; with --json one object: the page, the summary
     line, one entry per run (case, solver, verdict kind and text, worst difference, wall time) and
-    the accuracy rows."""
+    the accuracy rows. `runs`: accuracy.Outcome."""
     from flexmbd.report import accuracy
-    line = accuracy.summary([accuracy.Verdict(accuracy.kind_of(r[2]), r[2]) for r in summary])
+    line = accuracy.summary([o.verdict for o in runs])
     if getattr(args, "json", False):
-        runs = [{"case": r[0], "solver": r[1], "verdict": accuracy.kind_of(r[2]), "text": r[2], "worst_rms": r[3],
-                 "wall_s": r[4]} for r in summary]
-        print(json.dumps(_jsonable({what: str(page), "summary": line, "runs": runs, "accuracy": acc}),
+        entries = [{"case": o.case, "solver": o.solver, "verdict": o.verdict.kind, "text": o.verdict.text,
+                    "worst_rms": o.worst, "wall_s": o.wall_s} for o in runs]
+        print(json.dumps(_jsonable({what: str(page), "summary": line, "runs": entries, "accuracy": acc}),
                          allow_nan=False, indent=1))
         return
     print(line)
-    for r in summary:
-        if accuracy.kind_of(r[2]) in ("fail", "failed"):
-            print(f"  {r[0]} / {r[1]}: {r[2]}")
+    for o in runs:
+        if o.verdict.kind in ("fail", "failed"):
+            print(f"  {o.case} / {o.solver}: {o.verdict}")
     print(f"{what}: {page}")
 
 
@@ -261,120 +252,56 @@ def _jsonable(x):
 
 
 def cmd_report(args) -> int:
-    from flexmbd.report import build
+    from flexmbd.report import build, loading, spectra
     out = Path(args.out)
     names = args.cases.split(",") if args.cases else cases.available()
     chosen = _solver_list(args.solvers, "--solvers")
     loaded = [_case(n) for n in names]                      # every name and path, before any work
     files.writable_dir(out, "--out")
-    jobs = [(c, s) for c in loaded for s in build.jobs(c, chosen)]
+    jobs = [(c, s) for c in loaded for s in loading.jobs(c, chosen)]
     if not args.no_run:
         check_all(jobs, out, args.allow_large)
     else:                                                   # their sizes, before any is read
-        cost.check_stored(stored_sidecars(out, [(c, build.jobs(c, chosen)) for c in loaded]), args.allow_large)
+        cost.check_stored(stored_sidecars(out, [(c, loading.jobs(c, chosen)) for c in loaded]), args.allow_large)
     for c in loaded:
-        ref = next((s for s in build.jobs(c, chosen) if s not in chosen), None)
+        ref = next((s for s in loading.jobs(c, chosen) if s not in chosen), None)
         if ref:
             warn(f"{c.name}: its reference {ref} {'is read' if args.no_run else 'runs'} too "
                  f"(every comparison is against it)")
     if not args.no_run:
         run_checked(jobs, out)
-    build.prepare(loaded, warn)
+    spectra.prepare(loaded, warn)
     t0 = time.perf_counter()
-    index, summary, acc = build.write(out, loaded, chosen, warn,
-                                      lambda k, n, label: progress(k, n, label, time.perf_counter() - t0))
-    progress_done(len(loaded) + 1, time.perf_counter() - t0)
-    _show(args, "report", index, summary, acc)
-    return _verdict(args, summary, acc)
+    index, runs, acc = build.write(out, loaded, chosen, warn,
+                                   lambda k, n, label: job(k, n, label, time.perf_counter() - t0))
+    jobs_done(len(loaded) + 1, time.perf_counter() - t0)
+    _show(args, "report", index, runs, acc)
+    return _verdict(args, runs, acc)
 
 
 def cmd_compare(args) -> int:
-    from flexmbd.report import build
+    from flexmbd.report import build, loading, spectra
     out = Path(args.out)
     case = _load(args)
     chosen = _solver_list(args.solvers, "--solvers")
     files.writable_dir(out, "--out")
-    names = build.with_reference(case, chosen)
+    names = loading.with_reference(case, chosen)
     jobs = [(case, s) for s in names]
     check_all(jobs, out, args.allow_large)
     if names != chosen:
         warn(f"{case.name}: its reference {names[0]} runs too (every comparison is against it)")
     run_checked(jobs, out)
-    build.prepare([case], warn)
+    spectra.prepare([case], warn)
     got = build.case_page(out, case, names, warn)
-    _show(args, "page", out / case.name / "index.html", got["summary"], got["accuracy"])
-    return _verdict(args, got["summary"], got["accuracy"])
+    _show(args, "page", out / case.name / "index.html", got["runs"], got["accuracy"])
+    return _verdict(args, got["runs"], got["accuracy"])
 
 
 def cmd_regress(args) -> int:
     from flexmbd.report import regress, tables
-    from flexmbd import results
-    base = Path(args.baseline)
-    pairs = regress.listing(base)
-    chosen = None
-    if args.solvers:                    # registered solvers, and imported results by their baselines or --results
-        chosen = args.solvers.split(",")
-        for name in chosen:
-            if not (args.results or name in {s for _, s in pairs}):
-                solvers.check_name(name, "--solvers")
-    if args.update and (args.cases or args.solvers):          # create baselines too, not only rewrite
-        names = args.cases.split(",") if args.cases else cases.available()
-        pairs = [(c, s) for c in names for s in chosen or solvers.NAMES
-                 if s not in solvers.NAMES or not solvers.status_for(_case(c), s)]
-    if args.cases:
-        pairs = [p for p in pairs if p[0] in args.cases.split(",")]
-    if chosen:
-        pairs = [p for p in pairs if p[1] in chosen]
-    if not pairs:
-        raise InputError(f"{base}: --baseline: no baselines (expected CASE/SOLVER.csv files)")
-
-    # every case, baseline and stored result checked before any solver runs
-    loaded = {c: _case(c) for c in dict.fromkeys(c for c, _ in pairs)}
-    stored, fresh = {}, {}
-    if args.update:
-        files.writable_dir(base, "--baseline")
-        brought = {c: results.imported(results_folder(args.results), c) if args.results else []
-                   for c in dict.fromkeys(c for c, _ in pairs)}
-        for c, s in pairs:
-            files.writable_dir(regress.known(base, c, s, imported=s in brought[c]).parent, "--baseline")
-    else:
-        for c, s in pairs:
-            stored[c, s], why = regress.baseline(base, loaded[c], s)
-            if why:
-                warn(f"warning: {base / c / (s + '.csv')}: {why}")
-    if args.results:
-        where = results_folder(args.results)
-        for c, s in pairs:
-            fresh[c, s] = results.read(where, c, s)
-            why = results.stale(fresh[c, s], loaded[c].sha256, loaded[c]["channels"])
-            if why:
-                warn(f"warning: {where / c / (s + '.json')}: stale: {why}")
-    else:
-        for c, s in pairs:
-            if s not in solvers.NAMES:
-                regress.known(base, c, s)                   # an unknown solver's baseline is named as such
-                raise InputError(f"{base / c / (s + '.csv')}: {s} is an imported result, which cannot be rerun: "
-                                 f"give --results DIR (the report folder it was imported into)")
-    if not args.results:
-        cost.check([(loaded[c], s) for c, s in pairs], allow_large=args.allow_large)
-
-    rows = []
-    t0 = time.perf_counter()
-    for k, (case_name, solver) in enumerate(pairs, 1):
-        progress(k, len(pairs), f"{case_name} / {solver}", time.perf_counter() - t0)
-        case = loaded[case_name]
-        if args.results:
-            r = fresh[case_name, solver]
-        else:
-            with files.signals_exit():                  # nothing written while it runs
-                r = solvers.run(case, solver)
-        if args.update:
-            if not r.ok:
-                raise InputError(f"{case_name} / {solver}: {r.status}; baseline not written")
-            print(f"updated {regress.write(base, case, r)}")
-            continue
-        rows += regress.compare(case, r, stored[case_name, solver], regress.reference_kinetic(base, case))
-    progress_done(len(pairs), time.perf_counter() - t0)
+    listed = lambda text: text.split(",") if text else None
+    rows = regress.run(Path(args.baseline), listed(args.cases), listed(args.solvers), args.results, args.update,
+                       args.allow_large, load=_case, warn=warn, updated=lambda path: print(f"updated {path}"))
     if args.update:
         return OK
     if args.json:
@@ -424,18 +351,6 @@ def cmd_bench(args) -> int:
               f"({r['flexmbd_setting'] or '-'} / {r['exudyn_ffrf_setting'] or '-'})")
     print(f"plots: {Path(args.out) / 'index.html'}")
     return 0
-
-
-def progress(k: int, n: int, label: str, elapsed: float) -> None:
-    """One-line progress on stderr (redrawn in place on a terminal)."""
-    bar = "#" * int(20 * (k - 1) / n)
-    end = "\r" if sys.stderr.isatty() else "\n"
-    sys.stderr.write(f"[{bar:<20}] {k}/{n} {label:<40} {elapsed:6.1f} s{end}")
-    sys.stderr.flush()
-
-
-def progress_done(n: int, elapsed: float) -> None:
-    sys.stderr.write(f"[{'#' * 20}] {n}/{n} done{'':<36} {elapsed:6.1f} s\n")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -532,7 +447,7 @@ def parser() -> argparse.ArgumentParser:
     p = Parser(prog="flexmbd", description="Flexible multibody validation harness: cases, solvers, reports. "
                "Exit status: 0 success, 1 a difference (or, with --strict, a failed solver), 2 bad input or an "
                "unusable file, 3 an internal error, 130 / 143 interrupted.", parents=[debug])
-    p.add_argument("--version", action="version", version=f"flexmbd {flexmbd.__version__}")
+    p.add_argument("--version", action="version", version=f"flexmbd {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
     strict = "exit 1 when a solver fails (and, for report / compare, when a result misses its tolerance)"
     case = "a case name from cases/ (see flexmbd list) or the path of a case TOML file"

@@ -27,7 +27,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from flexmbd import flexbody, solvers
+from flexmbd import solvers
 from flexmbd.errors import InputError
 
 MEMORY_LIMIT = 3e9          # bytes, of one stage
@@ -103,7 +103,7 @@ def _duration(s: float) -> str:
 
 def stages(case, solver: str | None, t_end: float | None = None) -> list:
     """Every costly stage of `solver` on `case` up to t_end (default: the case's duration)."""
-    t_end = case["duration"] if t_end is None else t_end
+    t_end = case.duration if t_end is None else t_end
     if solver is None:
         return modes(case)
     if solvers.status_for(case, solver):               # unavailable or not applicable: nothing runs
@@ -122,14 +122,14 @@ def stages(case, solver: str | None, t_end: float | None = None) -> list:
 
 def samples(case, t_end: float) -> int:
     """Rows of the result table: 0, output_dt, ..., t_end."""
-    return int(round(t_end / case["integrator"]["output_dt"])) + 1
+    return int(round(t_end / case.integrator.output_dt)) + 1
 
 
 def _time_key(case, t_end: float, step_key: str, step: float, default: float) -> str:
     """The key that drives a step count: the step when it is below its default, else the duration."""
     if step < default:
         return step_key
-    return "duration" if t_end == case["duration"] else "--t-end"
+    return "duration" if t_end == case.duration else "--t-end"
 
 
 # One value of the result table (a channel at a sample): forming it from the trajectory
@@ -150,11 +150,11 @@ def output(case, t_end: float) -> Stage:
     pendulum 0.21 ms a sample, the double pendulum 0.26 ms, the flexible pendulum's 20 segments
     0.71 ms), and each channel, formed and written as one value of the table (VALUE_S, VALUE_B).
     The key is `channels` when the channels cost a sample more than its states do."""
-    n, res = samples(case, t_end), case.segmented.resolved
-    nb, nc = len(res.bodies), len(case["channels"])
+    n, res = samples(case, t_end), case.modelled
+    nb, nc = len(res.tree), len(case.channels)
     per_sample = 8 * (100 * (nb + 1) + 2 * (res.nq + res.nv) + 20)
     state_s = 1.5e-4 + 5e-5 * nb
-    key = _time_key(case, t_end, "integrator.output_dt", case["integrator"]["output_dt"], 1e-3)
+    key = _time_key(case, t_end, "integrator.output_dt", case.integrator.output_dt, 1e-3)
     if nc * VALUE_S > state_s:
         key = "channels"
     return Stage(f"forming and storing {nc} channels at {n} output samples (duration / output_dt), "
@@ -201,9 +201,9 @@ def stored(js) -> Stage | None:
 def beams(case, rigid: bool = False) -> list:
     """(name, elements, count, segments) of the beams the modal solvers reduce (a beam declared
     rigid or without modes, or every beam with `rigid`, keeps its mesh, whole, and no modes)."""
-    return [(name, b["elements"], 0, 1) if b["rigid"] or rigid or b["modes"]["count"] == 0 else
-            (name, b["elements"], b["modes"]["count"], b["segments"])
-            for name, b in case["bodies"].items() if b["type"] == "beam"]
+    return [(name, b.elements, 0, 1) if b.rigid or rigid or b.modes.count == 0 else
+            (name, b.elements, b.modes.count, b.segments)
+            for name, b in case.bodies.items() if b.type == "beam"]
 
 
 def modes(case, rigid: bool = False) -> list:
@@ -228,14 +228,14 @@ def modes(case, rigid: bool = False) -> list:
 
 
 def evaluation(case) -> float:
-    """Seconds of one evaluation of the in-house equations (forward dynamics of the segmented
+    """Seconds of one evaluation of the in-house equations (forward dynamics of the modelled
     tree): 10 us per body, and per flexible body 3e-8 m^2 + 2.5e-10 m^3 s for its m retained modes
     (its modal blocks); the mesh does not enter. Measured, the best of 5 x 50 right-hand sides at
     the initial state (2 cores shared): the pendulum 16 us (12 modes; 13 us with 1000 elements),
     the double pendulum 30 us, 20 segments of 8 modes 312 us, 5 segments of 40 modes 351 us, one
     beam of 100 modes 325 us, 200 modes 2.5 ms, 400 modes 17.8 ms; the formula is within a factor
     of 2 of each."""
-    return sum(1e-5 + 3e-8 * b.modes ** 2 + 2.5e-10 * b.modes ** 3 for b in case.segmented.resolved.bodies)
+    return sum(1e-5 + 3e-8 * b.modes ** 2 + 2.5e-10 * b.modes ** 3 for b in case.modelled.tree)
 
 
 # h omega (step x the highest retained frequency, rad/s) of each adaptive method's steps at rtol
@@ -256,20 +256,20 @@ def flexmbd(case, t_end: float) -> list:
     take at least duration / max_step steps, and about duration x the highest retained frequency
     / REACH (at rtol 1e-8, scaled as rtol^0.15, at most STABLE); a run whose step size collapses
     (a singular moment) takes more, which no estimate knows. rk45 and dop853 show no progress."""
-    ig = case["integrator"]
-    method = ig["method"]
+    ig = case.integrator
+    method = ig.method
     if method in ("rk4", "fox-goodwin"):
-        steps = t_end / ig["dt"]
-        evals = steps * EVALS[method] + case.segmented.resolved.nv + 2
-        key, how = _time_key(case, t_end, "integrator.dt", ig["dt"], 1e-4), "duration / dt"
+        steps = t_end / ig.dt
+        evals = steps * EVALS[method] + case.modelled.nv + 2
+        key, how = _time_key(case, t_end, "integrator.dt", ig.dt, 1e-4), "duration / dt"
     else:
         omega, beam = highest_frequency(case)
-        reach = min(REACH[method] * (ig["rtol"] / 1e-8) ** 0.15, STABLE[method])
-        steps = max(t_end / ig["max_step"], t_end * omega / reach)
+        reach = min(REACH[method] * (ig.rtol / 1e-8) ** 0.15, STABLE[method])
+        steps = max(t_end / ig.max_step, t_end * omega / reach)
         evals = steps * EVALS[method]
-        key, how = _time_key(case, t_end, "integrator.max_step", ig["max_step"], 1e-3), "at least duration / max_step"
-        if t_end * omega / reach > t_end / ig["max_step"]:
-            key = "duration" if t_end == case["duration"] else "--t-end"
+        key, how = _time_key(case, t_end, "integrator.max_step", ig.max_step, 1e-3), "at least duration / max_step"
+        if t_end * omega / reach > t_end / ig.max_step:
+            key = "duration" if t_end == case.duration else "--t-end"
             how = (f"duration x the highest retained frequency of beam {beam!r}, {omega / (2 * math.pi):.3g} Hz, "
                    f"over h omega = {reach:.2g}")
     return [Stage(f"integrating {steps:.3g} {method} steps ({how})", key, memory=0.0,
@@ -282,13 +282,13 @@ def highest_frequency(case) -> tuple[float, str]:
     continuous beam's bending (two planes), axial and torsion frequencies of each segment, at
     most the highest frequency its elements can carry. (0, '') without flexible beams."""
     best = (0.0, "")
-    for name, b in case["bodies"].items():
-        if b["type"] != "beam" or b["rigid"] or b["modes"]["count"] == 0:
+    for name, b in case.bodies.items():
+        if b.type != "beam" or not b.flexible:
             continue
-        mat, sec = case["materials"][b["material"]], flexbody.beam_section(b)
-        E, rho, G = mat["E"], mat["rho"], flexbody.shear_modulus(mat)
-        Ls, le = b["length"] / b["segments"], b["length"] / b["elements"]
-        m = min(b["modes"]["count"], 10000)
+        sec = b.geometry
+        E, rho, G = b.material.E, b.material.rho, b.material.G
+        Ls, le = b.length / b.segments, b.length / b.elements
+        m = min(b.modes.count, 10000)
         waves = [(j - 0.5) * math.pi for j in range(1, m + 1)]
         freqs = sorted([(w / Ls) ** 2 * math.sqrt(E * I / (rho * sec.A)) for w in waves for I in (sec.Iy, sec.Iz)]
                        + [w / Ls * math.sqrt(E / rho) for w in waves]
@@ -308,12 +308,12 @@ def system(case, about: str = "initial") -> list:
     difference gradients: 1539, 10737 and 25080 of them for 26, 64 and 114 coordinates), no
     progress. The key: the beam with the most modal coordinates (its modes.count, or its
     segments when they multiply them more)."""
-    res = case.segmented.resolved
+    res = case.modelled
     n, per = res.nv, evaluation(case)
-    biggest = max(((b["modes"]["count"] * b["segments"], name, b) for name, b in case["bodies"].items()
-                   if b["type"] == "beam" and not b["rigid"]), default=(0, "", None))
+    biggest = max(((b.modes.count * b.segments, name, b) for name, b in case.bodies.items()
+                   if b.type == "beam" and not b.rigid), default=(0, "", None))
     key = "bodies" if biggest[2] is None else (f"bodies.{biggest[1]}.segments"
-                                               if biggest[2]["segments"] > biggest[2]["modes"]["count"]
+                                               if biggest[2].segments > biggest[2].modes.count
                                                else f"bodies.{biggest[1]}.modes.count")
     out = [Stage(f"linearizing {n} coordinates by central differences ({4 * n} evaluations)", key,
                  memory=8.0 * 6 * n * n, seconds=5 * n * per, progress=True),
@@ -327,7 +327,7 @@ def system(case, about: str = "initial") -> list:
 
 def fixed_step(case, t_end: float, dt: float, key: str, per_step: float) -> list:
     """A solver stepping at dt rounded to divide output_dt."""
-    out_dt = case["integrator"]["output_dt"]
+    out_dt = case.integrator.output_dt
     steps = (samples(case, t_end) - 1) * max(round(out_dt / dt), 1)
     return [Stage(f"stepping {steps:.3g} steps of {out_dt / max(round(out_dt / dt), 1):.3g} s", _time_key(case, t_end, key, dt, 1e-4),
                   memory=0.0, seconds=steps * per_step)]
@@ -337,14 +337,14 @@ def fe_linear(case, t_end: float, opt: dict) -> list:
     """Full-order FE: the exact scheme exponentiates the dense 2n x 2n system matrix and steps by
     dense products; newmark factorizes once and steps by sparse solves; damping takes a dense
     eigensolution of all n DOFs."""
-    (name, body), = case["bodies"].items()
-    n = 6 * body["elements"]
+    (name, body), = case.bodies.items()
+    n = 6 * body.elements
     scheme = opt["scheme"]
-    dt = opt["dt"] or (case["integrator"]["output_dt"] if scheme == "exact" else 5e-5)
-    out_dt = case["integrator"]["output_dt"]
+    dt = opt["dt"] or (case.integrator.output_dt if scheme == "exact" else 5e-5)
+    out_dt = case.integrator.output_dt
     stride = max(round(out_dt / dt), 1)
     steps = (samples(case, t_end) - 1) * stride
-    damped = body["damping_ratio"] > 0
+    damped = body.damping_ratio > 0
     if scheme == "exact":
         setup_s, setup_b, per_step = 3e-10 * (2 * n) ** 3, 48.0 * (2 * n) ** 2, 1e-9 * (2 * n) ** 2
     else:
@@ -353,7 +353,7 @@ def fe_linear(case, t_end: float, opt: dict) -> list:
         setup_s, setup_b = setup_s + 5e-10 * n ** 3, setup_b + 40.0 * n ** 2
     matrix = f"bodies.{name}.elements"
     steps_key = "solvers.fe-linear.dt" if opt["dt"] and opt["dt"] < out_dt else \
-        ("duration" if t_end == case["duration"] else "--t-end")
+        ("duration" if t_end == case.duration else "--t-end")
     return [Stage(f"setting up the {scheme} scheme for {n} DOFs", matrix, memory=setup_b, seconds=setup_s),
             Stage(f"stepping {n} DOFs through {steps:.3g} {scheme} steps of {out_dt / stride:.3g} s",
                   steps_key if steps * per_step > setup_s else matrix,
@@ -365,15 +365,15 @@ def analytic(case, t_end: float, opt: dict) -> list:
     points (the modal loads of gravity), two planes."""
     n, k = opt["modes"], samples(case, t_end)
     key = "solvers.analytic.modes" if n > 200 else _time_key(case, t_end, "integrator.output_dt",
-                                                              case["integrator"]["output_dt"], 1e-3)
+                                                              case.integrator.output_dt, 1e-3)
     return [Stage(f"summing {n} continuous modes per plane over {k} samples", key,
                   memory=8.0 * n * (6 * k + 3 * 4001), seconds=2e-7 * n * k + 2e-4 * n)]
 
 
 def exudyn_beam(case, t_end: float, opt: dict) -> list:
     """Exudyn's beam elements: steps x elements (sparse Newton iterations), with progress shown."""
-    n_beams = sum(1 for b in case["bodies"].values() if b["type"] == "beam")
-    el, out_dt, dt = opt["elements"] * n_beams, case["integrator"]["output_dt"], opt["dt"]
+    n_beams = sum(1 for b in case.bodies.values() if b.type == "beam")
+    el, out_dt, dt = opt["elements"] * n_beams, case.integrator.output_dt, opt["dt"]
     dt = out_dt / max(round(out_dt / dt), 1) if dt <= out_dt else dt
     steps = t_end / dt
     key = "solvers.exudyn-beam.elements" if el > 10000 else _time_key(case, t_end, "solvers.exudyn-beam.dt", opt["dt"], 1e-4)
@@ -384,7 +384,7 @@ def exudyn_beam(case, t_end: float, opt: dict) -> list:
 def exudyn_ffrf(case, t_end: float, opt: dict) -> list:
     """Exudyn's reduced bodies: steps x the dense modal blocks (modes^2), with progress shown."""
     m2 = sum((m + 7) ** 2 for _, _, m, _ in beams(case))
-    out_dt, dt = case["integrator"]["output_dt"], opt["dt"]
+    out_dt, dt = case.integrator.output_dt, opt["dt"]
     dt = out_dt / max(round(out_dt / dt), 1) if dt <= out_dt else dt
     steps = t_end / dt
     return [Stage(f"stepping the reduced bodies through {steps:.3g} steps", _time_key(case, t_end, "solvers.exudyn-ffrf.dt",

@@ -24,11 +24,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from flexmbd.dense import (back_subst_vec, cholesky, congruence_add_into, forward_subst, inv_spd, mm, mm_into, mtm,
+                           mtv, mtv_add_into, mv, mv_add_into, mv_into)
 from flexmbd.invariants import first_moment, inertia_and_forces_into, mass_matrix
+from flexmbd.jit import njit
 from flexmbd.joints import jcalc
-from flexmbd.kernel.dense import (back_subst_vec, cholesky, congruence_add_into, forward_subst, inv_spd, mm, mm_into,
-                                  mtm, mtv, mtv_add_into, mv, mv_add_into, mv_into)
-from flexmbd.kernel.jit import njit
 from flexmbd.model import Data, Model
 from flexmbd.profiles import load_at, motion_at
 from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, expm_so3, inertia_parts, jac_left_so3,

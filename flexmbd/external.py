@@ -92,17 +92,17 @@ def table(case, path: Path, failed: bool) -> tuple[np.ndarray, dict, str]:
     df = results.read_table(path, text, comment="#")
     names = [str(c) for c in df.columns if c != "t"]
     for c in names:
-        if c not in case["channels"]:
+        if c not in case.channels:
             base = re.sub(r"\.\d+$", "", c)
-            raise InputError(f"{path}: column {c}: " + (f"{base} appears twice" if base in case["channels"] else
-                             f"not a channel of {case.name}{cases.hint(c, case['channels'])} "
-                             f"(channels: {', '.join(case['channels'])})"))
+            raise InputError(f"{path}: column {c}: " + (f"{base} appears twice" if base in case.channels else
+                             f"not a channel of {case.name}{cases.hint(c, case.channels)} "
+                             f"(channels: {', '.join(case.channels)})"))
     if not names:
-        raise InputError(f"{path}: no channel columns (expected `t` and any of {', '.join(case['channels'])})")
+        raise InputError(f"{path}: no channel columns (expected `t` and any of {', '.join(case.channels)})")
     t = df["t"].to_numpy(dtype=float)
     if len(t) < 2:
         raise InputError(f"{path}: {len(t)} row; at least two samples are needed")
-    duration, dt_out = case["duration"], case["integrator"]["output_dt"]
+    duration, dt_out = case.duration, case.integrator.output_dt
     dt = np.diff(t)
     if abs(t[0]) > 1e-9 * duration:
         raise InputError(f"{path}: column t starts at {t[0]:g} s; results start at 0")

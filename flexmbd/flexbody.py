@@ -41,8 +41,8 @@ beam clamped there (node 0's constraint modes are rigid-body motions, which the 
 
 from __future__ import annotations
 
+import dataclasses
 import functools
-import json
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -98,34 +98,35 @@ def snapped(length: float, elements: int, x: float) -> float:
     return node_index(length, elements, x) * length / elements
 
 
-def beam_section(body: dict) -> section.Section:
-    """The FE section of a case beam; FE convention: extent h along y, b along z."""
-    s = body["section"]
-    if s["shape"] == "circle":
-        return section.circle(s["d"])
-    if s["h_axis"] == "y":
-        return section.rectangle(b=s["b"], h=s["h"])
-    return section.rectangle(b=s["h"], h=s["b"])
+def beam_section(beam) -> section.Section:
+    """The FE section of a case beam (`cases.Beam`); FE convention: extent h along y, b along z."""
+    s = beam.section
+    if s.shape == "circle":
+        return section.circle(s.d)
+    if s.h_axis == "y":
+        return section.rectangle(b=s.b, h=s.h)
+    return section.rectangle(b=s.h, h=s.b)
 
 
-def shear_modulus(material: dict) -> float:
-    return material["E"] / (2.0 * (1.0 + material["nu"]))
+def shear_modulus(material) -> float:
+    """G = E / (2 (1 + nu)) of a `cases.Material`, Pa."""
+    return material.E / (2.0 * (1.0 + material.nu))
 
 
-def fe_model(body: dict, material: dict):
-    """Mesh and assembled matrices of a case beam: (nodes, elements, sec, K, M, M_lumped)."""
-    sec = beam_section(body)
-    nodes, elements = assembly.beam_mesh(body["length"], body["elements"])
-    E, G, rho = material["E"], shear_modulus(material), material["rho"]
-    K, M = assembly.beam_matrices(nodes, elements, E, G, rho, sec, mass=body["mass"], shear=body["shear"])
-    if body["mass"] == "lumped":
+def fe_model(beam):
+    """Mesh and assembled matrices of a case beam (`cases.Beam`): (nodes, elements, sec, K, M, M_lumped)."""
+    sec, material = beam_section(beam), beam.material
+    nodes, elements = assembly.beam_mesh(beam.length, beam.elements)
+    E, G, rho = material.E, shear_modulus(material), material.rho
+    K, M = assembly.beam_matrices(nodes, elements, E, G, rho, sec, mass=beam.mass, shear=beam.shear)
+    if beam.mass == "lumped":
         M_lumped = M
     else:
         _, M_lumped = assembly.beam_matrices(nodes, elements, E, G, rho, sec, mass="lumped")
     return nodes, elements, sec, K, M, M_lumped
 
 
-def mode_set(body: dict, K, M, M_lumped, nodes: np.ndarray):
+def mode_set(beam, K, M, M_lumped, nodes: np.ndarray):
     """The reduced body's modes (6N, nm), orthonormal in the lumped mass, and their frequencies (Hz).
 
     The case's mass matrix M chooses the modes: the lowest `count` elastic modes of the boundary
@@ -133,26 +134,25 @@ def mode_set(body: dict, K, M, M_lumped, nodes: np.ndarray):
     (`reference_node`). Unless they already are (lumped M, clamped-free or hinged-hinged), the
     retained modes are then re-orthonormalized within their span in the lumped mass (`in_node_masses`).
     """
-    m = body["modes"]
-    if m["boundary"] in ("clamped-free", "hinged-hinged"):
-        freq, Phi = modes.normal_modes(K, M, modes.boundary_dofs(m["boundary"], nodes.shape[0]), m["count"])
+    m = beam.modes
+    if m.boundary in ("clamped-free", "hinged-hinged"):
+        freq, Phi = modes.normal_modes(K, M, modes.boundary_dofs(m.boundary, nodes.shape[0]), m.count)
         if M is M_lumped:
             return freq, Phi
     else:
-        Phi = reference_node(K, M, nodes, floating_modes(body, K, M))[:, : m["count"]]
+        Phi = reference_node(K, M, nodes, floating_modes(beam, K, M))[:, : m.count]
     return in_node_masses(K, M_lumped, Phi)
 
 
-def floating_modes(body: dict, K, M) -> np.ndarray:
+def floating_modes(beam, K, M) -> np.ndarray:
     """Elastic modes (6N, k), M-orthonormal, of a free-free or Craig-Bampton beam (node 0 moves in them):
     the lowest `count` free-free modes, or every elastic direction of the Craig-Bampton basis."""
-    m = body["modes"]
-    if m["boundary"] == "free-free":
-        return modes.normal_modes(K, M, [], m["count"])[1]
-    L, n_el = body["length"], body["elements"]
-    held = sorted({node_index(L, n_el, x) for x in m["interfaces"]})
+    m = beam.modes
+    if m.boundary == "free-free":
+        return modes.normal_modes(K, M, [], m.count)[1]
+    held = sorted({node_index(beam.length, beam.elements, x) for x in m.interfaces})
     iface = np.array([6 * p + k for p in held for k in range(6)])
-    n_normal = max(m["count"] - iface.size, 0)
+    n_normal = max(m.count - iface.size, 0)
     Phi = modes.craig_bampton(K, M, np.array([], dtype=int), iface, n_normal + 6)
     freq, Phi = modes.orthonormalize(K, M, Phi)
     return Phi[:, freq > 1e-6 * freq.max()]       # the floating frame carries the rigid-body motion
@@ -190,11 +190,11 @@ def spatial_blocks(Phi_fe: np.ndarray) -> np.ndarray:
     return np.concatenate([B[:, 3:6], B[:, 0:3]], axis=1)
 
 
-def build(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
-    """Reduce a case beam to a FlexBody. `stress_points`: positions x along the beam (m) of the
-    sections whose strains the channels need."""
-    nodes, elements, sec, K, M, M_lumped = fe_model(body, material)
-    freq, Phi_fe = mode_set(body, K, M, M_lumped, nodes)
+def build(beam, stress_points=()) -> FlexBody:
+    """Reduce a case beam (`cases.Beam`) to a FlexBody. `stress_points`: positions x along the
+    beam (m) of the sections whose strains the channels need."""
+    nodes, elements, sec, K, M, M_lumped = fe_model(beam)
+    freq, Phi_fe = mode_set(beam, K, M, M_lumped, nodes)
 
     # lumped node masses and rotary inertias, from the lumped diagonal
     d = M_lumped.diagonal().reshape(-1, 6)
@@ -205,17 +205,17 @@ def build(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
     # constant modal stiffness and damping
     Km = modal_stiffness(K, Phi_fe)
     omega = 2.0 * np.pi * np.asarray(freq)
-    Cm = np.diag(2.0 * body["damping_ratio"] * omega)
+    Cm = np.diag(2.0 * beam.damping_ratio * omega)
 
     # modal strain recovery
-    E, G = material["E"], shear_modulus(material)
+    E, G = beam.material.E, shear_modulus(beam.material)
     xs = [float(x) for x in stress_points]
-    S = [stress.strain_rows(nodes, elements, E, G, sec, x, shear=body["shear"]) @ Phi_fe for x in xs]
+    S = [stress.strain_rows(nodes, elements, E, G, sec, x, shear=beam.shear) @ Phi_fe for x in xs]
     nm = Phi_fe.shape[1]
     return FlexBody(
-        name=name, length=body["length"], x0=nodes, m=m, J=J, Phi=spatial_blocks(Phi_fe),
+        name=beam.name, length=beam.length, x0=nodes, m=m, J=J, Phi=spatial_blocks(Phi_fe),
         freq_hz=np.asarray(freq), labels=np.array(modes.mode_labels(Phi_fe) if nm else [], dtype=str), Km=Km, Cm=Cm,
-        boundary=body["modes"]["boundary"], stress_x=np.array(xs, dtype=float),
+        boundary=beam.modes.boundary, stress_x=np.array(xs, dtype=float),
         S_strain=np.array(S).reshape(len(xs), 4, nm), D=foreshortening(nodes, elements, Phi_fe))
 
 
@@ -233,27 +233,33 @@ def foreshortening(nodes, elements, Phi_fe) -> np.ndarray:
 
 
 def for_case(case) -> dict:
-    """Every flexible beam of a case, reduced, by body name (`cases.Resolved.flexible`)."""
-    return case.resolved.flexible()
+    """Every flexible beam of a (resolved) case, reduced, by body name (`cases.Resolved.flexible`)."""
+    return case.flexible()
 
 
-def reduce(name: str, body: dict, material: dict, stress_points=()) -> FlexBody:
-    """`build`, once per content: the reduction is cached by everything it depends on (name,
-    body table, material, stress points), so the solver, the report, the command line and every
-    adapter share one computation per process. Its arrays are read-only."""
-    key = json.dumps([name, body, material, [float(x) for x in stress_points]], sort_keys=True)
-    return _reduced(key)
+def reduce(name: str, beam, stress_points=()) -> FlexBody:
+    """`build`, once per content: the reduction is cached by everything it depends on (the beam
+    `cases.Beam` with its material, and the stress points) but the beam's name, so equal beams (the
+    segments of a split beam) and the solver, the report, the command line and every adapter share
+    one computation per process. Its arrays are read-only; `name` names the body returned."""
+    return _named(name, dataclasses.replace(beam, name=""), tuple(float(x) for x in stress_points))
 
 
-def undeformed(name: str, body: dict, material: dict) -> FlexBody:
+@functools.lru_cache(maxsize=256)
+def _named(name: str, beam, points: tuple) -> FlexBody:
+    """The reduction of `beam` (named "") under `name`: one object per name and content, sharing
+    the arrays of the one reduction per content (`_reduced`)."""
+    return dataclasses.replace(_reduced(beam, points), name=name)
+
+
+def undeformed(name: str, beam) -> FlexBody:
     """A beam declared rigid: its node masses and positions, no modes (`reduce` with count 0)."""
-    return reduce(name, {**body, "modes": {**body["modes"], "count": 0}}, material)
+    return reduce(name, dataclasses.replace(beam, modes=dataclasses.replace(beam.modes, count=0)))
 
 
 @functools.lru_cache(maxsize=64)
-def _reduced(key: str) -> FlexBody:
-    name, body, material, points = json.loads(key)
-    fb = build(name, body, material, points)
+def _reduced(beam, points: tuple) -> FlexBody:
+    fb = build(beam, points)
     for f in fields(fb):
         a = getattr(fb, f.name)
         if isinstance(a, np.ndarray):

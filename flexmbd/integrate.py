@@ -18,7 +18,6 @@ it happened; every output instant reached before it is kept.
 
 from __future__ import annotations
 
-import sys
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -27,11 +26,12 @@ import numpy as np
 from scipy.integrate import ode, solve_ivp
 
 from flexmbd import results
+from flexmbd.dense import mv
+from flexmbd.jit import njit
 from flexmbd.kernel.bound import bind
-from flexmbd.kernel.dense import mv
 from flexmbd.kernel.entry import handle, rhs
-from flexmbd.kernel.jit import njit
 from flexmbd.model import Model, make_data
+from flexmbd.progress import Progress
 
 DIVERGED = results.DIVERGED_V    # |v| beyond this (rad/s, m/s, modal units) counts as divergence
 
@@ -63,7 +63,7 @@ def rhs_function(model: Model):
         count[0] += 1
         yd = rhs(ev, float(t), y, nq)
         if not np.all(np.isfinite(yd)):
-            raise Stop(results.failed("non-finite acceleration", t))
+            raise Stop(results.failed(NON_FINITE[1], t))
         return yd
 
     f.bound = b                 # alive as long as f: the compiled code reaches it by address
@@ -85,6 +85,20 @@ _A = np.array([
 _E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])   # b5 - b4
 
 OK, NONFINITE, DIVERGING, TOO_SMALL, NEWTON = 0, 1, 2, 3, 4
+
+
+@njit
+def state_code(y, nq):
+    """The divergence rule of every integrator on a state y = [q; v]: NONFINITE when an entry is
+    not finite, DIVERGING when a velocity |v_i| exceeds DIVERGED, else OK. The compiled step loops
+    call it after every step, the others through `_check` (the message: WHY)."""
+    for i in range(y.size):
+        if not np.isfinite(y[i]):
+            return NONFINITE
+    for i in range(nq, y.size):
+        if abs(y[i]) > DIVERGED:
+            return DIVERGING
+    return OK
 
 
 @njit
@@ -138,8 +152,9 @@ def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
                 fac = min(max(0.9 * err ** -0.17 * err_old ** 0.04, 0.2), 10.0) if err > 0.0 else 10.0
                 err_old = max(err, 1e-4)
                 h = max(h, hs * fac) if hs < h else hs * fac   # a step cut to land is not a verdict
-                if y.size > nq and np.abs(y[nq:]).max() > DIVERGED:
-                    return k - 1, h, DIVERGING, t
+                code = state_code(y, nq)
+                if code != OK:
+                    return k - 1, h, code, t
             else:
                 counts[1] += 1
                 h = hs * max(0.9 * err ** -0.2, 0.2)
@@ -187,8 +202,8 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
     if bar:
         bar.close()
     keep = slice(0, k + 1)
-    if status.ok and np.abs(Y[k, model.nq:]).max(initial=0.0) > DIVERGED:
-        status = results.failed(f"diverged (|v| > {DIVERGED:g})", t_out[k])
+    if status.ok and state_code(Y[k], model.nq) != OK:      # the integrators without a check of their own
+        status = results.failed(WHY[state_code(Y[k], model.nq)], t_out[k])
     return Simulation(t=t_out[keep], q=Y[keep, :model.nq], v=Y[keep, model.nq:], status=status,
                       steps=steps, rhs_evals=count[0], wall_s=wall, settings=settings)
 
@@ -284,8 +299,9 @@ def fox_goodwin(ev, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
             acc[:] = A
             t += h
             counts[0] += 1
-            if np.abs(y[nq:]).max() > DIVERGED:
-                return k - 1, DIVERGING, t
+            code = state_code(y, nq)
+            if code != OK:
+                return k - 1, code, t
         t = t_out[k]
         Y[k] = y
     return t_out.size - 1, OK, t
@@ -345,6 +361,7 @@ def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
 
 WHY = {NONFINITE: "non-finite state", DIVERGING: f"diverged (|v| > {DIVERGED:g})", TOO_SMALL: "step size too small",
        NEWTON: "Newton did not converge with a fresh iteration matrix"}
+NON_FINITE = (WHY[NONFINITE], "non-finite acceleration")     # the whys of a run that ended in non-finite values
 
 
 def _in_chunks(advance, t_out, counts, bar, chunk):
@@ -370,12 +387,10 @@ def reached(Y) -> int:
 
 
 def _check(y, t, nq):
-    """Stop a run whose state y = [q; v] is not finite or whose velocities diverge (|v|, as the
-    compiled integrators)."""
-    if not np.all(np.isfinite(y)):
-        raise Stop(results.failed("non-finite state", t))
-    if y.size > nq and np.abs(y[nq:]).max() > DIVERGED:
-        raise Stop(results.failed(f"diverged (|v| > {DIVERGED:g})", t))
+    """Stop a run whose state y = [q; v] breaks the divergence rule (`state_code`)."""
+    code = state_code(y, nq)
+    if code != OK:
+        raise Stop(results.failed(WHY[code], t))
 
 
 def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq):
@@ -440,59 +455,3 @@ def _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step):
     stages = {"rk45": 6, "dop853": 12}[method]
     status = results.Status() if sol.success else results.failed(sol.message, sol.t[-1])
     return k, sol.nfev // stages, status
-
-
-class Progress:
-    """A progress bar on stderr for work that takes longer than a couple of seconds: the first line
-    `after_s` past the start, then one every `every_s` (redrawn in place on a terminal; elsewhere
-    a new line every 10 s). `update(t)` says how far the work is: t of `t_end`, a simulated time
-    in s, or, with another `unit`, a count of that unit ('coordinates')."""
-
-    def __init__(self, t_end: float, label: str, after_s: float = 2.0, every_s: float | None = None,
-                 unit: str = "s"):
-        self.t_end, self.label, self.after, self.unit = t_end, label, after_s, unit
-        self.tty = sys.stderr.isatty()
-        self.every = every_s if every_s is not None else (0.5 if self.tty else 10.0)
-        self.start, self.last = time.perf_counter(), float("-inf")
-        self.shown = False
-
-    def due(self, now: float) -> bool:
-        """Whether a line is due at `now` (time.perf_counter(), s): from `after` past the start, one
-        every `every`."""
-        return now - self.start >= self.after and now - self.last >= self.every
-
-    def update(self, t: float) -> None:
-        now = time.perf_counter()
-        if not self.due(now):
-            return
-        self.last, self.shown = now, True
-        frac = min(max(t / self.t_end, 0.0), 1.0) if self.t_end > 0 else 1.0
-        bar = "#" * int(30 * frac)
-        eta = (now - self.start) * (1 - frac) / max(frac, 1e-9)
-        end = "\r" if self.tty else "\n"
-        at = f"t = {t:.3f}/{self.t_end:g} s" if self.unit == "s" else f"{t:.0f}/{self.t_end:g} {self.unit}"
-        sys.stderr.write(f"{self.label} [{bar:<30}] {at}, {now - self.start:.0f} s, ~{eta:.0f} s left{end}")
-        sys.stderr.flush()
-
-    def tracking(self, f):
-        """The right-hand side f(t, y), updating the bar with the time of each evaluation: the bar
-        moves within an output interval too, and shows the simulated time standing still when an
-        adaptive method's step size collapses (a model nearing a singular configuration). Once f
-        has raised (Stop), the bar is left alone: VODE goes on calling back with the exception
-        pending until it returns, and a clock read then would fail (SystemError)."""
-        raised = [False]
-
-        def g(t, y):
-            try:
-                yd = f(t, y)
-            except BaseException:
-                raised[0] = True
-                raise
-            if not raised[0]:
-                self.update(t)
-            return yd
-        return g
-
-    def close(self) -> None:
-        if self.shown and self.tty:
-            sys.stderr.write("\n")

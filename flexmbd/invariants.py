@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flexmbd.flexbody import FlexBody
-from flexmbd.kernel.jit import njit
+from flexmbd.jit import njit
 from flexmbd.spatial import cross_force_into, skew
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from flexmbd import spatial
 from flexmbd.cases import JOINT_COORDS
-from flexmbd.kernel.jit import njit
+from flexmbd.jit import njit
 from flexmbd.spatial import plux, quat_rate, quat_to_rot, xlt, xrot
 
 FIXED, REVOLUTE, PRISMATIC, SPHERICAL, FREE = range(5)

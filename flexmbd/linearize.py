@@ -18,9 +18,9 @@ from scipy import optimize
 from flexmbd import dynamics, flexbody, joints
 from flexmbd.build import from_case
 from flexmbd.errors import InputError
-from flexmbd.integrate import Progress
 from flexmbd.kernel.entry import forward_dynamics
 from flexmbd.model import Model, make_data
+from flexmbd.progress import Progress
 
 STEP = 1e-6          # central-difference step on q and v (coordinates are O(1) rad or mass-normalized)
 
@@ -33,8 +33,8 @@ class SystemMode(NamedTuple):
 
 
 def model_of(case) -> Model:
-    """The Model `flexmbd` integrates: the segmented tree (cases.Case.segmented)."""
-    return from_case(case.segmented, flexbody.for_case(case.segmented))
+    """The Model `flexmbd` integrates: the tree the modal solvers model (`case.modelled`)."""
+    return from_case(case.modelled, flexbody.for_case(case.modelled))
 
 
 def perturbed(model: Model, q, i: int, h: float) -> np.ndarray:
@@ -46,7 +46,7 @@ def perturbed(model: Model, q, i: int, h: float) -> np.ndarray:
 
 def state_matrix(model: Model, q, v, t: float = 0.0, bar=None) -> np.ndarray:
     """A (2n, 2n) of d/dt [dq; dv] = A [dq; dv] over the n free coordinates, by central differences
-    of forward dynamics: A = [[0, I], [d qdd/dq, d qdd/dv]]. `bar` (integrate.Progress over the n
+    of forward dynamics: A = [[0, I], [d qdd/dq, d qdd/dv]]. `bar` (progress.Progress over the n
     coordinates), when given, is told each coordinate done."""
     free, data = dynamics.free_velocities(model), make_data(model)
 

@@ -1,6 +1,6 @@
 """Error measures between two histories, FFT spectra with interpolated peaks, timing figures.
 
-Comparing undamped vibrations (DESIGN.md §2): over many cycles a tiny frequency difference
+Comparing undamped vibrations: over many cycles a tiny frequency difference
 becomes a large phase difference, so besides RMS differences we report phase-robust measures:
 the identified frequencies, the amplitude envelope, and the slow (low-pass) part.
 Every measure is normalised by the reference's maximum magnitude unless stated.

@@ -61,6 +61,12 @@ class Status:
         """An ok run outside its model's linear validity."""
         return self.kind == "ok" and bool(self.why)
 
+    @property
+    def unread(self) -> bool:
+        """An unavailable status a reader gave a stored result it could not use or that was run
+        for another version of the case (UNUSABLE, STALE): a reader's words, never a run's."""
+        return self.kind == "unavailable" and self.why.startswith((UNUSABLE, STALE))
+
     def __str__(self) -> str:
         at = f" at t = {self.t:.6g} s" if self.t is not None else ""
         if self.kind == "ok":
@@ -353,7 +359,7 @@ def read_table(path: Path, text: str, columns: list | None = None, samples: int 
 
 
 # what the unavailable result of a stored result that cannot be used says, and of one run for
-# another version of the case (`report.build.load_results`): a reader's words, never a run's status
+# another version of the case (`report.loading.load_results`): a reader's words, never a run's status
 UNUSABLE, STALE = "stored result unusable", "stale stored result"
 
 
@@ -403,7 +409,7 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
         status = Status.parse(meta["status"])
     except ValueError:
         raise InputError(f"{js}: status: not a run status: {meta['status'][:60]!r}") from None
-    if status.kind == "unavailable" and status.why.startswith((UNUSABLE, STALE)):
+    if status.unread:
         raise InputError(f"{js}: status: {meta['status'][:60]!r} is what a report says of a stored result, "
                          f"not the status of a run")
     samples, chans = meta["samples"], meta["channels"]

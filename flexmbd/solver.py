@@ -1,6 +1,6 @@
 """`flexmbd`, the in-house solver, behind the same interface as every other solver (solvers.py):
 the case's Model integrated in time, reported as a `channels.Trajectory` of its states. The Model
-is that of the segmented tree (`cases.Case.segmented`: a beam with `segments` is several bodies);
+is that of the tree the modal solvers model (`case.modelled`: a beam with `segments` is several bodies);
 the trajectory reports every beam of the case whole."""
 
 from __future__ import annotations
@@ -11,18 +11,18 @@ from typing import NamedTuple
 
 import numpy as np
 
-import flexmbd
-from flexmbd import channels, dynamics, flexbody, integrate, results
+from flexmbd import channels, dynamics, flexbody, integrate, jit, results
 from flexmbd.build import from_case
-from flexmbd.kernel import entry, jit
+from flexmbd.kernel import entry
 from flexmbd.model import Model, make_data
 from flexmbd.results import Result
+from flexmbd.version import __version__
 
 SETTINGS = {}           # the case's [integrator] table holds this solver's settings
 
 
 def version() -> str:
-    return flexmbd.__version__
+    return __version__
 
 
 def applies(case) -> str:
@@ -31,7 +31,7 @@ def applies(case) -> str:
 
 def run(case, t_end, settings, progress: bool = True) -> Result:
     t0 = time.perf_counter()
-    model = from_case(case.segmented, flexbody.for_case(case.segmented))
+    model = from_case(case.modelled, flexbody.for_case(case.modelled))
     setup_s = time.perf_counter() - t0
 
     # compile (or load from the cache) before the clock starts
@@ -39,28 +39,25 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
         print("flexmbd: compiling the solver's kernel once for this source version "
               "(about a minute; cached afterwards)", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
-    ig = case["integrator"]
-    integrate.warm_up(model, ig["method"] if ig["method"] in ("dopri5", "fox-goodwin") else "")
+    ig = case.integrator
+    integrate.warm_up(model, ig.method if ig.method in ("dopri5", "fox-goodwin") else "")
     compile_s = time.perf_counter() - t0
 
-    sim = integrate.simulate(model, t_end, method=ig["method"], rtol=ig["rtol"], atol=ig["atol"],
-                             max_step=ig["max_step"], dt=ig["dt"], output_dt=ig["output_dt"],
+    sim = integrate.simulate(model, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
+                             max_step=ig.max_step, dt=ig.dt, output_dt=ig.output_dt,
                              progress=progress, label=f"{case.name} / flexmbd")
     E = energies(model, sim.q, sim.v)
     traj = trajectory(case, model, sim.t, sim.q, sim.v, E)
-    ch = channels.channels(case, traj)
-    extent, outside = channels.validity(traj)
-    status = sim.status if outside is None or not sim.status.ok else results.outside_validity(*outside)
-    if not status.ok and status.why.startswith("non-finite"):
+    status = sim.status
+    if not status.ok and status.why in integrate.NON_FINITE:
         status = stiffening_limit(case, model, sim, traj) or status
     modes = {n: {"count": fb.n_modes, "boundary": fb.boundary, "freq_hz": np.round(fb.freq_hz, 4).tolist()}
              for n, fb in model.bodies.items()}
     kinetic_max = float(E[:, 0].max()) if len(sim.t) else 0.0
-    return Result(solver="flexmbd", case=case.name, t=sim.t, channels=ch, status=status,
+    return Result(solver="flexmbd", case=case.name, t=sim.t, status=status,
                   wall_s=sim.wall_s, setup_s=setup_s, steps=sim.steps, rhs_evals=sim.rhs_evals,
                   settings={**sim.settings, "modes": modes},
-                  extra={"compile_s": compile_s, "kinetic_max_J": kinetic_max,
-                         "validity": {"largest": extent, "limits": channels.LIMITS}}, trajectory=traj)
+                  extra={"compile_s": compile_s, "kinetic_max_J": kinetic_max}, trajectory=traj)
 
 
 SINGULAR = 0.1     # smallest eigenvalue of M at the last sample, relative to the start: M is singular
@@ -72,7 +69,7 @@ def stiffening_limit(case, model: Model, sim, traj) -> results.Status | None:
     matrix stops being positive definite (docs/formulation.md §4b). Diagnosed from the system mass
     matrix over the free coordinates at the last finite sample: its smallest eigenvalue has fallen
     below SINGULAR times its value at the start. None when not (or no beam is stiffened)."""
-    stiff = [n for n, b in traj.beams.items() if case["bodies"][n]["stiffening"]]
+    stiff = [n for n, b in traj.beams.items() if case.bodies[n].stiffening]
     finite = np.flatnonzero(np.all(np.isfinite(sim.q), axis=1) & np.all(np.isfinite(sim.v), axis=1))
     if not stiff or finite.size < 2:
         return None
@@ -131,9 +128,9 @@ def reactions(model: Model, t, Q, V) -> np.ndarray:
 
 
 def node_forces(model: Model, ev: Evaluated, i: int, Q, V) -> np.ndarray:
-    """(n, N, 3) net force on each node of flexible body i, body frame: the d'Alembert force
-    -m_p a_p (a_p relative to free fall: ev.a carries gravity as a base acceleration), the point
-    loads on the body, and the forces its child joints exert on it.
+    """(n, N, 3) net force on each node of flexible body i, body frame (`channels.node_forces`):
+    from the node accelerations relative to free fall (ev.a carries gravity as a base
+    acceleration), the point loads on the body and the forces its child joints exert on it.
 
     a_p = a_O + al x r_p + w x (w x r_p) + 2 w x r'_p + r''_p, with r_p = x0_p + Phi_t,p eta and
     the classical acceleration of the origin a_O = a_lin + w x v_O (a_lin the spatial one)."""
@@ -146,54 +143,44 @@ def node_forces(model: Model, ev: Evaluated, i: int, Q, V) -> np.ndarray:
     w, vO, al = ev.v[:, i, None, :3], ev.v[:, i, 3:], ev.a[:, i, None, :3]
     aO = (ev.a[:, i, 3:] + np.cross(ev.v[:, i, :3], vO))[:, None, :]
     acc = aO + np.cross(al, r) + np.cross(w, np.cross(w, r)) + 2.0 * np.cross(w, rd) + rdd
-    F = -fb.m[None, :, None] * acc
+    loads = []
     for k in np.flatnonzero(model.load_body == i):
         f = model.load_force[k] * ev.scale[:, k, None]                      # (n, 3)
         if model.load_global[k]:
             f = np.einsum("nij,nj->ni", ev.X0[:, i, :3, :3], f)
-        F[:, fb.node_at(model.load_point[k, 0]), :] += f
-    for c in np.flatnonzero(model.parent == i):
-        E = ev.Xup[:, c, :3, :3]                                            # parent -> child rotation
-        F[:, model.jnt_node[c], :] -= np.einsum("nji,nj->ni", E, ev.f[:, c, 3:])
-    return F
+        loads.append((fb.node_at(model.load_point[k, 0]), f))
+    joints = [(model.jnt_node[c], -np.einsum("nji,nj->ni", ev.Xup[:, c, :3, :3], ev.f[:, c, 3:]))  # parent -> child
+              for c in np.flatnonzero(model.parent == i)]
+    return channels.node_forces(fb.m, acc, loads, joints)
 
 
 def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
     """The channels' view of states Q (n, nq), V (n, nv) at t (n,) of the Model of
-    `case.segmented`; E: `energies` if known. A beam split into segments is reported whole
+    `case.modelled`; E: `energies` if known. A beam split into segments is reported whole
     (`joined`)."""
-    seg = case.segmented
+    seg = case.modelled
     traj = channels.Trajectory(t=t)
     for jname in channels.joints_needed(case):
-        i = model.index(seg["joints"][jname]["child"])
+        i = model.index(seg.joints[jname].child)
         traj.joints[jname] = Q[:, model.jnt_qadr[i]].copy()
     if channels.wants_energy(case):
         E = energies(model, Q, V) if E is None else E
         traj.energy = {"kinetic": E[:, 0], "potential": E[:, 1]}
-    asked = [c["joint"] for c in case["channels"].values() if c["kind"] in ("reaction_force", "reaction_moment")]
-    stressed = {c["body"] for c in seg["channels"].values() if c["kind"] == "stress_vm"} & set(model.bodies)
-    axial = {name for name, fb in model.bodies.items()
-             if not seg["bodies"][name]["stiffening"] or (name in stressed and flexbody.axial_free(fb))}
-    ev = evaluate(model, t, Q, V) if asked or axial or case.resolved.segments else None
-    traj.reactions = {j: ev.f[:, model.index(seg["joints"][j]["child"])] for j in asked}
+    asked = [c.joint for c in case.channels.values() if c.kind in ("reaction_force", "reaction_moment")]
+    stressed = {c.body for c in seg.channels.values() if c.kind == "stress_vm"}
+    rules = {name: channels.axial_rule(seg.bodies[name].stiffening, name in stressed, fb)
+             for name, fb in model.bodies.items()}
+    ev = evaluate(model, t, Q, V) if asked or any(map(any, rules.values())) or case.segments else None
+    traj.reactions = {j: ev.f[:, model.index(seg.joints[j].child)] for j in asked}
     for name, fb in model.bodies.items():
         i = model.index(name)
         eta = Q[:, model.body_madr[i]:model.body_madr[i] + model.body_nm[i]]
         points, x0 = channels.modal_points(fb, channels.points_needed(seg, name), eta)
-        strains = channels.modal_strains(fb, eta)
-        body, mat = seg["bodies"][name], seg["materials"][seg["bodies"][name]["material"]]
-        sec = flexbody.beam_section(body)
-        extent = channels.modal_extent(fb, eta, sec)
-        F = node_forces(model, ev, i, Q, V) if name in axial else None
-        if not body["stiffening"]:                          # without stiffening the axial force is a limit
-            extent["axial_load"] = channels.axial_load(channels.axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), mat["E"],
-                                                       sec, fb.length)
-        if name in stressed and flexbody.axial_free(fb):
-            strains = channels.with_axial_strain(strains, {x: channels.axial_force(fb.x0, F, x) for x in strains},
-                                                 mat["E"] * sec.A)
-        traj.beams[name] = channels.Beam(length=fb.length, points=points, x0=x0, root=channels.modal_root(fb, eta),
-                                         strains=strains, extent=extent)
-    for beam, parts in case.resolved.segments.items():
+        body = seg.bodies[name]
+        F = node_forces(model, ev, i, Q, V) if any(rules[name]) else None
+        traj.beams[name] = channels.modal_beam(fb, eta, body.material, body.geometry,
+                                               points, x0, channels.modal_root(fb, eta), F, rules[name])
+    for beam, parts in case.segments.items():
         traj.beams[beam] = joined(case, model, ev, Q, beam, [traj.beams.pop(p) for p in parts])
     return traj
 
@@ -204,11 +191,11 @@ def joined(case, model: Model, ev: Evaluated, Q, beam: str, parts: list) -> chan
     the root rotation E_1^T R_1 of segment 1's root node (None with hinged-hinged modes: the
     chord through the beam's ends), strains from the segment holding each stress section, and
     per validity measure the largest over the segments (each against its own length)."""
-    L = case["bodies"][beam]["length"]
-    first = model.index(case.resolved.place(beam, 0.0)[0])
+    L = case.bodies[beam].length
+    first = model.index(case.place(beam, 0.0)[0])
     points, x0 = {}, {}
     for x in channels.points_needed(case, beam):
-        name, local = case.resolved.place(beam, x)
+        name, local = case.place(beam, x)
         i = model.index(name)
         fb = model.bodies[name]
         eta = Q[:, model.body_madr[i]:model.body_madr[i] + model.body_nm[i]]
@@ -223,8 +210,8 @@ def joined(case, model: Model, ev: Evaluated, Q, beam: str, parts: list) -> chan
     if root is not None:
         root = np.einsum("nji,njk->nik", ev.X0[:, first, :3, :3], root)
     strains = {}
-    for x in case.resolved.stress_sections(beam):
-        name, local = case.resolved.place(beam, x)
-        strains[x] = parts[case.resolved.segments[beam].index(name)].strains[local]
+    for x in case.stress_sections(beam):
+        name, local = case.place(beam, x)
+        strains[x] = parts[case.segments[beam].index(name)].strains[local]
     extent = {k: np.max([b.extent[k] for b in parts], axis=0) for k in parts[0].extent}
     return channels.Beam(length=L, points=points, x0=x0, root=root, strains=strains, extent=extent)

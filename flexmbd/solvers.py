@@ -4,17 +4,20 @@ A solver is a module with
     SETTINGS                 schema of its `[solvers.NAME]` table in a case file (see cases.py)
     version() -> str
     applies(case) -> str     '' when the solver can run the case, else why not
-    run(case, t_end, settings) -> Result    fills t, channels, steps, rhs_evals, wall_s, setup_s
+    run(case, t_end, settings) -> Result    t and the run's `channels.Trajectory` (`trajectory`),
+                             status, steps, rhs_evals, wall_s, setup_s; or the Trajectory alone
 Solvers that are not part of this build are listed (so case files may name them) and reported
 as unavailable. Other packages add solvers through the entry-point group `flexmbd.solvers`
 (docs/plugins.md); a plug-in that fails to load, or whose name cannot name a result file
 (`results.bad_name`), is unavailable, saying why, and never ends a command.
 
-`run` is the one place where a solver's exception becomes a result, where the divergence
-rule (`results.first_failure`) is applied to every solver's channels (a failed run keeps the
-samples before its failure), and where the deformed-shape snapshots (`channels.shapes`) are
-taken from the trajectory a solver hands over with its result (`Result.trajectory`), for the
-samples kept, into the sidecar's `shapes`.
+A solver reports what it computed as a `channels.Trajectory`; `run` is the one place where a
+solver's exception becomes a result, and where, the same for every solver (plug-ins included),
+the channels are formed from the trajectory, the model's linear validity becomes a status, the
+divergence rule (`results.first_failure`) cuts a run (a failed run keeps the samples before its
+failure), and the deformed-shape snapshots (`channels.shapes`) of the samples kept go into the
+sidecar's `shapes`. A plug-in may instead fill a Result's `channels` itself (no trajectory: no
+validity, no snapshots).
 """
 
 from __future__ import annotations
@@ -24,6 +27,8 @@ import importlib
 import time
 import traceback
 from importlib.metadata import entry_points
+
+import numpy as np
 
 from flexmbd import cases, channels, results
 from flexmbd.errors import InputError
@@ -119,7 +124,7 @@ def settings(case, name: str) -> dict:
     (as given when the solver is not available here: its run says so)."""
     where = str(case.path)
     check_name(name, f"solvers.{name}", where)
-    raw = case["solvers"].get(name, {})
+    raw = dict(case.solvers.get(name, {}))
     if unavailable_reason(name):
         return dict(raw)
     return cases.check_table(raw, settings_schema(name), where, f"solvers.{name}.")
@@ -128,12 +133,12 @@ def settings(case, name: str) -> dict:
 def check(case) -> None:
     """Check every solver name and `[solvers.NAME]` table of a case before any work starts
     (InputError: one line naming the file and key). Imports only the solvers it names."""
-    where, rep = str(case.path), case["report"]
-    if rep["reference"] is not None:
-        check_name(rep["reference"], "report.reference", where)
-    for name in rep["solvers"] or []:
+    where, rep = str(case.path), case.report
+    if rep.reference is not None:
+        check_name(rep.reference, "report.reference", where)
+    for name in rep.solvers or []:
         check_name(name, "report.solvers", where)
-    for name in case["solvers"]:
+    for name in case.solvers:
         settings(case, name)
 
 
@@ -165,14 +170,18 @@ def _precondition(case, name: str) -> results.Status | None:
 def channel_bounds(case) -> dict:
     """Channel -> largest plausible magnitude (the divergence rule): a deflection,
     DIVERGED_LENGTHS times its beam's length; other channels need only be finite."""
-    return {name: results.DIVERGED_LENGTHS * case["bodies"][c["body"]]["length"]
-            for name, c in case["channels"].items() if c["kind"] == "deflection"}
+    return {name: results.DIVERGED_LENGTHS * case.bodies[c.body].length
+            for name, c in case.channels.items() if c.kind == "deflection"}
 
 
 def run(case, name: str, t_end: float | None = None) -> Result:
-    """Run one solver on one case. A failure inside the solver becomes a failed result, and a
-    run whose channels break the divergence rule is cut at the first bad sample and failed."""
-    t_end = case["duration"] if t_end is None else t_end
+    """Run one solver on one case, and form what every solver's run is judged by, once: the
+    channels from the trajectory the solver reports (`channels.channels`), its model's linear
+    validity (`channels.validity`: an ok run past a limit is `results.outside_validity`), the
+    divergence cut (`results.first_failure`: a failed run keeps the samples before it) and the
+    deformed-shape snapshots (`channels.shapes`). A failure inside the solver becomes a failed
+    result."""
+    t_end = case.duration if t_end is None else t_end
     pre = _precondition(case, name)
     if pre is not None:
         return Result(solver=name, case=case.name, status=pre, case_sha256=case.sha256)
@@ -180,12 +189,17 @@ def run(case, name: str, t_end: float | None = None) -> Result:
     chosen = settings(case, name)
     start = time.perf_counter()
     try:
-        r = mod.run(case, t_end, chosen)
+        r = reported(mod.run(case, t_end, chosen), name, case)
     except Exception as e:                              # an external code's failure is a result
         where = traceback.extract_tb(e.__traceback__)[-1]
         r = Result(solver=name, case=case.name,
                    status=results.failed(f"{type(e).__name__}: {e} ({where.name}, line {where.lineno})"))
         r.wall_s = time.perf_counter() - start
+    traj, r.trajectory = r.trajectory, None
+    if traj is not None:
+        traj = dataclasses.replace(traj, t=np.asarray(r.t, dtype=float))
+        r.channels = channels.channels(case, traj)
+        judged(r, traj)
     cut = results.first_failure(r.t, r.channels, channel_bounds(case)) if len(r.t) else None
     if cut is not None and (r.ok or r.status.t is None or cut[1].t <= r.status.t):
         r.truncate(cut[0])
@@ -193,9 +207,34 @@ def run(case, name: str, t_end: float | None = None) -> Result:
     r.solver, r.case, r.case_sha256 = name, case.name, case.sha256
     r.solver_version = r.solver_version or mod.version()
     r.extra["overrides"] = list(case.overrides)        # the --set items, recorded in the sidecar
-    traj, r.trajectory = r.trajectory, None
     if traj is not None:                                # the kept samples' deformed shapes, once for every solver
-        shapes = channels.shapes(case, dataclasses.replace(traj, t=r.t), case["report"]["snapshots"])
+        shapes = channels.shapes(case, dataclasses.replace(traj, t=r.t), case.report.snapshots)
         if shapes:
             r.extra["shapes"] = shapes
     return r
+
+
+def reported(out, name: str, case) -> Result:
+    """A solver's run as a Result: what it returned, or a Result around a bare
+    `channels.Trajectory` (a run that reports its trajectory only: ok, at the trajectory's
+    instants). Anything else is the solver's failure."""
+    if isinstance(out, channels.Trajectory):
+        return Result(solver=name, case=case.name, t=np.asarray(out.t, dtype=float), trajectory=out)
+    if not isinstance(out, Result):
+        raise TypeError(f"run(case, t_end, settings) returned {type(out).__name__}, not a Result or a "
+                        f"channels.Trajectory (docs/plugins.md)")
+    if out.trajectory is not None and len(out.trajectory.t) != len(out.t):
+        raise ValueError(f"its trajectory has {len(out.trajectory.t)} instants and its result {len(out.t)}")
+    return out
+
+
+def judged(r: Result, traj: channels.Trajectory) -> None:
+    """The linear validity of a run's model, the same for every solver: the largest value of each
+    measure its modal beams report (`channels.validity`) goes into the sidecar's `validity`, and an
+    ok run past a limit becomes `results.outside_validity` (why and when)."""
+    if not any(b.extent for b in traj.beams.values()):
+        return
+    extent, outside = channels.validity(traj)
+    r.extra["validity"] = {"largest": extent, "limits": channels.LIMITS}
+    if outside is not None and r.ok:
+        r.status = results.outside_validity(*outside)

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.kernel.dense import mm
-from flexmbd.kernel.jit import njit
+from flexmbd.dense import mm
+from flexmbd.jit import njit
 
 
 @njit

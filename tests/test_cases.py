@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -17,29 +18,30 @@ PAPER = ["cantilever_step", "pendulum", "double_pendulum"]
 @pytest.mark.parametrize("name", PAPER)
 def test_paper_cases_load_with_paper_parameters(name):
     c = cases.load(name)
-    assert c["duration"] == 2.0
-    for b in c["bodies"].values():
-        assert (b["length"], b["section"]["b"], b["section"]["h"]) == (1.5, 0.01, 0.015)
-        assert b["damping_ratio"] == 0.0
-        assert b["modes"]["count"] == 12
-    assert c["materials"]["steel"] == {"E": 2.06e11, "nu": 0.29, "rho": 7820.0}
-    assert c["gravity"] == ([0.0, 0.0, 0.0] if name == "cantilever_step" else [0.0, -9.81, 0.0])
+    assert c.duration == 2.0
+    for b in c.bodies.values():
+        assert (b.length, b.section.b, b.section.h) == (1.5, 0.01, 0.015)
+        assert b.damping_ratio == 0.0
+        assert b.modes.count == 12
+        assert b.material is c.materials["steel"]
+    assert c.materials["steel"] == cases.Material(name="steel", E=2.06e11, nu=0.29, rho=7820.0)
+    assert c.gravity == ((0.0, 0.0, 0.0) if name == "cantilever_step" else (0.0, -9.81, 0.0))
 
 
 def test_paper_case_specifics():
     c = cases.load("cantilever_step")
-    ld = c["loads"]["tip_force"]
-    assert ld["force"] == [0.0, -12.0, 0.0] and ld["at"] == 1.5 and ld["profile"]["t0"] == 0.0
+    ld = c.loads["tip_force"]
+    assert ld.force == (0.0, -12.0, 0.0) and ld.point.x == 1.5 and ld.profile["t0"] == 0.0
     d = cases.load("double_pendulum")
-    assert d["bodies"]["beam1"]["modes"]["boundary"] == "hinged-hinged"
-    assert d["bodies"]["beam2"]["modes"]["boundary"] == "clamped-free"
-    assert d["joints"]["pivot2"]["parent"] == "beam1" and d["joints"]["pivot2"]["at"] == 1.5
+    assert d.bodies["beam1"].modes.boundary == "hinged-hinged"
+    assert d.bodies["beam2"].modes.boundary == "clamped-free"
+    assert d.joints["pivot2"].parent == "beam1" and d.joints["pivot2"].point.x == 1.5
 
 
 def test_override_changes_value_and_hash():
     a = cases.load("cantilever_step")
     b = cases.load("cantilever_step", ["materials.steel.E=2.06e9"])
-    assert b["materials"]["steel"]["E"] == 2.06e9
+    assert b.materials["steel"].E == 2.06e9 and b.bodies["beam"].material.E == 2.06e9
     assert a.sha256 != b.sha256
 
 
@@ -115,11 +117,11 @@ def test_unknown_case_and_solver(capsys, tmp_path):
 
 
 def test_tree_errors():
-    raw = cases.tomllib.loads((cases.CASES_DIR / "double_pendulum.toml").read_text())
+    raw = tomllib.loads((cases.CASES_DIR / "double_pendulum.toml").read_text())
     raw["joints"]["pivot1"]["parent"] = "beam2"
     with pytest.raises(InputError, match="loop"):
         cases.validate(raw, "x.toml")
-    raw = cases.tomllib.loads((cases.CASES_DIR / "double_pendulum.toml").read_text())
+    raw = tomllib.loads((cases.CASES_DIR / "double_pendulum.toml").read_text())
     del raw["joints"]["pivot2"]
     with pytest.raises(InputError, match="bodies.beam2: no joint"):
         cases.validate(raw, "x.toml")
@@ -144,7 +146,7 @@ def test_motion_table_file_is_checked(tmp_path):
     (tmp_path / "q.csv").write_text("t,q\n0,0\n0.1,0.1\n0.2,0.2\n0.3,0.3\n")
     c = cases.load(str(p))
     from flexmbd import profiles
-    q, qd, qdd = profiles.motion(c["joints"]["pivot"]["motion"], 0.15)
+    q, qd, qdd = profiles.motion(c.joints["pivot"].motion, 0.15)
     assert q == pytest.approx(0.15) and qd == pytest.approx(1.0)
 
 
@@ -153,24 +155,27 @@ def test_motion_table_file_is_checked(tmp_path):
 
 
 def test_the_resolved_case_of_the_double_pendulum():
-    """Tree order, kinds, parents, the joint on beam1's snapped tip node, stress sections keyed by
-    channel, and nq / nv equal to the Model's (built separately, from the dict)."""
+    """Tree order, kinds, parents, the joint on beam1's snapped tip node, the stress channels'
+    snapped points, and nq / nv equal to the Model's (built separately)."""
     from flexmbd.build import from_case
     case = cases.load("double_pendulum", ["bodies.beam1.elements=10", "joints.pivot2.at=1.46"])
-    r = case.resolved
-    assert r.order == ["beam1", "beam2"]
-    assert [(b.index, b.kind, b.parent, b.nodes) for b in r.bodies] == [(1, "beam", 0, 11), (2, "beam", 1, 101)]
-    elbow = r.joints["pivot2"]
-    assert (elbow.parent, elbow.child, elbow.node, elbow.x, elbow.nq, elbow.nv) == (1, 2, 10, 1.5, 1, 1)
-    assert r.joints["pivot1"].node == -1 and r.joints["pivot1"].x is None
+    assert isinstance(case.resolved, cases.Resolved)
+    assert case.order == ["beam1", "beam2"]
+    assert [(b.index, b.kind, b.parent, b.nodes) for b in case.tree] == [(1, "beam", 0, 11), (2, "beam", 1, 101)]
+    elbow = case.joints["pivot2"]
+    assert (elbow.parent_index, elbow.child_index, elbow.node, elbow.x, elbow.nq, elbow.nv) == (1, 2, 10, 1.5, 1, 1)
+    assert (elbow.parent, elbow.child, elbow.point.x) == ("beam1", "beam2", 1.46)
+    assert case.joints["pivot1"].node == -1 and case.joints["pivot1"].x is None
     tilted = cases.load("double_pendulum", ["joints.pivot1.rpy=[0.0, 0.0, 0.5]", "joints.pivot1.axis=[0.0, 3.0, 4.0]"])
-    j = tilted.resolved.joints["pivot1"]
+    j = tilted.joints["pivot1"]
     assert j.axis == (0.0, 0.6, 0.8)
     assert np.allclose(j.triad, [[np.cos(0.5), -np.sin(0.5), 0.0], [np.sin(0.5), np.cos(0.5), 0.0], [0.0, 0.0, 1.0]])
-    assert set(r.stress) == {n for n, c in case["channels"].items() if c["kind"] == "stress_vm"}
-    assert all(p.node == round(p.x_node / 1.5 * (r.body(p.body).nodes - 1)) for p, _ in r.stress.values())
+    stress = {n: c.point for n, c in case.channels.items() if c.kind == "stress_vm"}
+    assert stress and all(p is not None and (p.body, p.x) == (case.channels[n].body, case.channels[n].at)
+                          for n, p in stress.items())
+    assert all(p.node == round(p.x_node / 1.5 * (case.link(p.body).nodes - 1)) for p in stress.values())
     m = from_case(case)
-    assert (r.nq, r.nv) == (m.nq, m.nv)
+    assert (case.nq, case.nv) == (m.nq, m.nv)
 
 
 def test_the_resolved_case_is_immutable_and_shares_its_reductions():
@@ -180,8 +185,10 @@ def test_the_resolved_case_is_immutable_and_shares_its_reductions():
     with pytest.raises(TypeError):
         case.resolved.joints["pivot"] = None
     again = cases.load("pendulum")
-    assert again.resolved.reduced("beam") is case.resolved.reduced("beam")
-    assert again.resolved.reduced("beam").stress_x.tolist() == [0.03]
+    with pytest.raises(AttributeError):
+        case.bodies["beam"].length = 3.0
+    assert again.reduced("beam") is case.reduced("beam")
+    assert again.reduced("beam").stress_x.tolist() == [0.03]
 
 
 BENCHMARKS = {   # case: (EA N, EI N m^2 in the x-y plane, rho A kg/m, length m)
@@ -198,19 +205,44 @@ def test_benchmark_cases_load_with_their_parameters_and_provenance(name):
     header names its source and separates derived values from what is read in a paper."""
     from flexmbd import flexbody
     c = cases.load(name)
-    (body,) = c["bodies"].values()
-    mat = c["materials"][body["material"]]
+    (body,) = c.bodies.values()
+    mat = c.materials[body.material.name]
+    assert body.material == mat
     sec = flexbody.beam_section(body)
     EA, EI, rhoA, L = BENCHMARKS[name]
-    assert (mat["E"] * sec.A, mat["E"] * sec.Iz, mat["rho"] * sec.A) == pytest.approx((EA, EI, rhoA), rel=1e-9)
-    assert body["length"] == L
+    assert (mat.E * sec.A, mat.E * sec.Iz, mat.rho * sec.A) == pytest.approx((EA, EI, rhoA), rel=1e-9)
+    assert body.length == L
     text = (cases.CASES_DIR / f"{name}.toml").read_text()
     assert text.startswith("#") and "Source" in text and "derived here" in text
 
 
 def test_snapshot_instants_default_to_quarters_of_the_duration():
     """report.snapshots: duration x (1/4, 1/2, 3/4, 1) by default (following --set duration), sorted when given."""
-    assert cases.load("cantilever_step")["report"]["snapshots"] == [0.5, 1.0, 1.5, 2.0]
-    assert cases.load("cantilever_step", ["duration=0.4"])["report"]["snapshots"] == [0.1, 0.2, 0.3, 0.4]
-    assert cases.load("cantilever_step", ["report.snapshots=[2.0, 0.0, 1.25]"])["report"]["snapshots"] == [0.0, 1.25, 2.0]
-    assert cases.load("cantilever_step")["report"]["shape_points"] == 11
+    assert cases.load("cantilever_step").report.snapshots == (0.5, 1.0, 1.5, 2.0)
+    assert cases.load("cantilever_step", ["duration=0.4"]).report.snapshots == (0.1, 0.2, 0.3, 0.4)
+    assert cases.load("cantilever_step", ["report.snapshots=[2.0, 0.0, 1.25]"]).report.snapshots == (0.0, 1.25, 2.0)
+    assert cases.load("cantilever_step").report.shape_points == 11
+
+
+
+# ---------------------------------------------------------------------------------------------
+# the case is read typed outside flexmbd/cases; equal segments reduce once
+
+
+def test_no_case_is_indexed_as_a_dict_outside_the_cases_package():
+    """Every consumer reads the resolved case (`case.bodies`, `case.joints`, ...), never the file's
+    dicts: no `case["` or `case.data[` in flexmbd/ outside flexmbd/cases/."""
+    root = Path(cases.__file__).resolve().parent.parent
+    found = [f"{path.relative_to(root.parent)}:{k}: {line.strip()}"
+             for path in sorted(root.rglob("*.py")) if root / "cases" not in path.parents
+             for k, line in enumerate(path.read_text().splitlines(), 1)
+             if 'case["' in line or "case.data[" in line]
+    assert not found, "a case indexed as a dict:\n" + "\n".join(found)
+
+
+def test_the_flexible_pendulums_twenty_segments_are_reduced_once():
+    from flexmbd import flexbody
+    flexbody._reduced.cache_clear()
+    bodies = cases.load("flexible_pendulum").split.flexible()
+    assert len(bodies) == 20
+    assert flexbody._reduced.cache_info().misses == 1

@@ -101,7 +101,7 @@ def test_clamp_reactions_are_the_rate_of_momentum_less_the_applied_loads():
     t = np.array([0.0, 0.3, 1.1])
     Q, V = rng.normal(size=(3, m.nq)) * 1e-3, rng.normal(size=(3, m.nv)) * 1e-2
     f = solver.reactions(m, t, Q, V)
-    g, F = np.array(case["gravity"]), np.array([0.0, -12.0, 0.0]) * (t >= 0.5)[:, None]
+    g, F = np.array(case.gravity), np.array([0.0, -12.0, 0.0]) * (t >= 0.5)[:, None]
     for k in range(3):
         eta_dd = forward_dynamics(m, make_data(m), Q[k], V[k], t=t[k])[a:a + n]
         r = fb.x0 + fb.Phi[:, 3:] @ Q[k, a:a + n]
@@ -199,7 +199,7 @@ def test_modal_extent_of_a_bent_beam():
     k, x = 1e-3, fb.x0[:, 0]
     Phi = np.zeros_like(fb.Phi)
     Phi[:, 4, 0], Phi[:, 2, 0] = k * x ** 2 / 2, k * x            # u_y = k x^2 / 2, theta_z = k x
-    sec = flexbody.beam_section(case["bodies"]["beam"])
+    sec = flexbody.beam_section(case.bodies["beam"])
     e = channels.modal_extent(dataclasses.replace(fb, Phi=Phi), np.ones((1, 1)), sec)
     assert e["deflection"][0] == pytest.approx(k * 1.5 ** 2 / 2 / 1.5, rel=1e-12)
     assert e["rotation"][0] == pytest.approx(k * 1.5, rel=1e-12)
@@ -238,7 +238,7 @@ def test_shapes_of_a_known_motion_are_its_displacements(chord):
     points = {x: r0 + np.einsum("nij,nj->ni", Q, np.array([x, 0.0, 0.0]) + u(x)) for x in xs}
     beam = channels.Beam(length=L, points=points, x0={x: np.array([x, 0.0, 0.0]) for x in xs},
                          root=None if chord else Q)
-    shapes = channels.shapes(case, channels.Trajectory(t=t, beams={"beam": beam}), case["report"]["snapshots"])
+    shapes = channels.shapes(case, channels.Trajectory(t=t, beams={"beam": beam}), case.report.snapshots)
     s = shapes["beam"]
     assert s["x"] == [0.0, 0.375, 0.75, 1.125, 1.5] and s["t"] == pytest.approx([0.0, 0.3, 0.9])
     picks = [0, 3, 9]
@@ -266,7 +266,7 @@ def test_cantilever_shapes_of_flexmbd_and_fe_linear_agree(cantilever_runs):
     ref = runs["fe-linear"]
     scale = np.abs(ref.channels["tip_deflection"]).max()
     s, sr = runs["flexmbd"].extra["shapes"]["beam"], ref.extra["shapes"]["beam"]
-    assert s["x"] == sr["x"] and s["t"] == sr["t"] == case["report"]["snapshots"] == [0.5, 1.0, 1.5, 2.0]
+    assert s["x"] == sr["x"] and s["t"] == sr["t"] == list(case.report.snapshots) == [0.5, 1.0, 1.5, 2.0]
     u, ur = np.array(s["u"]), np.array(sr["u"])
     assert np.abs(u[:, :, 1] - ur[:, :, 1]).max() <= 0.02 * scale
     assert abs(u[-1, -1, 1] - ur[-1, -1, 1]) <= 0.02 * abs(ur[-1, -1, 1])

@@ -32,7 +32,7 @@ import flexmbd
 from flexmbd import cases, cost, integrate, linearize, results, solvers
 from flexmbd.cli import _jsonable, main
 from flexmbd.errors import InputError
-from flexmbd.report import build
+from flexmbd.report import spectra
 from tests.test_faults import BASE, CASE, ENV, ONE, SOLVER, check, cli, edit_result, no_leftovers
 from tests.test_faults import base  # noqa: F401 - the fixture: a copy of the shipped analytic baseline
 
@@ -48,7 +48,7 @@ DEEP = "[" * 200_000 + "]" * 200_000          # far beyond any parser's recursio
 
 @pytest.fixture(scope="module", autouse=True)
 def compiled():
-    build.prepare([cases.load(CASE)])
+    spectra.prepare([cases.load(CASE)])
 
 
 @pytest.fixture(scope="module")
@@ -277,7 +277,7 @@ def unreported(tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("unreported") / "bare.toml"
     text = SHIPPED.read_text()
     path.write_text(text[:text.index("[report]")])
-    assert cases.load(str(path))["report"]["reference"] is None
+    assert cases.load(str(path)).report.reference is None
     return path
 
 
@@ -426,7 +426,7 @@ def test_two_thousand_stress_channels_are_refused_as_their_values(tmp_path):
     path = tmp_path / "stress.toml"
     path.write_text(PENDULUM + _channels(2000, "stress_vm"))
     few, many = cases.load("pendulum"), cases.load(str(path))
-    small, large = cost.output(few, few["duration"]), cost.output(many, many["duration"])
+    small, large = cost.output(few, few.duration), cost.output(many, many.duration)
     assert small.key == "integrator.output_dt" and not cost.excess(small)
     assert large.key == "channels" and "2004 channels at 4001 output samples" in large.what
     assert 10 < large.seconds < 100 and "without progress shown" in cost.excess(large), large
@@ -502,7 +502,7 @@ def test_soft_pendulum_adams_run_is_estimated_with_progress():
     """Its estimate is small (the estimate cannot know that the step size collapses), and every
     in-house method but scipy's rk45 and dop853 is counted as showing progress."""
     case = cases.load("pendulum", ["materials.steel.E=1e3"])
-    (st,) = cost.flexmbd(case, case["duration"])
+    (st,) = cost.flexmbd(case, case.duration)
     assert st.progress and st.seconds < cost.SILENT_LIMIT
     for method, shown in (("adams", True), ("dopri5", True), ("rk4", True), ("fox-goodwin", True), ("rk45", False),
                           ("dop853", False)):

@@ -74,7 +74,7 @@ def test_mode_shapes_draw_one_panel_per_mode_and_torsion_or_axial_only_where_the
     """The flexible pendulum's 5 cm segment keeps bending, torsion and axial modes: one panel each,
     every mode scaled to a largest value of 1, the torsion angle only on the torsion mode, the axial
     displacement only on the axial one, the cubic through the node values."""
-    fb = cases.load("flexible_pendulum").segmented.resolved.reduced("rod:1")
+    fb = cases.load("flexible_pendulum").split.reduced("rod:1")
     axes = axes_of(figures.mode_shapes_figure(fb, "rod:1"))
     assert len(axes) == fb.n_modes == 8
     for j, ax in enumerate(axes):

@@ -11,6 +11,7 @@ from flexmbd import cases, channels, flexbody, integrate, solver
 from flexmbd.invariants import invariants
 from flexmbd.fe import assembly, stress
 from flexmbd.build import from_case
+from trees import one_beam
 
 
 def random_body(rng, boundary):
@@ -21,8 +22,7 @@ def random_body(rng, boundary):
         raw["section"].update(b=rng.uniform(0.01, 0.05), h=rng.uniform(0.01, 0.05))
     else:
         raw["section"]["d"] = rng.uniform(0.01, 0.05)
-    body = cases._check_body(raw, "test", "body")
-    return flexbody.build("b", body, {"E": 2e11, "nu": 0.3, "rho": 7800.0})
+    return flexbody.build(one_beam(raw, {"E": 2e11, "nu": 0.3, "rho": 7800.0}))
 
 
 def scrambled(fb, rng):
@@ -52,16 +52,16 @@ def test_stress_sections_and_their_channels():
     """S_strain at each stress section against the FE strain rows there; each stress channel
     against the FE stress recovery at its own section point."""
     case = cases.load("cantilever_step", STRESS_CHANNELS)
-    body, mat = case["bodies"]["beam"], case["materials"]["steel"]
-    assert case.resolved.stress_sections("beam") == [0.03, 0.4, 0.9]
+    body, mat = case.bodies["beam"], case.materials["steel"]
+    assert case.stress_sections("beam") == [0.03, 0.4, 0.9]
     fb = flexbody.for_case(case)["beam"]
     assert fb.stress_x.tolist() == [0.03, 0.4, 0.9] and fb.S_strain.shape == (3, 4, 12)
-    nodes, elements = assembly.beam_mesh(body["length"], body["elements"])
+    nodes, elements = assembly.beam_mesh(body.length, body.elements)
     Phi_fe = fb.Phi[:, [3, 4, 5, 0, 1, 2], :].reshape(-1, fb.n_modes)       # node DOFs [u; theta]
-    E, G = mat["E"], mat["E"] / (2 * (1 + mat["nu"]))
+    E, G = mat.E, mat.E / (2 * (1 + mat.nu))
     sec = flexbody.beam_section(body)
     for k, x in enumerate([0.03, 0.4, 0.9]):
-        rows = stress.strain_rows(nodes, elements, E, G, sec, x, shear=body["shear"]) @ Phi_fe
+        rows = stress.strain_rows(nodes, elements, E, G, sec, x, shear=body.shear) @ Phi_fe
         assert np.abs(fb.S_strain[k] - rows).max() <= 1e-12 * np.abs(rows).max()
     model = from_case(case)
     a = model.body_madr[model.index("beam")]
@@ -70,7 +70,7 @@ def test_stress_sections_and_their_channels():
     Q[:, a:a + fb.n_modes] = eta
     out = channels.channels(case, solver.trajectory(case, model, np.zeros(2), Q, np.zeros((2, model.nv))))
     for ch, x, fibre in [("stress_vm", 0.03, None), ("s_far", 0.9, [-0.004, 0.005]), ("s_mid", 0.4, None)]:
-        cs, ct = stress.stress_coefficients(nodes, elements, E, G, sec, x, fibre=fibre, shear=body["shear"])
+        cs, ct = stress.stress_coefficients(nodes, elements, E, G, sec, x, fibre=fibre, shear=body.shear)
         s_sigma, s_tau = cs @ Phi_fe, ct @ Phi_fe
         assert np.allclose(out[ch], np.sqrt((eta @ s_sigma) ** 2 + 3 * (eta @ s_tau) ** 2), rtol=1e-12, atol=0)
 
@@ -86,7 +86,7 @@ def reduced_hz(fb):
 
 def test_consistent_mass_modes_are_the_reduced_bodys_modes():
     case = cases.load("cantilever_step", ['bodies.beam.mass="consistent"', "bodies.beam.damping_ratio=0.01"])
-    body = case["bodies"]["beam"]
+    body = case.bodies["beam"]
     fb = flexbody.for_case(case)["beam"]
     I9 = invariants(fb).I9[0]
     assert fb.n_modes == 12
@@ -95,8 +95,8 @@ def test_consistent_mass_modes_are_the_reduced_bodys_modes():
     assert np.abs(fb.freq_hz / reduced_hz(fb) - 1).max() <= 1e-10
     assert np.allclose(np.diag(fb.Cm), 2 * 0.01 * 2 * np.pi * fb.freq_hz, rtol=1e-14, atol=0)
     # Euler-Bernoulli: first bending mode in the weak (x-z) plane
-    sec, mat = flexbody.beam_section(body), case["materials"]["steel"]
-    closed = 1.8751040687**2 / body["length"]**2 * np.sqrt(mat["E"] * sec.Iy / (mat["rho"] * sec.A)) / (2 * np.pi)
+    sec, mat = flexbody.beam_section(body), case.materials["steel"]
+    closed = 1.8751040687**2 / body.length**2 * np.sqrt(mat.E * sec.Iy / (mat.rho * sec.A)) / (2 * np.pi)
     assert fb.labels[0] == "bending xz 1"
     assert abs(fb.freq_hz[0] / closed - 1) < 1e-3
 
@@ -119,7 +119,7 @@ CB_PENDULUM = ['bodies.beam.modes.boundary="craig-bampton"', "bodies.beam.modes.
 def test_floating_modes_hold_the_reference_node(overrides):
     case = cases.load("pendulum", overrides)
     fb = flexbody.for_case(case)["beam"]
-    assert fb.n_modes == case["bodies"]["beam"]["modes"]["count"]
+    assert fb.n_modes == case.bodies["beam"].modes.count
     assert np.abs(fb.Phi[0]).max() <= 1e-12 and np.abs(fb.Phi[1:]).max() > 1.0
     assert np.abs(invariants(fb).I9[0] - np.eye(fb.n_modes)).max() <= 1e-12
     assert np.abs(fb.freq_hz / reduced_hz(fb) - 1).max() <= 1e-10
@@ -144,7 +144,7 @@ def test_random_floating_bodies_hold_the_reference_node(seed, boundary):
            "modes": {"count": int(rng.integers(1, 9)), "boundary": boundary}}
     if boundary == "craig-bampton":
         raw["modes"]["interfaces"] = [0.0, float(rng.uniform(0.2, 1.0))]
-    fb = flexbody.build("b", cases._check_body(raw, "test", "body"), {"E": 2e11, "nu": 0.3, "rho": 7800.0})
+    fb = flexbody.build(one_beam(raw, {"E": 2e11, "nu": 0.3, "rho": 7800.0}))
     assert fb.n_modes == raw["modes"]["count"]
     assert np.abs(fb.Phi[0]).max() <= 1e-12
     assert np.abs(invariants(fb).I9[0] - np.eye(fb.n_modes)).max() <= 1e-12
@@ -198,7 +198,7 @@ def test_foreshortening_gives_the_euler_buckling_load():
     singular at the Euler load of the clamped-free beam, pi^2 E I / (4 L^2)."""
     case = cases.load("cantilever_step")
     fb = flexbody.for_case(case)["beam"]
-    sec, E = flexbody.beam_section(case["bodies"]["beam"]), case["materials"]["steel"]["E"]
+    sec, E = flexbody.beam_section(case.bodies["beam"]), case.materials["steel"].E
     lam = la.eigh(fb.Km, fb.D[-1], eigvals_only=True)
     P_cr = np.pi ** 2 * E * min(sec.Iy, sec.Iz) / (4 * 1.5 ** 2)
     assert lam[lam > 0].min() == pytest.approx(P_cr, rel=1e-3)           # 2e-4 with 100 elements

@@ -22,9 +22,9 @@ def energies(model, sim):
                                         pytest.param("double_pendulum", 2.0, marks=pytest.mark.slow)])
 def test_undamped_paper_cases_conserve_energy(name, t_end):
     case = cases.load(name)
-    ig = case["integrator"]
+    ig = case.integrator
     model = from_case(case)
-    sim = integrate.simulate(model, t_end, rtol=ig["rtol"], atol=ig["atol"], max_step=ig["max_step"],
+    sim = integrate.simulate(model, t_end, rtol=ig.rtol, atol=ig.atol, max_step=ig.max_step,
                              output_dt=0.01, progress=False)
     assert sim.status.ok
     TV = energies(model, sim)
@@ -48,13 +48,13 @@ def pinocchio_angles(model, t):
 
 @pytest.mark.parametrize("name", ["pendulum", "double_pendulum"])
 def test_beam_declared_rigid_matches_pinocchio(name):
-    rigid = [f"bodies.{b}.rigid=true" for b in cases.load(name)["bodies"]]
+    rigid = [f"bodies.{b}.rigid=true" for b in cases.load(name).bodies]
     case = cases.load(name, rigid)
     r = solvers.run(case, "flexmbd")
     assert r.ok
     model = from_case(case)
     ref = pinocchio_angles(model, r.t)
-    angles = [c for c in case["channels"] if c.startswith("joint_angle")]
+    angles = [c for c in case.channels if c.startswith("joint_angle")]
     for k, ch in enumerate(angles):
         assert abs(r.channels[ch][-1] - ref[-1, k]) < 1e-7
         assert np.abs(r.channels[ch] - ref[:, k]).max() < 1e-6

@@ -1,20 +1,22 @@
-"""The layering of DESIGN.md §7: a module imports only from its own layer or the layers below."""
+"""The layering of docs/architecture.md: a module imports only from its own layer or the layers
+below, every package is one layer, and `import flexmbd` (or a name of its `__init__`, which
+re-exports the API) counts as an import of the top layer."""
 
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 import flexmbd
+from flexmbd import jit
 
 ROOT = Path(flexmbd.__file__).resolve().parent
 
-# module (dotted, under flexmbd) or package prefix -> layer, bottom to top; the longest prefix wins.
-# The kernel's numba plumbing below the algorithms (compiling, dense loops) sits at layer 1; the
-# Bound and the compiled entry sit above the algorithms they call (docs/architecture.md).
+# module or package (its first dotted part, under flexmbd) -> layer, bottom to top (docs/architecture.md)
 LAYERS = {
-    "errors": 1, "files": 1, "kernel.jit": 1, "kernel.dense": 1, "spatial": 1, "fe": 1, "results": 1, "profiles": 1,
-    "metrics": 1,
+    "errors": 1, "files": 1, "version": 1, "jit": 1, "dense": 1, "progress": 1, "spatial": 1, "fe": 1,
+    "results": 1, "profiles": 1, "metrics": 1,
     "cases": 2, "flexbody": 2,
     "invariants": 3, "joints": 3, "model": 3, "build": 3, "dynamics": 3,
     "kernel": 4, "integrate": 4,
@@ -24,39 +26,85 @@ LAYERS = {
 
 
 def layer(module: str) -> int:
-    parts = module.split(".")
-    for n in range(len(parts), 0, -1):
-        if ".".join(parts[:n]) in LAYERS:
-            return LAYERS[".".join(parts[:n])]
-    raise KeyError(module)
+    """The layer of a module (dotted, under flexmbd; '__init__' for the package itself): its package's."""
+    return LAYERS[module.split(".")[0]]
 
 
-def imports(path: Path) -> set:
-    """flexmbd modules imported by a file (module level and inside functions)."""
+def target(base: str, name: str) -> str:
+    """The module that `from flexmbd[.base] import name` reads: base when it is a module; else the
+    submodule base.name when there is one; else the package's `__init__` (a name it defines)."""
+    where = ROOT.joinpath(*base.split(".")) if base else ROOT
+    if base and where.with_suffix(".py").is_file():
+        return base
+    sub = where / name
+    if sub.with_suffix(".py").is_file() or (sub / "__init__.py").is_file():
+        return f"{base}.{name}".lstrip(".")
+    return f"{base}.__init__".lstrip(".")
+
+
+def imported(source: str) -> set:
+    """flexmbd modules imported by a source text (module level and inside functions): `import
+    flexmbd` is its `__init__`, `import flexmbd.X` is X, `from flexmbd[.P] import X` is the
+    module X or, for a name, the package's `__init__` (`target`)."""
     out = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("flexmbd"):
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            out |= {"__init__" if a.name == "flexmbd" else a.name.removeprefix("flexmbd.")
+                    for a in node.names if a.name == "flexmbd" or a.name.startswith("flexmbd.")}
+        elif isinstance(node, ast.ImportFrom) and not node.level and node.module \
+                and (node.module == "flexmbd" or node.module.startswith("flexmbd.")):
             base = node.module.removeprefix("flexmbd").lstrip(".")
-            for a in node.names:
-                out.add(f"{base}.{a.name}".lstrip(".") if not base else base)
-        elif isinstance(node, ast.Import):
-            out |= {a.name.removeprefix("flexmbd.") for a in node.names if a.name.startswith("flexmbd.")}
-    return {m for m in out if m and m.split(".")[0] in {k.split(".")[0] for k in LAYERS}}
+            out |= {target(base, a.name) for a in node.names}
+    return out
 
 
-def test_every_module_has_a_layer():
-    for p in ROOT.rglob("*.py"):
-        rel = p.relative_to(ROOT).with_suffix("").as_posix().replace("/", ".")
+def upward(module: str, source: str) -> list:
+    """The imports of `source`, the text of `module`, from a layer above the module's."""
+    return [f"{module} (layer {layer(module)}) imports {m} (layer {layer(m)})"
+            for m in sorted(imported(source)) if layer(m) > layer(module)]
+
+
+def modules() -> dict:
+    """Every module of the package (dotted, under flexmbd) -> its file."""
+    return {p.relative_to(ROOT).with_suffix("").as_posix().replace("/", "."): p for p in ROOT.rglob("*.py")}
+
+
+def test_every_module_has_a_layer_and_every_package_one():
+    assert all("." not in k for k in LAYERS)
+    for rel in modules():
         assert layer(rel), rel
 
 
 def test_no_module_imports_a_higher_layer():
     bad = []
-    for p in ROOT.rglob("*.py"):
-        rel = p.relative_to(ROOT).with_suffix("").as_posix().replace("/", ".")
-        bad += [f"{rel} (layer {layer(rel)}) imports {m} (layer {layer(m)})"
-                for m in imports(p) if layer(m) > layer(rel)]
+    for rel, p in modules().items():
+        bad += upward(rel, p.read_text())
     assert not bad, bad
+
+
+def test_a_planted_upward_import_is_caught():
+    """The scanner sees every form of an upward import, the bare package's included, and passes
+    the downward ones."""
+    planted = ["import flexmbd", "import flexmbd as f", "from flexmbd import __version__",
+               "from flexmbd import load_case", "from flexmbd import cli", "import flexmbd.solvers",
+               "from flexmbd.report import build", "from flexmbd.report.build import write",
+               "from flexmbd.kernel import entry", "def f():\n    from flexmbd import integrate\n"]
+    for source in planted:
+        assert upward("results", source), source
+    assert upward("model", "import flexmbd") == ["model (layer 3) imports __init__ (layer 6)"]
+    fine = ("from flexmbd import errors, files\nfrom flexmbd.errors import InputError\n"
+            "from flexmbd.version import __version__\nfrom flexmbd.fe import assembly\nimport numpy")
+    assert not upward("results", fine)
+    assert imported(fine) == {"errors", "files", "version", "fe.assembly"}
+
+
+def test_the_cache_key_covers_every_file_with_compiled_code():
+    """Every file that compiles (an njit or cfunc from flexmbd.jit) is in the hash naming the
+    numba cache folder (`jit.compiled_sources`), with jit.py itself and the Model layout."""
+    compiling = {p for p in modules().values() if re.search(r"@njit\b|\bcfunc\(", p.read_text())}
+    hashed = set(jit.compiled_sources())
+    assert ROOT / "dynamics.py" in compiling and compiling <= hashed, sorted(map(str, compiling - hashed))
+    assert {ROOT / "jit.py", ROOT / "dense.py", ROOT / "model.py", ROOT / "kernel" / "entry.py"} <= hashed
 
 
 def test_loading_a_case_imports_no_solver():

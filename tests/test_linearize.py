@@ -20,9 +20,9 @@ def test_pendulum_vibrates_at_the_pinned_free_frequency():
     the system (joint + clamped-free modes) is the pinned-free beam's, (beta L)^2 sqrt(EI / rho A L^4)
     with beta L = 3.9266 (tan = tanh), within 0.1 %."""
     case = cases.load("pendulum")
-    body, mat = case["bodies"]["beam"], case["materials"]["steel"]
-    sec, L = flexbody.beam_section(body), body["length"]
-    exact = 3.926602 ** 2 * np.sqrt(mat["E"] * sec.Iz / (mat["rho"] * sec.A * L ** 4)) / (2 * np.pi)
+    body, mat = case.bodies["beam"], case.materials["steel"]
+    sec, L = flexbody.beam_section(body), body.length
+    exact = 3.926602 ** 2 * np.sqrt(mat.E * sec.Iz / (mat.rho * sec.A * L ** 4)) / (2 * np.pi)
     inplane = [m for m in linearize.for_case(case) if "xy" in m.label or "joint" in m.label]
     assert inplane[0].freq_hz == pytest.approx(exact, rel=1e-3)
     assert abs(inplane[0].damping) < 1e-9
@@ -35,7 +35,7 @@ def test_pendulum_equilibrium_hangs_down_and_swings_at_the_compound_rate():
     model = linearize.model_of(case)
     q = linearize.equilibrium(model, model.q0)
     assert q[0] == pytest.approx(-np.pi / 2, abs=1e-3)
-    L, g = case["bodies"]["beam"]["length"], 9.81
+    L, g = case.bodies["beam"].length, 9.81
     swing = np.sqrt(1.5 * g / L) / (2 * np.pi)
     modes = linearize.system_modes(model, q, np.zeros(model.nv))
     assert modes[0].label == "joint pivot" and modes[0].freq_hz == pytest.approx(swing, rel=0.01)
@@ -53,7 +53,7 @@ def test_every_shipped_case_samples_its_system_modes_without_aliasing(name):
     modes themselves, not aliases."""
     case = cases.load(name)
     top = max((m.freq_hz for m in linearize.for_case(case)), default=0.0)
-    assert top < 0.5 / case["integrator"]["output_dt"], f"{name}: {top:.4g} Hz"
+    assert top < 0.5 / case.integrator.output_dt, f"{name}: {top:.4g} Hz"
 
 
 def test_a_rigid_mode_without_stiffness_is_not_reported_as_a_slow_vibration():
@@ -69,7 +69,7 @@ def test_frozen_linearization_along_a_swing_follows_the_rigid_pendulum():
     cos(theta), so omega^2 = (3 g / 2 L) (-sin theta): the compound rate hanging down, less on the
     way up; within 1 % (the section's own inertia)."""
     case = cases.load("pendulum", ["bodies.beam.modes.count=0"])
-    L = case["bodies"]["beam"]["length"]
+    L = case.bodies["beam"].length
     t = np.linspace(0.0, 1.0, 11)
     for theta in (-np.pi / 2, -np.pi / 4, -np.pi / 8):
         (at, modes), = linearize.along(case, t, {"pivot": np.full(t.size, theta)}, [0.5])

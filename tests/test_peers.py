@@ -1,14 +1,19 @@
 """The peer adapters: `pinocchio` and `mujoco` (rigid limit) and `mujoco-rod` (elastic rod).
 
-Each adapter's convention conversions are checked by a round trip; the rigid peers against each
-other and against `flexmbd` on beams declared rigid; the rod against Euler–Bernoulli statics and,
-in the slow suite, against `flexmbd` on cantilever_step.
+The rigid peers build their models from the case, not from flexmbd's Model: their mass
+matrices, body poses, energies and accelerations are checked against flexmbd's Model at the
+same state (a cross-check of two independent constructions, the peers with the lumped-mesh beam
+inertia that flexmbd integrates for a beam declared rigid), their closed-form beam inertia
+against flexmbd's lumped beam, and their runs against each other and against `flexmbd` on beams
+declared rigid (`agreement`; tests/test_peers_independent.py shows that this check fails when an
+error is planted in `build.from_case`). The rod against Euler–Bernoulli statics and, in the slow
+suite, against `flexmbd` on cantilever_step.
 """
 
 import numpy as np
 import pytest
 
-from flexmbd import cases, channels, dynamics, solvers, spatial
+from flexmbd import build, cases, channels, dynamics, flexbody, solvers, spatial
 from flexmbd.build import from_case
 from flexmbd.kernel.entry import forward_dynamics
 from flexmbd.model import make_data
@@ -16,7 +21,9 @@ from flexmbd.model import make_data
 pin = pytest.importorskip("pinocchio")
 mujoco = pytest.importorskip("mujoco")
 
-from flexmbd.adapters import mujoco_common, mujoco_rigid, mujoco_rod, pinocchio_model, pinocchio_rigid  # noqa: E402
+from flexmbd.adapters import common, mujoco_common, mujoco_rigid, mujoco_rod, pinocchio_model, pinocchio_rigid  # noqa: E402
+
+LUMPED = ['solvers.pinocchio.beam_mass="lumped"', 'solvers.mujoco.beam_mass="lumped"']
 
 TREE = """
 title = "rigid tree with every joint type"
@@ -78,6 +85,30 @@ axis = [1.0, 0.0, 0.0]
 rpy = [0.0, 0.0, 0.7]
 q0 = 0.05
 qd0 = 0.3
+[bodies.tool]
+type = "rigid"
+mass = 0.3
+com = [0.02, 0.01, 0.0]
+inertia = [0.001, 0.002, 0.0015, 0.0001, 0.0, 0.0002]
+[joints.weld]
+type = "fixed"
+parent = "arm"
+child = "tool"
+at = 0.43
+rpy = [0.3, 0.2, -0.4]
+[bodies.tip]
+type = "rigid"
+mass = 0.2
+inertia = [0.001, 0.001, 0.001, 0.0, 0.0, 0.0]
+[joints.wrist]
+type = "revolute"
+parent = "tool"
+child = "tip"
+at = [0.1, 0.0, 0.05]
+axis = [1.0, 1.0, 0.0]
+rpy = [0.1, 0.0, 0.2]
+q0 = 0.3
+qd0 = 2.0
 [loads.push]
 type = "point_force"
 body = "arm"
@@ -89,6 +120,12 @@ type = "point_force"
 body = "slider"
 at = [0.0, 0.1, 0.0]
 force = [1.0, 0.0, 0.5]
+frame = "global"
+[loads.grip]
+type = "point_force"
+body = "tool"
+at = [0.05, 0.0, 0.02]
+force = [1.0, -2.0, 0.5]
 frame = "global"
 [channels.hinge]
 kind = "joint_angle"
@@ -105,8 +142,13 @@ def tree(tmp_path):
     return cases.load(str(path))
 
 
-def rigid(name):
-    return cases.load(name, [f"bodies.{b}.rigid=true" for b in cases.load(name)["bodies"]])
+def rigid(name, extra=()):
+    return cases.load(name, [f"bodies.{b}.rigid=true" for b in cases.load(name).bodies] + list(extra))
+
+
+def velocity_permutation(model):
+    """P (nv, nv) with v_pin = P v_flexmbd (the free joint's [w; v] becomes [v; w])."""
+    return np.array([pinocchio_model.to_pin_v(model, e) for e in np.eye(model.nv)]).T
 
 
 def spatial_to_pin_matrix(I6):
@@ -119,7 +161,31 @@ def spatial_to_pin_matrix(I6):
 # pinocchio
 
 
-def test_pinocchio_round_trip_of_inertia_placement_and_state(tree):
+def test_beam_inertia_in_closed_form_against_flexmbds_lumped_beam():
+    """`common.beam_inertia` ("lumped") equals flexmbd's rigid beam (its node sums) to round-off,
+    for rectangles with h along y and along z and a circle; the prism differs from it by exactly
+    m L^2 / (6 n^2) about the two axes across the beam and nowhere else."""
+    mat = cases.Material(name="steel", E=2.06e11, nu=0.29, rho=7820.0)
+    for section, n in [(cases.Section("rectangle", b=0.01, h=0.015, d=None, h_axis="y"), 8),
+                       (cases.Section("rectangle", b=0.01, h=0.015, d=None, h_axis="z"), 10),
+                       (cases.Section("circle", b=None, h=None, d=0.02, h_axis="y"), 7)]:
+        body = cases.Beam(name="b", material=mat, length=0.8, elements=n, section=section,
+                          modes=cases.Modes(count=0, boundary="clamped-free", interfaces=None), damping_ratio=0.0,
+                          mass="lumped", shear=False, rigid=True, stiffening=True, segments=1)
+        ref = build.rigid_inertia_of_beam(flexbody.undeformed("b", body))       # flexmbd, at the root
+        m, c, Ic = common.beam_inertia(body, "lumped")
+        assert np.allclose(spatial.inertia(m, c, Ic), ref, rtol=1e-13, atol=1e-13 * np.abs(ref).max())
+        mp, cp, Ip = common.beam_inertia(body, "prism")
+        assert mp == m and np.array_equal(cp, c)
+        lumping = np.diag([0.0, 1.0, 1.0]) * m * 0.8 ** 2 / (6 * n * n)
+        assert np.allclose(Ic - Ip, lumping, rtol=0, atol=1e-15 * Ic.max())
+
+
+def test_pinocchio_model_from_the_case_against_flexmbds_model(tree):
+    """The peer's Pinocchio model, built from the case, against flexmbd's Model of the same case
+    at its initial state: the case's initial values converted by each (q, v), the mass matrix
+    (crba against the polarized kinetic energy) and the energies. The Model-conversion helpers
+    the algorithm tests use (tests/test_dynamics.py) round-trip inertias and placements."""
     model = from_case(pinocchio_rigid.rigid_case(tree))
     for i in range(1, model.nb + 1):
         I6 = model.body_inertia[i]
@@ -128,22 +194,26 @@ def test_pinocchio_round_trip_of_inertia_placement_and_state(tree):
         M = pinocchio_model.se3(X)                               # [linear; angular] action matrix
         P = np.block([[np.zeros((3, 3)), np.eye(3)], [np.eye(3), np.zeros((3, 3))]])
         assert np.allclose(P @ M.inverse().toActionMatrix() @ P, X, atol=1e-14)
-    q = pinocchio_model.to_pin_q(model, model.q0)
-    v = pinocchio_model.to_pin_v(model, model.v0)
-    assert np.array_equal(pinocchio_model.from_pin_v(model, v), model.v0)
-    # flexmbd's kinetic and potential energy equal Pinocchio's at the converted state
-    eng = pinocchio_rigid.Rigid(model)
-    T, V = dynamics.energy(model, make_data(model), model.q0, model.v0)
-    assert eng.energy(q, v) == pytest.approx(T + V, rel=1e-12, abs=1e-12)
+    eng = pinocchio_rigid.Rigid(tree, "lumped")
+    assert eng.nq == model.nq and eng.nv == model.nv
+    assert np.allclose(eng.q0, pinocchio_model.to_pin_q(model, model.q0), rtol=0, atol=1e-15)
+    assert np.array_equal(eng.v0, pinocchio_model.to_pin_v(model, model.v0))
+    data = make_data(model)
+    P = velocity_permutation(model)
+    M_ref = P @ dynamics.mass_matrix_system(model, data, model.q0) @ P.T
+    M = pin.crba(eng.pm, eng.pd, eng.q0)
+    M = np.triu(M) + np.triu(M, 1).T
+    assert np.allclose(M, M_ref, rtol=1e-12, atol=1e-12 * np.abs(M_ref).max())
+    T, V = dynamics.energy(model, data, model.q0, model.v0)
+    assert eng.energy(eng.q0, eng.v0) == pytest.approx(T + V, rel=1e-12, abs=1e-12)
 
 
 def test_pinocchio_accelerations_with_loads_match_flexmbd(tree):
-    """External forces converted to Pinocchio's joint frames give flexmbd's accelerations."""
+    """The peer's accelerations (its own model, loads converted to Pinocchio's joint frames) are
+    flexmbd's at the case's initial state."""
     model = from_case(pinocchio_rigid.rigid_case(tree))
-    eng = pinocchio_rigid.Rigid(model)
-    q = pinocchio_model.to_pin_q(model, model.q0)
-    v = pinocchio_model.to_pin_v(model, model.v0)
-    a, _, _ = eng.qdd(0.0, q, v)
+    eng = pinocchio_rigid.Rigid(tree, "lumped")
+    a, _, _ = eng.qdd(0.0, eng.q0, eng.v0)
     ref = forward_dynamics(model, make_data(model), model.q0, model.v0)
     assert np.allclose(pinocchio_model.from_pin_v(model, a), ref, rtol=1e-10, atol=1e-10)
 
@@ -163,7 +233,7 @@ def test_pinocchio_hybrid_dynamics_leaves_free_joints_unforced():
     """With pivot1 prescribed, the accelerations make the free joint's inverse-dynamics torque zero."""
     case = cases.load("double_pendulum", ["bodies.beam1.rigid=true", "bodies.beam2.rigid=true",
                                           'joints.pivot1.motion={type="harmonic", amplitude=0.3, frequency=1.5}'])
-    eng = pinocchio_rigid.Rigid(from_case(case))
+    eng = pinocchio_rigid.Rigid(case)
     q, v = np.array([0.2, -0.7]), np.array([0.4, 1.1])
     a, q, v = eng.qdd(0.13, q, v)
     tau = pin.rnea(eng.pm, eng.pd, q, v, a)
@@ -175,32 +245,45 @@ def test_pinocchio_hybrid_dynamics_leaves_free_joints_unforced():
 # mujoco (rigid)
 
 
-def test_mujoco_round_trip_of_state_and_body_poses(tree):
-    """flexmbd (q, v) -> MuJoCo -> flexmbd is the identity; MuJoCo's body poses (w-first
-    quaternions) and energies equal flexmbd's forward kinematics."""
-    model = from_case(pinocchio_rigid.rigid_case(tree))
-    m = mujoco.MjModel.from_xml_string(mujoco_rigid.mjcf(model, 1e-4))
+def mujoco_of(case, beam_mass="lumped"):
+    """MuJoCo model and data of the peer's MJCF, at the case's initial state."""
+    bodies = common.rigid_bodies(case, beam_mass)
+    m = mujoco.MjModel.from_xml_string(mujoco_rigid.mjcf(bodies, case.gravity, 1e-4))
     d = mujoco.MjData(m)
-    d.qpos[:], d.qvel[:] = mujoco_rigid.to_mj_state(model, m, model.q0, model.v0)
-    q, v = mujoco_rigid.from_mj_state(model, m, d.qpos, d.qvel)
-    assert np.allclose(q, model.q0, atol=1e-14) and np.allclose(v, model.v0, atol=1e-14)
+    d.qpos[:], d.qvel[:] = mujoco_rigid.initial_state(bodies, m)
+    return m, d
+
+
+def test_mujoco_body_poses_velocities_and_energy_from_the_case_match_flexmbd(tree):
+    """The MJCF written from the case, at the case's initial state: MuJoCo's body poses (w-first
+    quaternions), body velocities and energies equal flexmbd's forward kinematics of its own
+    Model at its own initial state; so do the mass matrices."""
+    model = from_case(pinocchio_rigid.rigid_case(tree))
+    m, d = mujoco_of(tree)
+    assert (m.nq, m.nv) == (model.nq, model.nv)
     mujoco.mj_forward(m, d)
     data = make_data(model)
     T, V = dynamics.energy(model, data, model.q0, model.v0)
     for i in range(1, model.nb + 1):
         R, p = dynamics.body_pose(data, i)
-        b = m.body(f"b{i}").id
+        b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, model.names[i])
         assert np.allclose(d.xpos[b], p, atol=1e-13)
         assert np.allclose(mujoco_common.quat_to_rot(d.xquat[b]), R, atol=1e-13)
+        vel = np.zeros(6)                                       # [w; v] of the body origin, body frame (XBODY)
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, b, vel, 1)
+        assert np.allclose(vel, data.v[i], atol=1e-12)
     assert d.energy.sum() == pytest.approx(T + V, rel=1e-12)
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    k = model.jnt_vadr[model.index("arm")]                       # after the free joint (other layout)
+    M_ref = dynamics.mass_matrix_system(model, data, model.q0)
+    assert np.allclose(M[6:, 6:], M_ref[k:, k:], rtol=1e-12, atol=1e-12 * np.abs(M_ref).max())
 
 
 def test_mujoco_accelerations_with_loads_match_flexmbd(tree):
     model = from_case(pinocchio_rigid.rigid_case(tree))
-    m = mujoco.MjModel.from_xml_string(mujoco_rigid.mjcf(model, 1e-4))
-    d = mujoco.MjData(m)
-    d.qpos[:], d.qvel[:] = mujoco_rigid.to_mj_state(model, m, model.q0, model.v0)
-    mujoco_rigid.apply_loads(model, m, d)
+    m, d = mujoco_of(tree)
+    mujoco_rigid.apply_loads(mujoco_rigid.model_loads(tree, m), m, d)
     mujoco.mj_forward(m, d)
     ref = forward_dynamics(model, make_data(model), model.q0, model.v0)
     # MuJoCo's free-joint acceleration is [dv_world/dt; dw/dt]: compare the other joints
@@ -212,20 +295,55 @@ def test_mujoco_accelerations_with_loads_match_flexmbd(tree):
 # the rigid peers against each other and against flexmbd
 
 
+# The agreement check. The three integrate the same rigid equations (the peers with the
+# lumped-mesh beam inertia that flexmbd integrates for a beam declared rigid) with their own
+# integrators at tight tolerances (flexmbd: Adams, rtol 1e-8, atol 1e-10; pinocchio: DOP853 at
+# 1e-12; mujoco: RK4, h = 1e-4 s). Observed at 2 s: end angles within 6e-10 rad, energies within
+# 1e-10 J (of ~13 J kinetic energy), so the bounds leave a factor ~100 for the integrators'
+# error growth in the swinging double pendulum. A model error moves the angles by far more: an
+# inertia error d I / I changes the swing's time scale by d I / 2 I, i.e. an angle by about
+# rate x t x d I / 2 I (1e-5 rad at 2 s for d I / I = 1e-5). The energy, conserved by each
+# model, differs only where the models' energies of the initial state differ or are not
+# conserved (both start at rest, horizontal: 0 J).
+ANGLE_TOL = 1e-7                    # rad, end of the run
+ENERGY_TOL = 1e-8                   # J, over the run
+
+
+def agreement(case, t_end=None) -> dict:
+    """flexmbd, pinocchio and mujoco on the case: the largest end-angle difference (rad) over the
+    joint-angle channels and the pairs of solvers, the largest energy difference (J) of pinocchio
+    from the other two over the run; both peers' differences from flexmbd separately."""
+    runs = {s: solvers.run(case, s, t_end) for s in ("flexmbd", "pinocchio", "mujoco")}
+    assert all(r.ok for r in runs.values()), {s: r.status for s, r in runs.items()}
+    angles = [c for c, ch in case.channels.items() if ch.kind == "joint_angle"]
+    end = {s: np.array([r.channels[c][-1] for c in angles]) for s, r in runs.items()}
+    e = {s: r.channels["energy"] for s, r in runs.items()}
+    return {"peers_angle": np.abs(end["pinocchio"] - end["mujoco"]).max(),
+            "pinocchio_angle": np.abs(end["pinocchio"] - end["flexmbd"]).max(),
+            "mujoco_angle": np.abs(end["mujoco"] - end["flexmbd"]).max(),
+            "peers_energy": np.abs(e["pinocchio"] - e["mujoco"]).max(),
+            "pinocchio_energy": np.abs(e["pinocchio"] - e["flexmbd"]).max(),
+            "mujoco_energy": np.abs(e["mujoco"] - e["flexmbd"]).max()}
+
+
+def agrees(d: dict) -> bool:
+    """The agreement check on `agreement`'s measures."""
+    return all(v < (ANGLE_TOL if k.endswith("angle") else ENERGY_TOL) for k, v in d.items())
+
+
 @pytest.mark.parametrize("name", ["pendulum", "double_pendulum"])
 def test_rigid_peers_agree_with_flexmbd_on_beams_declared_rigid(name):
-    case = rigid(name)
-    runs = {s: solvers.run(case, s) for s in ("flexmbd", "pinocchio", "mujoco")}
-    assert all(r.ok for r in runs.values()), {s: r.status for s, r in runs.items()}
-    angles = [c for c in case["channels"] if c.startswith("joint_angle")]
-    for ch in angles:
-        end = {s: r.channels[ch][-1] for s, r in runs.items()}
-        assert abs(end["pinocchio"] - end["mujoco"]) < 1e-7, (ch, end)
-        assert abs(end["pinocchio"] - end["flexmbd"]) < 1e-7, (ch, end)
-        assert abs(end["mujoco"] - end["flexmbd"]) < 1e-7, (ch, end)
-    e = runs["pinocchio"].channels["energy"]
-    assert np.abs(e - runs["flexmbd"].channels["energy"]).max() < 1e-8
-    assert np.abs(e - runs["mujoco"].channels["energy"]).max() < 1e-8
+    d = agreement(rigid(name, LUMPED))
+    assert agrees(d), d
+
+
+def test_rigid_peers_as_prisms_agree_with_each_other_and_differ_from_the_lumped_beam_as_predicted():
+    """With the default prism both peers still agree with each other to the same bounds; from
+    flexmbd's lumped beam (100 elements: 1 / (2 n^2) = 5e-5 of the pivot's inertia) the pendulum's
+    angle moves by about rate x t x 2.5e-5: at 0.5 s (rate ~4 rad/s) some 5e-5 rad (measured 5.3e-5)."""
+    d = agreement(rigid("pendulum"), 0.5)
+    assert d["peers_angle"] < ANGLE_TOL and d["peers_energy"] < ENERGY_TOL, d
+    assert 5e-6 < d["pinocchio_angle"] < 1e-4 and 5e-6 < d["mujoco_angle"] < 1e-4, d
 
 
 def test_rigid_peers_run_the_flexible_case_as_its_rigid_limit():

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import pandas as pd
 
 from flexmbd import cases, solvers
@@ -49,3 +50,57 @@ def test_a_plugin_does_not_replace_a_built_in_and_a_broken_one_is_unavailable(tm
             "print(solvers.unavailable_reason('broken'))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
     assert out.splitlines()[0] == "flexmbd.solver" and out.splitlines()[1].startswith("unavailable:")
+
+
+# ---------------------------------------------------------------------------------------------
+# a plug-in that reports its trajectory only
+
+
+def trajectory_only(case, t_end, tip, extent):
+    """A run of the cantilever as a bare `channels.Trajectory`: the beam's tracked points at their
+    undeformed positions but the tip, at `tip(t)` below it (m, along y); no strains but at the stress
+    section (zero), and the deflection validity measure `extent(t)`."""
+    from flexmbd import channels
+    t = np.arange(0.0, t_end + 1e-12, case.integrator.output_dt)
+    L = case.bodies["beam"].length
+    xs = channels.points_needed(case, "beam")
+    x0 = {x: np.array([x, 0.0, 0.0]) for x in xs}
+    points = {x: np.tile(x0[x], (t.size, 1)) for x in xs}
+    points[L] = points[L] + np.outer(tip(t), [0.0, 1.0, 0.0])
+    beam = channels.Beam(length=L, points=points, x0=x0, root=np.tile(np.eye(3), (t.size, 1, 1)),
+                         strains={0.03: np.zeros((t.size, 4))}, extent={"deflection": extent(t)})
+    return channels.Trajectory(t=t, beams={"beam": beam})
+
+
+def plug(monkeypatch, name, run):
+    """Register an in-process plug-in `name` whose run is `run` (what an installed entry point does)."""
+    import types
+    mod = types.ModuleType(f"plugin_{name.replace('-', '_')}")
+    mod.SETTINGS, mod.version, mod.applies, mod.run = {}, lambda: "1", lambda case: "", run
+    monkeypatch.setitem(sys.modules, mod.__name__, mod)
+    monkeypatch.setitem(solvers.MODULES, name, mod.__name__)
+    monkeypatch.setattr(solvers, "NAMES", solvers.NAMES + (name,))
+
+
+def test_a_plugin_reporting_only_a_trajectory_gets_channels_validity_and_the_divergence_cut(monkeypatch):
+    case = cases.load("cantilever_step")
+    L, dt = case.bodies["beam"].length, case.integrator.output_dt
+    plug(monkeypatch, "bare", lambda c, t_end, s: trajectory_only(c, t_end, lambda t: -1e-3 * t, lambda t: 0.5 * t))
+    r = solvers.run(case, "bare", 0.5)
+    np.testing.assert_allclose(r.channels["tip_deflection"], -1e-3 * r.t, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(r.channels["stress_vm"], np.zeros(r.t.size))
+    # the deflection measure passes its limit (0.10) after 0.2 s: an ok run, outside validity, reported
+    # at its largest excess (25 % at the end)
+    assert r.status.kind == "ok" and r.status.outside and r.status.t == pytest.approx(0.5)
+    assert r.status.why == "deflection 25 % of length"
+    assert r.extra["validity"]["largest"]["beam"]["deflection"] == pytest.approx(0.25)
+    # a tip beyond twice the beam's length at t >= 0.3 s: the run is cut there, failed
+    plug(monkeypatch, "wild", lambda c, t_end, s: trajectory_only(c, t_end, lambda t: np.where(t < 0.3 - 1e-9, 0.0, 3 * L),
+                                                                  lambda t: 0 * t))
+    r = solvers.run(case, "wild", 0.5)
+    assert r.status.kind == "failed" and "diverged" in r.status.why and r.status.t == pytest.approx(0.3)
+    assert r.t[-1] == pytest.approx(0.3 - dt) and len(r.channels["tip_deflection"]) == len(r.t)
+    # neither a Result nor a Trajectory: the plug-in's failure, as a failed result
+    plug(monkeypatch, "odd", lambda c, t_end, s: {"t": [0.0]})
+    r = solvers.run(case, "odd", 0.5)
+    assert r.status.kind == "failed" and "not a Result or a channels.Trajectory" in r.status.why

@@ -22,7 +22,7 @@ import json, sys
 import numpy as np
 from flexmbd import cases
 from flexmbd.build import from_case
-from flexmbd.kernel import jit
+from flexmbd import jit
 from flexmbd.kernel.entry import forward_dynamics
 from flexmbd.model import make_data
 m = from_case(cases.load("double_pendulum", json.loads(sys.argv[1])))

@@ -11,7 +11,7 @@ import pytest
 
 from flexmbd import cases, channels, flexbody, metrics, solvers
 from flexmbd.cli import main
-from flexmbd.report import build, regress, tables
+from flexmbd.report import regress, spectra, tables
 
 FAST = "analytic,fe-linear"
 
@@ -132,7 +132,7 @@ def test_fft_peaks_match_fe_frequencies_on_cantilever_step():
     case = cases.load("cantilever_step")
     fb = flexbody.for_case(case)["beam"]
     excited = [f for f, lab in zip(fb.freq_hz, fb.labels) if lab.startswith("bending xy")][:3]
-    bin_width = 1.0 / case["duration"]
+    bin_width = 1.0 / case.duration
     assert excited[0] < 12 * bin_width                 # coarse bins: interpolation has to do the work
     for name in ("flexmbd", "fe-linear", "analytic"):
         r = solvers.run(case, name)
@@ -346,9 +346,9 @@ def test_case_page_shows_each_flexible_body_s_retained_modes(report):
 def test_a_split_beam_shows_the_modes_its_segments_carry(tmp_path):
     """The flexible pendulum's rod is 20 segments of 5 cm to the modal solvers: one figure, of the
     root segment's modes, and a note saying so; not the unsplit 1 m rod's modes."""
-    from flexmbd.report import build
+    from flexmbd.report import pages
     case = cases.load("flexible_pendulum")
-    html, md = build.mode_shapes(case, tmp_path)
+    html, md = pages.mode_shapes(case, tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["modes_rod.png", "modes_rod.svg"]
     assert "20 segments of 0.05 m" in html and "root segment rod:1" in html and "`segments = 20`" in md
     assert "0.05 m" in (tmp_path / "modes_rod.svg").read_text()                        # the title names a segment
@@ -365,7 +365,7 @@ def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(repor
     """With benchmark runs in the history folder the index shows the newest one's work-precision
     figure, naming its file, commit and machine and saying its times are not this report's; a
     broken file is passed over with a warning. Without any, the index says nothing about it."""
-    from flexmbd.report import build
+    from flexmbd.report import pages
     out = tmp_path / "rep"
     shutil.copytree(report / "results", out / "results")
     history = tmp_path / "history"
@@ -373,7 +373,7 @@ def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(repor
     bench_run(history, "2026-11-22_aaaaaaa.json", "old machine")
     bench_run(history, "2026-12-01_bbbbbbb.json", "new machine")
     (history / "2026-12-02_ccccccc.json").write_text("{not json")
-    monkeypatch.setattr(build, "HISTORY", history)
+    monkeypatch.setattr(pages, "HISTORY", history)
     args = ["report", "--no-run", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(out)]
     assert main(args) == 0
     assert "2026-12-02_ccccccc.json: benchmark run not shown" in capsys.readouterr().err
@@ -385,7 +385,7 @@ def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(repor
     assert "![work_precision.png](work_precision.png)" in md
     assert (out / "work_precision.png").is_file() and (out / "work_precision.svg").is_file()
 
-    monkeypatch.setattr(build, "HISTORY", tmp_path / "no-history")
+    monkeypatch.setattr(pages, "HISTORY", tmp_path / "no-history")
     assert main(args) == 0
     for page in (out / "index.html", out / "index.md"):
         text = page.read_text()
@@ -397,7 +397,7 @@ def test_a_channel_is_matched_against_the_modes_that_move_its_point_in_its_direc
     in-plane bending is led by its hinge, pivot2) and by beam1's in-plane bending (18.1 Hz, which
     shakes beam2's root in-plane), none led by an out-of-plane (xz) bending or a torsion."""
     case = cases.load("double_pendulum")
-    labels = [lab for _, lab in build.channel_modes(case, build.system_modes(case))["tip_deflection_2"]]
+    labels = [lab for _, lab in spectra.channel_modes(case, spectra.system_modes(case))["tip_deflection_2"]]
     assert any(lab.startswith("joint ") for lab in labels)
     assert "beam1 bending xy 1" in labels
     assert not any(" xz " in lab or "torsion" in lab for lab in labels), labels
@@ -410,12 +410,12 @@ def test_frozen_frequencies_only_where_they_move():
     t = np.linspace(0.0, 20.0, 201)
     steady = cases.load("rotating_cantilever")
     r = Result(solver="flexmbd", case=steady.name, t=t, channels={"hub_angle": 4.0 * t})
-    assert build.frozen_modes(steady, {steady["report"]["reference"]: r}) is None
+    assert spectra.frozen_modes(steady, {steady.report.reference: r}) is None
     spun = cases.load("spinup_beam")
     r = Result(solver="flexmbd", case=spun.name, t=t, channels={"hub_angle": np.zeros_like(t)})
-    solver, sweep = build.frozen_modes(spun, {spun["report"]["reference"]: r})
+    solver, sweep = spectra.frozen_modes(spun, {spun.report.reference: r})
     inplane = [[f for f, lab in modes if "xy 1" in lab][0] for _, modes in sweep]
-    assert solver == spun["report"]["reference"] and inplane[0] == pytest.approx(0.6044, rel=1e-3)
+    assert solver == spun.report.reference and inplane[0] == pytest.approx(0.6044, rel=1e-3)
     assert inplane[-1] > 0.7
 
 

@@ -1,4 +1,4 @@
-"""A beam split into segments: the segmented tree of the case, the whole beam's channels from its
+"""A beam split into segments: the split tree of the case, the whole beam's channels from its
 segments, and the split against the unsplit beam and the closed form."""
 
 
@@ -20,45 +20,46 @@ def craig_bampton(n, length=1.5):
 
 
 # ---------------------------------------------------------------------------------------------
-# the segmented tree
+# the split tree
 
 
-def test_a_case_without_segments_is_its_own_segmented_case():
+def test_a_case_without_segments_models_its_own_tree():
     for name in ("cantilever_step", "pendulum", "double_pendulum"):
         case = cases.load(name)
-        assert case.segmented is case and not case.resolved.segments
+        assert case.split is None and case.modelled is case.resolved and not case.segments
     one = cases.load("pendulum", ["bodies.beam.segments=1"])
-    assert one.segmented is one
+    assert one.split is None and one.modelled is one.resolved
 
 
-def test_the_segmented_tree_of_the_double_pendulum():
+def test_the_split_tree_of_the_double_pendulum():
     """Segments named, sized and joined in order; the beam's joint on segment 1; a joint, a load
     and channels on the beam moved to the segment holding their position, at the position along it."""
     case = cases.load("double_pendulum", ["bodies.beam1.segments=4", "bodies.beam2.segments=2",
                                           "joints.pivot2.at=0.75",
                                           'loads.push={type = "point_force", body = "beam2", at = 1.5, force = [0.0, 1.0, 0.0]}'])
-    seg = case.segmented
-    assert case.resolved.segments == {"beam1": ("beam1:1", "beam1:2", "beam1:3", "beam1:4"),
-                                      "beam2": ("beam2:1", "beam2:2")}
-    assert seg.resolved.order == ["beam1:1", "beam1:2", "beam1:3", "beam1:4", "beam2:1", "beam2:2"]
-    assert not seg.resolved.segments and seg.segmented is seg
-    for b in seg["bodies"].values():
-        assert b["segments"] == 1 and b["modes"] == case["bodies"]["beam1" if b["length"] == 0.375 else "beam2"]["modes"]
-    assert [(b["length"], b["elements"]) for b in seg["bodies"].values()] == [(0.375, 25)] * 4 + [(0.75, 50)] * 2
-    j = seg["joints"]
-    assert (j["pivot1"]["parent"], j["pivot1"]["child"]) == ("ground", "beam1:1")
-    assert (j["pivot2"]["parent"], j["pivot2"]["at"], j["pivot2"]["child"]) == ("beam1:3", 0.0, "beam2:1")
-    assert [(j[f"beam1:{k}-{k + 1}"]["type"], j[f"beam1:{k}-{k + 1}"]["parent"], j[f"beam1:{k}-{k + 1}"]["at"])
+    seg = case.split
+    assert case.modelled is seg
+    assert case.segments == {"beam1": ("beam1:1", "beam1:2", "beam1:3", "beam1:4"),
+                             "beam2": ("beam2:1", "beam2:2")}
+    assert seg.order == ["beam1:1", "beam1:2", "beam1:3", "beam1:4", "beam2:1", "beam2:2"]
+    assert not seg.segments and seg.split is None and seg.modelled is seg
+    for b in seg.bodies.values():
+        assert b.segments == 1 and b.modes == case.bodies["beam1" if b.length == 0.375 else "beam2"].modes
+    assert [(b.length, b.elements) for b in seg.bodies.values()] == [(0.375, 25)] * 4 + [(0.75, 50)] * 2
+    j = seg.joints
+    assert (j["pivot1"].parent, j["pivot1"].child) == ("ground", "beam1:1")
+    assert (j["pivot2"].parent, j["pivot2"].point.x, j["pivot2"].child) == ("beam1:3", 0.0, "beam2:1")
+    assert [(j[f"beam1:{k}-{k + 1}"].type, j[f"beam1:{k}-{k + 1}"].parent, j[f"beam1:{k}-{k + 1}"].point.x)
             for k in (1, 2, 3)] == [("fixed", f"beam1:{k}", 0.375) for k in (1, 2, 3)]
-    assert (seg["loads"]["push"]["body"], seg["loads"]["push"]["at"]) == ("beam2:2", 0.75)
-    c = seg["channels"]
-    assert (c["midspan_deflection_1"]["body"], c["midspan_deflection_1"]["at"]) == ("beam1:3", 0.0)
-    assert (c["tip_deflection_2"]["body"], c["tip_deflection_2"]["at"]) == ("beam2:2", 0.75)
-    assert (c["stress_vm_1"]["body"], c["stress_vm_1"]["at"]) == ("beam1:1", 0.03)
-    assert seg.resolved.reduced("beam1:1").stress_x.tolist() == [0.03]
+    assert (seg.loads["push"].body, seg.loads["push"].point.x) == ("beam2:2", 0.75)
+    c = seg.channels
+    assert (c["midspan_deflection_1"].body, c["midspan_deflection_1"].at) == ("beam1:3", 0.0)
+    assert (c["tip_deflection_2"].body, c["tip_deflection_2"].at) == ("beam2:2", 0.75)
+    assert (c["stress_vm_1"].body, c["stress_vm_1"].at) == ("beam1:1", 0.03)
+    assert seg.reduced("beam1:1").stress_x.tolist() == [0.03]
     m = from_case(seg)
-    assert (seg.resolved.nq, seg.resolved.nv) == (m.nq, m.nv) == (2 + 6 * 12, 2 + 6 * 12)
-    assert case.resolved.order == ["beam1", "beam2"]          # the whole beams stay in the case
+    assert (seg.nq, seg.nv) == (m.nq, m.nv) == (2 + 6 * 12, 2 + 6 * 12)
+    assert case.order == ["beam1", "beam2"]          # the whole beams stay in the case
 
 
 def test_a_point_on_a_boundary_belongs_to_the_segment_that_starts_there():
@@ -96,7 +97,7 @@ def test_channels_of_a_split_beam_follow_its_segments_rigidly_joined():
                                    "bodies.beam.stiffening=false",             # the chain below is linear
                                    "channels.mid_deflection={kind = 'deflection', body = 'beam', at = 0.75}",
                                    "channels.mid_x={kind = 'deflection', body = 'beam', at = 0.75, component = 'x'}"])
-    m = from_case(case.segmented)
+    m = from_case(case.modelled)
     rng = np.random.default_rng(3)
     q = np.zeros(m.nq)
     q[0] = 0.7
@@ -104,7 +105,7 @@ def test_channels_of_a_split_beam_follow_its_segments_rigidly_joined():
     out = channels.channels(case, solver.trajectory(case, m, np.zeros(1), q[None], np.zeros((1, m.nv))))
 
     R, r, pts = expm_so3(np.array([0.0, 0.0, 0.7])), np.zeros(3), {}
-    for k, name in enumerate(case.resolved.segments["beam"]):
+    for k, name in enumerate(case.segments["beam"]):
         fb, i = m.bodies[name], m.index(name)
         eta = q[m.body_madr[i]:m.body_madr[i] + m.body_nm[i]]
         for p in range(fb.n_nodes):
@@ -139,7 +140,7 @@ def test_one_segment_changes_nothing():
 def settled(case, iterations=8) -> dict:
     """The case's channels at the static equilibrium of its flexmbd Model (Newton on qdd(q) = 0 at
     rest, central-difference Jacobian): the value a damped run settles to."""
-    m = from_case(case.segmented)
+    m = from_case(case.modelled)
     data, q, h = make_data(m), m.q0.copy(), 1e-6
     qdd = lambda q: forward_dynamics(m, data, q, np.zeros(m.nv), t=1.0)
     for _ in range(iterations):

@@ -12,7 +12,7 @@ def test_stiffened_paper_cases_conserve_energy(name):
     """The stiffened equations come from one kinetic energy: T + V stays constant to 1e-6 of the
     largest kinetic energy (undamped, 0.3 s, tight tolerances)."""
     case = cases.load(name, ["integrator.rtol=1e-11", "integrator.atol=1e-13"])
-    assert all(b["stiffening"] for b in case["bodies"].values())
+    assert all(b.stiffening for b in case.bodies.values())
     r = solvers.run(case, "flexmbd", 0.3)
     E = r.channels["energy"]
     assert r.ok and np.abs(E - E[0]).max() <= 1e-6 * r.extra["kinetic_max_J"]
@@ -57,10 +57,10 @@ def test_rotating_cantilever_follows_the_southwell_curves():
     from rotating_beam import rotating_frequencies
     from flexmbd import flexbody
     case = cases.load("pendulum")
-    body, mat = case["bodies"]["beam"], case["materials"]["steel"]
+    body, mat = case.bodies["beam"], case.materials["steel"]
     sec = flexbody.beam_section(body)
     for I, plane in ((sec.Iy, 0), (sec.Iz, 1)):                 # x-z: flapwise; x-y: in the plane of rotation
-        s = np.sqrt(mat["rho"] * sec.A * body["length"] ** 4 / (mat["E"] * I))
+        s = np.sqrt(mat.rho * sec.A * body.length ** 4 / (mat.E * I))
         ref0 = rotating_frequencies(0.0)[plane][0]
         w0 = rotating_frequencies_of_flexmbd(0.0)
         first0 = w0[np.argmin(np.abs(w0 - ref0 / s))]

@@ -28,6 +28,15 @@ def random_beam(rng, boundary=None, modes=None):
             "stiffening": False}          # the oracle's kinematics are the linear modal ones
 
 
+def one_beam(body: dict, material: dict = STEEL):
+    """The typed beam (`cases.Beam`) of a raw body table, validated as the one body of a small case
+    (hung from the ground on a fixed joint; its material named by the table, with `material`'s values)."""
+    raw = {"title": "one beam", "duration": 1.0, "materials": {body["material"]: dict(material)},
+           "bodies": {"b": body}, "joints": {"root": {"type": "fixed", "parent": "ground", "child": "b"}},
+           "channels": {"energy": {"kind": "energy"}}}
+    return cases.Case(name="one_beam", path=None, data=cases.validate(raw, "one beam")).bodies["b"]
+
+
 def random_case(rng, n_bodies, joint_types, flexible=0.0, gravity=(0.0, -9.81, 0.3)):
     """A validated case: body k+1 hangs from a random earlier body (or ground) on a random joint;
     with probability `flexible` a body is a beam (children of beams sit on random nodes)."""

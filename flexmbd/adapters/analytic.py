@@ -16,7 +16,7 @@ import time
 import numpy as np
 from scipy.optimize import brentq
 
-from flexmbd import channels, flexbody
+from flexmbd import channels
 from flexmbd.adapters import common
 
 SETTINGS = {"modes": ("int+", 200)}     # continuous modes summed per bending plane
@@ -30,18 +30,17 @@ def applies(case) -> str:
     name, why = common.clamped_beam(case)
     if why:
         return why
-    body = case["bodies"][name]
-    if body["shear"]:
+    if case.bodies[name].shear:
         return "Euler–Bernoulli closed forms have no shear deformation"
-    for lname, ld in case["loads"].items():
-        if ld["profile"]["type"] not in ("constant", "step"):
+    for lname, ld in case.loads.items():
+        if ld.profile["type"] not in ("constant", "step"):
             return f"load {lname!r}: closed form only for constant and step loads"
         if abs(common.body_force(case, ld)[0]) > 0:
             return f"load {lname!r}: closed form only for transverse loads"
     if abs(common.gravity_body(case)[0]) > 0:
         return "closed form only for transverse gravity"
-    for cname, c in case["channels"].items():
-        if c["kind"] not in ("deflection", "stress_vm") or c.get("component") == "x":
+    for cname, c in case.channels.items():
+        if c.kind not in ("deflection", "stress_vm") or c.component == "x":
             return f"channel {cname!r} has no closed form here"
     return ""
 
@@ -108,7 +107,7 @@ def modal_response(t, w, zeta, t0):
 def trajectory(case, name: str, t, eta: dict, bL) -> channels.Trajectory:
     """The channels' view of the modal responses eta {axis: ((n, modes), norm)}: positions
     x + (0, u_y, u_z) in the body frame (the clamp's), curvatures kappa_z = u_y'', kappa_y = -u_z''."""
-    L = case["bodies"][name]["length"]
+    L = case.bodies[name].length
     shapes = lambda x: [cantilever_shapes(z, np.array([x]), L) for z in bL]
     u = lambda x, axis: eta[axis][0] @ (np.array([s[0][0] for s in shapes(x)]) * eta[axis][1])
     d2 = lambda x, axis: eta[axis][0] @ (np.array([s[1][0] for s in shapes(x)]) * (bL / L) ** 2 * eta[axis][1])
@@ -117,8 +116,8 @@ def trajectory(case, name: str, t, eta: dict, bL) -> channels.Trajectory:
     beam = channels.Beam(
         length=L, points={x: np.column_stack([np.full(len(t), x), u(x, 1), u(x, 2)]) for x in xs},
         x0={x: np.array([x, 0.0, 0.0]) for x in xs}, root=np.tile(np.eye(3), (len(t), 1, 1)),
-        strains={float(c["at"]): np.column_stack([zero, -d2(c["at"], 2), d2(c["at"], 1), zero])
-                 for c in case["channels"].values() if c["kind"] == "stress_vm"})
+        strains={float(c.at): np.column_stack([zero, -d2(c.at, 2), d2(c.at, 1), zero])
+                 for c in case.channels.values() if c.kind == "stress_vm"})
     return channels.Trajectory(t=t, beams={name: beam})
 
 
@@ -126,11 +125,10 @@ def run(case, t_end, settings):
     from flexmbd.results import Result
     t_start = time.perf_counter()
     name, _ = common.clamped_beam(case)
-    body = case["bodies"][name]
-    mat = case["materials"][body["material"]]
-    sec = flexbody.beam_section(body)
-    E, rho, A, L = mat["E"], mat["rho"], sec.A, body["length"]
-    zeta = body["damping_ratio"]
+    body = case.bodies[name]
+    sec = body.geometry
+    E, rho, A, L = body.material.E, body.material.rho, sec.A, body.length
+    zeta = body.damping_ratio
     n = settings.get("modes", SETTINGS["modes"][1])
     bL = clamped_free_roots(n)
     t = common.sample_times(case, t_end)
@@ -145,13 +143,14 @@ def run(case, t_end, settings):
         w = (bL / L) ** 2 * np.sqrt(E * I / (rho * A))
         norm = 1.0 / np.sqrt(rho * A * L)
         resp = np.zeros((t.size, n))
-        for ld in case["loads"].values():
+        for ld in case.loads.values():
             P = common.body_force(case, ld)[axis]
             if P == 0.0:
                 continue
-            p = ld["profile"]
+            p = ld.profile
             t0 = p["t0"] if p["type"] == "step" else 0.0
-            psi_a = np.array([cantilever_shapes(z, np.array([ld["at"]]), L)[0][0] for z in bL]) * norm
+            # the continuous beam's load acts where the case puts it (not snapped to a node)
+            psi_a = np.array([cantilever_shapes(z, np.array([ld.point.x]), L)[0][0] for z in bL]) * norm
             resp += modal_response(t[:, None], w, zeta, t0) * (psi_a * P / w ** 2)
         if g[axis] != 0.0:
             integral = np.array([np.trapezoid(cantilever_shapes(z, xq, L)[0], xq) for z in bL]) * norm
@@ -160,6 +159,6 @@ def run(case, t_end, settings):
 
     traj = trajectory(case, name, t, eta, bL)
     wall_s = time.perf_counter() - t_solve
-    return Result(solver="analytic", case=case.name, t=t, channels=channels.channels(case, traj), wall_s=wall_s,
+    return Result(solver="analytic", case=case.name, t=t, wall_s=wall_s,
                   setup_s=setup_s, steps=int(t.size), rhs_evals=0,
                   settings={"modes_per_plane": n, "theory": "Euler-Bernoulli, continuous"}, trajectory=traj)

@@ -21,7 +21,7 @@ import exudyn.itemInterface as eii       # noqa: F401  (used by the adapters)
 
 from flexmbd import files, results
 from flexmbd.adapters import common
-from flexmbd.integrate import Progress
+from flexmbd.progress import Progress
 
 from flexmbd.spatial import expm_so3
 
@@ -92,7 +92,7 @@ def simulation_settings(case, t_end: float, dt: float, solver: dict):
     ti.generalizedAlpha.computeInitialAccelerations = True
     s.solution.file.write = False
     s.solution.sensors.active = True
-    s.solution.sensors.writePeriod = case["integrator"]["output_dt"]
+    s.solution.sensors.writePeriod = case.integrator.output_dt
     s.show.computationTime = False
     s.show.statistics = False
     s.show.globalTimers = False
@@ -102,7 +102,7 @@ def simulation_settings(case, t_end: float, dt: float, solver: dict):
 
 def solve(mbs, settings, solver_type: str, label: str = "exudyn"):
     """Run Exudyn's implicit solver, with a progress bar on stderr past a couple of seconds
-    (`integrate.Progress`); (status, wall_s, steps, newton_iterations).
+    (`progress.Progress`); (status, wall_s, steps, newton_iterations).
 
     status is ok or failed with Exudyn's message; never raises for a solver failure.
     """
@@ -192,26 +192,21 @@ def rotvec(w) -> np.ndarray:
 def is_planar(case) -> str:
     """'' when the case moves in the global x-y plane: every joint axis along z with no tilt,
     gravity and loads in the plane, no rigid-body axis out of it; else why not."""
-    g = np.asarray(case["gravity"], dtype=float)
-    if abs(g[2]) > 0:
+    if abs(case.gravity[2]) > 0:
         return "gravity has a z component"
-    for jn, j in case["joints"].items():
-        if any(abs(a) > 0 for a in j["rpy"]):
+    for jn, j in case.joints.items():
+        if any(abs(a) > 0 for a in j.rpy):
             return f"joint {jn!r} has a tilted triad (rpy)"
-        if j["type"] in ("revolute", "prismatic"):
-            ax = np.asarray(j["axis"], dtype=float)
-            if j["type"] == "revolute" and (abs(ax[0]) > 0 or abs(ax[1]) > 0):
-                return f"joint {jn!r}: revolute axis not along z"
-            if j["type"] == "prismatic" and abs(ax[2]) > 0:
-                return f"joint {jn!r}: prismatic axis out of the x-y plane"
-        if j["type"] in ("spherical", "free"):
-            if any(abs(x) > 0 for x in list(j["q0"])[:2] + list(j["qd0"])[:2]):
-                return f"joint {jn!r} starts out of the x-y plane"
-        at = j["at"]
-        if isinstance(at, list) and abs(at[2]) > 0:
+        if j.type == "revolute" and (abs(j.axis[0]) > 0 or abs(j.axis[1]) > 0):
+            return f"joint {jn!r}: revolute axis not along z"
+        if j.type == "prismatic" and abs(j.axis[2]) > 0:
+            return f"joint {jn!r}: prismatic axis out of the x-y plane"
+        if j.type in ("spherical", "free") and any(abs(x) > 0 for x in j.q0[:2] + j.qd0[:2]):
+            return f"joint {jn!r} starts out of the x-y plane"
+        if abs(j.offset[2]) > 0:
             return f"joint {jn!r} sits out of the x-y plane"
-    for ln, ld in case["loads"].items():
-        if abs(ld["force"][2]) > 0 or (isinstance(ld["at"], list) and abs(ld["at"][2]) > 0):
+    for ln, ld in case.loads.items():
+        if abs(ld.force[2]) > 0 or abs(ld.offset[2]) > 0:
             return f"load {ln!r} has a z component"
     return ""
 

@@ -47,7 +47,6 @@ from flexmbd import cases, channels, flexbody, invariants, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
-from flexmbd.spatial import rotation_rpy
 
 from exudyn.FEM import ObjectFFRFreducedOrderInterface
 from exudyn.rigidBodyUtilities import GetRigidBodyNode
@@ -72,32 +71,30 @@ def version() -> str:
 
 
 def applies(case) -> str:
-    none = cases.modeless(case.data)
+    none = [b.name for b in case.bodies.values() if b.type == "beam" and not b.rigid and b.modes.count == 0]
     if none:
         return (f"body {none[0]!r} retains no modes (modes.count = 0): an FFRF body needs at least one; "
                 f"its rigid limit is what flexmbd, pinocchio and mujoco model")
-    if case.resolved.segments:
-        name = next(iter(case.resolved.segments))
+    if case.segments:
+        name = next(iter(case.segments))
         return (f"body {name!r}: its segments are joined rigidly at a flexible node, whose rotation "
                 f"Exudyn's super-element markers cannot hold for a beam's collinear nodes")
     planar = xc.is_planar(case)
-    for jn, j in case["joints"].items():
-        parent = case["bodies"].get(j["parent"])
-        if parent is None or parent["type"] == "rigid" or parent["rigid"] or j["type"] == "free":
+    for jn, j in case.joints.items():
+        parent = case.bodies.get(j.parent)
+        if parent is None or parent.type == "rigid" or parent.rigid or j.type == "free":
             continue
-        at = j["at"] if not isinstance(j["at"], list) else j["at"][0]
-        if flexbody.node_index(parent["length"], parent["elements"], at) == 0 \
-                and parent["modes"]["boundary"] == "clamped-free":
+        if j.node == 0 and parent.modes.boundary == "clamped-free":
             continue                         # the root node is the reference frame: any joint
-        if j["motion"] is not None:
+        if j.motion is not None:
             return f"joint {jn!r}: prescribed motion on a flexible node"
-        if j["type"] == "spherical" or (j["type"] == "revolute" and not planar):
+        if j.type == "spherical" or (j.type == "revolute" and not planar):
             continue
-        if j["type"] == "revolute":
+        if j.type == "revolute":
             return (f"joint {jn!r}: a revolute joint on a flexible node holds only the node's position "
                     f"in Exudyn (a beam's nodes are collinear: no rigid super-element marker), exact "
                     f"only in planar cases, and this one is not ({planar})")
-        return (f"joint {jn!r}: a {j['type']} joint on a flexible node needs the node's rotation, "
+        return (f"joint {jn!r}: a {j.type} joint on a flexible node needs the node's rotation, "
                 f"which Exudyn's super-element markers cannot give for a beam's collinear nodes")
     return ""
 
@@ -177,17 +174,17 @@ def add_ffrf(mbs, fb, cms, R, p, v, w, damping: np.ndarray) -> dict:
     return {"node": n_rigid, "modal": n_modal, "obj": obj}
 
 
-def add_rigid(mbs, body: dict, R, p, v, w) -> dict:
+def add_rigid(mbs, body: cases.Rigid, R, p, v, w) -> dict:
     """An ObjectRigidBody whose node sits at the body frame origin (COM offset in the object)."""
-    com = np.asarray(body["com"], dtype=float)
-    xx, yy, zz, xy, xz, yz = body["inertia"]
+    com = np.asarray(body.com, dtype=float)
+    xx, yy, zz, xy, xz, yz = body.inertia
     Ic = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
-    Io = Ic + body["mass"] * (com @ com * np.eye(3) - np.outer(com, com))   # about the origin
+    Io = Ic + body.mass * (com @ com * np.eye(3) - np.outer(com, com))   # about the origin
     node = GetRigidBodyNode(nodeType=NODE_TYPE, position=list(p), velocity=list(v),
                             rotationMatrix=R, angularVelocity=list(w))
     n = mbs.AddNode(node)
     obj = mbs.AddObject(eii.ObjectRigidBody(
-        nodeNumber=n, mass=body["mass"], centerOfMass=list(com),
+        nodeNumber=n, mass=body.mass, centerOfMass=list(com),
         inertia=[Io[0, 0], Io[1, 1], Io[2, 2], Io[1, 2], Io[0, 2], Io[0, 1]],
         visualization=eii.VObjectRigidBody(show=False)))
     return {"node": n, "obj": obj}
@@ -197,58 +194,52 @@ def add_rigid(mbs, body: dict, R, p, v, w) -> dict:
 # the tree: initial poses, joints, loads
 
 
-def joint_offset(j: dict):
+def joint_offset(j: cases.Joint):
     """(rotation (3, 3), translation (3,)) of the child frame in the input triad at q0."""
-    A = xc.axis_frame(j["axis"])
-    q0 = list(j["q0"])
-    if j["type"] == "revolute":
+    A = xc.axis_frame(j.axis)
+    q0 = list(j.q0)
+    if j.type == "revolute":
         return xc.rotvec(A[:, 2] * q0[0]), np.zeros(3)
-    if j["type"] == "prismatic":
+    if j.type == "prismatic":
         return np.eye(3), A[:, 2] * q0[0]
-    if j["type"] == "spherical":
+    if j.type == "spherical":
         return xc.rotvec(q0[:3]), np.zeros(3)
-    if j["type"] == "free":
+    if j.type == "free":
         return xc.rotvec(q0[:3]), np.asarray(q0[3:6], dtype=float)
     return np.eye(3), np.zeros(3)
 
 
-def joint_rate(j: dict):
+def joint_rate(j: cases.Joint):
     """(angular (3,), linear (3,)) velocity of the child relative to the triad at t = 0, triad axes."""
-    A = xc.axis_frame(j["axis"])
-    qd = list(j["qd0"])
-    if j["type"] == "revolute":
+    A = xc.axis_frame(j.axis)
+    qd = list(j.qd0)
+    if j.type == "revolute":
         return A[:, 2] * qd[0], np.zeros(3)
-    if j["type"] == "prismatic":
+    if j.type == "prismatic":
         return np.zeros(3), A[:, 2] * qd[0]
-    if j["type"] == "spherical":
+    if j.type == "spherical":
         return np.asarray(qd[:3], dtype=float), np.zeros(3)
-    if j["type"] == "free":
+    if j.type == "free":
         return np.asarray(qd[:3], dtype=float), np.asarray(qd[3:6], dtype=float)
     return np.zeros(3), np.zeros(3)
 
 
-def triad_point(case, j: dict, fbs: dict) -> np.ndarray:
-    """Undeformed input-triad position (3,) in the parent frame (a beam: its snapped node)."""
-    parent = case["bodies"].get(j["parent"])
-    at = j["at"]
-    if parent is None or parent["type"] == "rigid":
-        return np.asarray(at, dtype=float)
-    if j["parent"] in fbs:
-        fb = fbs[j["parent"]]
-        return fb.x0[fb.node_at(at if not isinstance(at, list) else at[0])].copy()
-    return np.array([flexbody.snapped(parent["length"], parent["elements"], at if not isinstance(at, list) else at[0]),
-                     0.0, 0.0])
+def triad_point(j: cases.Joint, fbs: dict) -> np.ndarray:
+    """Undeformed input-triad position (3,) in the parent frame (a beam: its snapped node, a
+    flexible one's from the FlexBody's node positions)."""
+    if j.parent in fbs:
+        return fbs[j.parent].x0[j.node].copy()
+    return np.array(j.offset, dtype=float)
 
 
 def initial_states(case, order: list, fbs: dict) -> dict:
     """Global (R, p, v, w) of every body frame at t = 0 (undeformed, elastic velocities zero)."""
-    by_child = {j["child"]: j for j in case["joints"].values()}
     out = {"ground": (np.eye(3), np.zeros(3), np.zeros(3), np.zeros(3))}
     for name in order:
-        j = by_child[name]
-        Rp, pp, vp, wp = out[j["parent"]]
-        Rt = Rp @ rotation_rpy(j["rpy"])
-        pt = pp + Rp @ triad_point(case, j, fbs)
+        j = case.joint_of(name)
+        Rp, pp, vp, wp = out[j.parent]
+        Rt = Rp @ np.array(j.triad)
+        pt = pp + Rp @ triad_point(j, fbs)
         vt = vp + np.cross(wp, pt - pp)
         Rq, tq = joint_offset(j)
         wq, vq = joint_rate(j)
@@ -270,38 +261,32 @@ def body_marker_rigid(mbs, items: dict, name: str, case, fbs, point, R_local):
     return mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=it["obj"], localHT=ht))
 
 
-def on_root(case, j, fbs) -> bool:
+def on_root(j: cases.Joint, fbs) -> bool:
     """True when joint j's input triad is the reference node of a clamped-root beam."""
-    fb = fbs.get(j["parent"])
-    if fb is None:
-        return False
-    p = fb.node_at(j["at"] if not isinstance(j["at"], list) else j["at"][0])
-    return p == 0 and not np.any(fb.Phi[0])
+    fb = fbs.get(j.parent)
+    return fb is not None and j.node == 0 and not np.any(fb.Phi[0])
 
 
-def add_joint(mbs, items, case, fbs, jname: str, j: dict):
+def add_joint(mbs, items, case, fbs, j: cases.Joint):
     """The joint to the parent (see the module docstring for how each kind is realised).
 
     Returns (object, frame) of the joint object that carries the force onto the parent: frame
     None for a spherical joint (Exudyn's `Force`: global), else the rotation (3, 3) of its
     marker 0 in the parent's body frame (Exudyn's `ForceLocal` is in that marker's frame); None
     for a free joint. Either is the force the joint exerts on marker 0, the parent side."""
-    if j["type"] == "free":
+    if j.type == "free":
         return None
-    child = j["child"]
-    A = xc.axis_frame(j["axis"])
-    flexible_parent = j["parent"] in fbs and not on_root(case, j, fbs)
-    if flexible_parent:
-        fb = fbs[j["parent"]]
-        p = fb.node_at(j["at"] if not isinstance(j["at"], list) else j["at"][0])
-        m0 = mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=items[j["parent"]]["obj"],
-                                                          meshNodeNumbers=[p], weightingFactors=[1.0]))
+    child = j.child
+    A = xc.axis_frame(j.axis)
+    if j.parent in fbs and not on_root(j, fbs):          # on a flexible node
+        m0 = mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=items[j.parent]["obj"],
+                                                          meshNodeNumbers=[j.node], weightingFactors=[1.0]))
         it = items[child]
         m1 = (mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=it["node"])) if child in fbs
               else mbs.AddMarker(eii.MarkerBodyPosition(bodyNumber=it["obj"], localPosition=[0, 0, 0])))
         sph = mbs.AddObject(eii.ObjectJointSpherical(markerNumbers=[m0, m1],
                                                      visualization=eii.VObjectJointSpherical(show=False)))
-        if j["type"] == "revolute":
+        if j.type == "revolute":
             # planar case: the node's triad keeps its z axis along global z, so the child's does too
             mg = mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=items["ground"], localPosition=[0, 0, 0]))
             mc = (mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=it["node"])) if child in fbs
@@ -310,28 +295,27 @@ def add_joint(mbs, items, case, fbs, jname: str, j: dict):
                                                  visualization=eii.VObjectJointGeneric(show=False)))
         return sph, None
     # parent side: the input triad turned onto the axis (z of the joint frame is the axis)
-    Rt = rotation_rpy(j["rpy"])
-    R0 = Rt @ A
-    m0 = body_marker_rigid(mbs, items, j["parent"], case, fbs, triad_point(case, j, fbs), R0)
+    R0 = np.array(j.triad) @ A
+    m0 = body_marker_rigid(mbs, items, j.parent, case, fbs, triad_point(j, fbs), R0)
 
     # child side: the same joint frame at q0, in the child frame (coincident when driven)
     Rq, tq = joint_offset(j)
-    driven = j["motion"] is not None
+    driven = j.motion is not None
     m1 = body_marker_rigid(mbs, items, child, case, fbs, -Rq.T @ tq if driven else np.zeros(3), Rq.T @ A)
     kw = motion_offset(j) if driven else {}
-    axes = [1] * 6 if driven else CONSTRAINED[j["type"]]
+    axes = [1] * 6 if driven else CONSTRAINED[j.type]
     obj = mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[m0, m1], constrainedAxes=axes,
                                                visualization=eii.VObjectJointGeneric(show=False), **kw))
     return obj, R0
 
 
-def motion_offset(j: dict) -> dict:
+def motion_offset(j: cases.Joint) -> dict:
     """Offset user function of a generic joint driving a 1-DOF joint along its profile.
 
     The child marker carries the q0 offset, so the joint offset is q(t) - q0 about (along) z."""
-    q0 = list(j["q0"])[0]
-    k = 5 if j["type"] == "revolute" else 2
-    prof = j["motion"]
+    q0 = j.q0[0]
+    k = 5 if j.type == "revolute" else 2
+    prof = j.motion
 
     def offset(mbs, t, itemNumber, params):
         o = [0.0] * 6
@@ -348,20 +332,18 @@ def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> Non
     mass-weighted sum of the node Jacobians, so this is exact); `mass-proportional` uses Exudyn's
     LoadMassProportional, which on an ObjectFFRFreducedOrder takes the moment of gravity about the
     reference frame from the undeformed centre of mass only (the deflection's lever arm is lost)."""
-    for ld in case["loads"].values():
-        name = ld["body"]
+    for ld in case.loads.values():
+        name = ld.body
         it = items[name]
         if name in fbs:
-            fb = fbs[name]
-            p = fb.node_at(ld["at"] if not isinstance(ld["at"], list) else ld["at"][0])
-            m = mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=it["obj"], meshNodeNumbers=[p],
+            m = mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=it["obj"], meshNodeNumbers=[ld.point.node],
                                                              weightingFactors=[1.0]))
-        elif case["bodies"][name]["type"] == "rigid":
-            m = mbs.AddMarker(eii.MarkerBodyPosition(bodyNumber=it["obj"], localPosition=list(ld["at"])))
+        elif case.bodies[name].type == "rigid":
+            m = mbs.AddMarker(eii.MarkerBodyPosition(bodyNumber=it["obj"], localPosition=list(ld.offset)))
         else:
             raise ValueError(f"load on beam {name!r} declared rigid: not supported by exudyn-ffrf")
-        f = np.asarray(ld["force"], dtype=float)
-        prof, body_frame, node = ld["profile"], ld["frame"] == "body", it["node"]
+        f = np.asarray(ld.force, dtype=float)
+        prof, body_frame, node = ld.profile, ld.frame == "body", it["node"]
         steady = prof["type"] == "constant" or (prof["type"] == "step" and prof["t0"] <= 0.0)
         fixed_frame = fixed_to_ground(case, name)
         if steady and (not body_frame or fixed_frame):
@@ -376,7 +358,7 @@ def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> Non
                 return list(s * (R @ f))
             return list(s * f)
         mbs.AddLoad(eii.LoadForceVector(markerNumber=m, loadVector=list(f), loadVectorUserFunction=force))
-    g = np.asarray(case["gravity"], dtype=float)
+    g = np.asarray(case.gravity, dtype=float)
     if np.any(g):
         for name, it in items.items():
             if name == "ground":
@@ -395,12 +377,11 @@ def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> Non
 
 def fixed_to_ground(case, name: str) -> bool:
     """True when a chain of fixed joints ties the body frame to ground."""
-    by_child = {j["child"]: j for j in case["joints"].values()}
     while name != "ground":
-        j = by_child[name]
-        if j["type"] != "fixed" or j["motion"] is not None:
+        j = case.joint_of(name)
+        if j.type != "fixed" or j.motion is not None:
             return False
-        name = j["parent"]
+        name = j.parent
     return True
 
 
@@ -408,11 +389,16 @@ def fixed_to_ground(case, name: str) -> bool:
 # sensors and channels
 
 
+def axial_rules(case, fbs) -> dict:
+    """Beam name -> where its quasi-static axial force enters (`channels.axial_rule`): this model
+    has no geometric stiffening, so the axial load is always one of its validity measures."""
+    stressed = {c.body for c in case.channels.values() if c.kind == "stress_vm"}
+    return {n: channels.axial_rule(False, n in stressed, fb) for n, fb in fbs.items()}
+
+
 def axial_bodies(case, fbs) -> list:
-    """Names of the flexible beams whose stress takes the quasi-static axial force: a stress_vm
-    channel on the beam and no axial retained mode (as flexmbd, docs/formulation.md §7)."""
-    stressed = {c["body"] for c in case["channels"].values() if c["kind"] == "stress_vm"}
-    return [n for n, fb in fbs.items() if n in stressed and flexbody.axial_free(fb)]
+    """Names of the flexible beams whose node forces are needed (`axial_rules`)."""
+    return [n for n, rule in axial_rules(case, fbs).items() if any(rule)]
 
 
 def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
@@ -453,7 +439,7 @@ def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
                                 for k in range(fb.n_nodes)}
                 S[name]["f"] = {jn: obj(objectNumber=jo[0], outputVariableType=OV.Force if jo[1] is None
                                         else OV.ForceLocal)
-                                for jn, jo in joints.items() if jo is not None and case["joints"][jn]["parent"] == name}
+                                for jn, jo in joints.items() if jo is not None and case.joints[jn].parent == name}
     return S
 
 
@@ -509,55 +495,42 @@ def read_sensors(mbs, S: dict, t: np.ndarray) -> dict:
 
 def trajectory(case, fbs: dict, X: dict, t: np.ndarray, joints: dict) -> channels.Trajectory:
     """The channels' view of the sensor data X (see read_sensors): node positions in the body
-    frame, the root node's rotation from the modal coordinates, modal section strains plus, on
-    the beams of `axial_bodies`, the quasi-static axial strain N(x) / (E A) from `node_forces`
-    (`joints`: add_joint's (object, frame) by joint name)."""
+    frame, the root node's rotation from the modal coordinates, and the modal beam
+    (`channels.modal_beam`) with, on the beams of `axial_bodies`, the quasi-static axial force
+    from `node_forces` (`joints`: add_joint's (object, frame) by joint name)."""
     traj = channels.Trajectory(t=t)
     for jname in channels.joints_needed(case):
-        traj.joints[jname] = joint_angle(case, fbs, X, case["joints"][jname])
+        traj.joints[jname] = joint_angle(fbs, X, case.joints[jname])
     if channels.wants_energy(case):
         traj.energy = {"total": energy(case, fbs, X)}
-    axial = axial_bodies(case, fbs)
+    rules = axial_rules(case, fbs)
     for name, fb in fbs.items():
         Xb, xs = X[name], channels.points_needed(case, name)
-        body = case["bodies"][name]
-        E, sec = case["materials"][body["material"]]["E"], flexbody.beam_section(body)
-        strains = channels.modal_strains(fb, Xb["eta"])
-        extent = channels.modal_extent(fb, Xb["eta"], sec)
-        if name in axial:
-            F = node_forces(case, fb, name, Xb, t, joints)
-            strains = channels.with_axial_strain(strains, {x: channels.axial_force(fb.x0, F, x) for x in strains},
-                                                 E * sec.A)
-            extent["axial_load"] = channels.axial_load(channels.axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), E, sec,
-                                                       fb.length)
-        traj.beams[name] = channels.Beam(
-            length=fb.length, points={x: body_positions(Xb, fb.node_at(x)) for x in xs},
-            x0={x: fb.x0[fb.node_at(x)] for x in xs}, root=channels.modal_root(fb, Xb["eta"]),
-            strains=strains, extent=extent)
+        body = case.bodies[name]
+        F = node_forces(case, fb, name, Xb, t, joints) if any(rules[name]) else None
+        traj.beams[name] = channels.modal_beam(
+            fb, Xb["eta"], body.material, body.geometry,
+            {x: body_positions(Xb, fb.node_at(x)) for x in xs}, {x: fb.x0[fb.node_at(x)] for x in xs},
+            channels.modal_root(fb, Xb["eta"]), F, rules[name])
     return traj
 
 
 def node_forces(case, fb, name: str, Xb: dict, t: np.ndarray, joints: dict) -> np.ndarray:
-    """(n, N, 3) net force on each node of beam `name`, body frame (docs/formulation.md §7):
-    the d'Alembert force -m_p (a_p - g) from Exudyn's global node accelerations a_p, the point
-    loads on the beam and the forces its child joints exert on their nodes."""
+    """(n, N, 3) net force on each node of beam `name`, body frame (`channels.node_forces`):
+    from Exudyn's global node accelerations a_p (less gravity), the point loads on the beam and
+    the forces its child joints exert on their nodes."""
     R = Xb["R"].reshape(-1, 3, 3)                                          # body frame -> global
-    g = np.asarray(case["gravity"], dtype=float)
+    g = np.asarray(case.gravity, dtype=float)
     a = np.stack([Xb["a"][k] for k in range(fb.n_nodes)], axis=1) - g     # (n, N, 3) global
-    F = -fb.m[None, :, None] * np.einsum("nji,npj->npi", R, a)
-    for ld in case["loads"].values():
-        if ld["body"] == name:
-            F[:, fb.node_at(ld["at"] if not isinstance(ld["at"], list) else ld["at"][0]), :] += load_force(ld, t, R)
-    for jn, f in Xb.get("f", {}).items():
-        j = case["joints"][jn]
-        F[:, fb.node_at(j["at"] if not isinstance(j["at"], list) else j["at"][0]), :] += joint_force(f, joints[jn][1], R)
-    return F
+    loads = [(ld.point.node, load_force(ld, t, R)) for ld in case.loads.values() if ld.body == name]
+    forces = [(case.joints[jn].node, joint_force(f, joints[jn][1], R)) for jn, f in Xb.get("f", {}).items()]
+    return channels.node_forces(fb.m, np.einsum("nji,npj->npi", R, a), loads, forces)
 
 
-def load_force(ld: dict, t: np.ndarray, R: np.ndarray) -> np.ndarray:
+def load_force(ld: cases.Load, t: np.ndarray, R: np.ndarray) -> np.ndarray:
     """(n, 3) point load `ld` at the instants t (n,), body frame (R (n, 3, 3): body -> global)."""
-    f = profiles.load_factor(ld["profile"], t)[:, None] * np.asarray(ld["force"], dtype=float)
-    return f if ld["frame"] == "body" else np.einsum("nji,nj->ni", R, f)
+    f = profiles.load_factor(ld.profile, t)[:, None] * np.asarray(ld.force, dtype=float)
+    return f if ld.frame == "body" else np.einsum("nji,nj->ni", R, f)
 
 
 def joint_force(f: np.ndarray, R0, R: np.ndarray) -> np.ndarray:
@@ -573,24 +546,23 @@ def body_positions(Xb: dict, k: int) -> np.ndarray:
     return np.einsum("nji,nj->ni", R, Xb["r"][k] - Xb["p"])
 
 
-def joint_angle(case, fbs, X, j: dict) -> np.ndarray:
+def joint_angle(fbs, X, j: cases.Joint) -> np.ndarray:
     """Angle of the child frame from the input triad about the joint axis (continuous), rad."""
-    A = xc.axis_frame(j["axis"])
-    Rc = X[j["child"]]["R"].reshape(-1, 3, 3)
+    A = xc.axis_frame(j.axis)
+    Rc = X[j.child]["R"].reshape(-1, 3, 3)
     n = Rc.shape[0]
-    if j["parent"] == "ground":
+    if j.parent == "ground":
         Rp = np.tile(np.eye(3), (n, 1, 1))
     else:
-        Rp = X[j["parent"]]["R"].reshape(-1, 3, 3).copy()
-        fb = fbs.get(j["parent"])
+        Rp = X[j.parent]["R"].reshape(-1, 3, 3).copy()
+        fb = fbs.get(j.parent)
         if fb is not None:                                   # the triad turns with the node
-            p = fb.node_at(j["at"] if not isinstance(j["at"], list) else j["at"][0])
-            rot = X[j["parent"]]["eta"] @ fb.Phi[p, :3, :].T
+            rot = X[j.parent]["eta"] @ fb.Phi[j.node, :3, :].T
             Rp = np.array([R @ xc.rotvec(w) for R, w in zip(Rp, rot)])
-    Rin = Rp @ rotation_rpy(j["rpy"]) @ A
+    Rin = Rp @ np.array(j.triad) @ A
     Rrel = np.einsum("nji,njk->nik", Rin, Rc @ A)
     q = xc.angle_z(Rrel)
-    q0 = list(j["q0"])[0]
+    q0 = j.q0[0]
     return q + 2.0 * np.pi * np.round((q0 - q[0]) / (2.0 * np.pi))
 
 
@@ -600,7 +572,7 @@ def energy(case, fbs, X) -> np.ndarray:
     Flexible body: 1/2 sum m_p |v_p|^2 (+ 1/2 (w + Phi_r eta_d)' J_p (w + Phi_r eta_d), rotary
     inertia, body axes) - g . sum m_p r_p + 1/2 eta' Km eta. Rigid body: from its node's velocity,
     angular velocity and pose."""
-    g = np.asarray(case["gravity"], dtype=float)
+    g = np.asarray(case.gravity, dtype=float)
     E = 0.0
     for name, Xb in X.items():
         if name in fbs:
@@ -610,16 +582,17 @@ def energy(case, fbs, X) -> np.ndarray:
             wr = Xb["w"][:, None, :] + np.einsum("kij,nj->nki", fb.Phi[:, :3, :], Xb["eta_d"])   # (n, N, 3)
             E = E + 0.5 * np.einsum("nki,kij,nkj->n", wr, fb.J, wr)
             E = E + 0.5 * np.einsum("ni,ij,nj->n", Xb["eta"], fb.Km, Xb["eta"])
-        else:
-            b = case["bodies"][name]
+        else:                                   # a rigid body, or a beam declared rigid (`rigid_beam`)
+            b = case.bodies[name]
+            b = rigid_beam(b) if b.type == "beam" else b
             R = Xb["R"].reshape(-1, 3, 3)
-            com = np.asarray(b["com"], dtype=float)
-            xx, yy, zz, xy, xz, yz = b["inertia"]
+            com = np.asarray(b.com, dtype=float)
+            xx, yy, zz, xy, xz, yz = b.inertia
             Ic = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
             w = Xb["w"]
             vc = Xb["v"] + np.cross(np.einsum("nij,nj->ni", R, w), R @ com)
-            E = E + 0.5 * b["mass"] * np.einsum("ni,ni->n", vc, vc) + 0.5 * np.einsum("ni,ij,nj->n", w, Ic, w)
-            E = E - b["mass"] * (Xb["p"] + R @ com) @ g
+            E = E + 0.5 * b.mass * np.einsum("ni,ni->n", vc, vc) + 0.5 * np.einsum("ni,ij,nj->n", w, Ic, w)
+            E = E - b.mass * (Xb["p"] + R @ com) @ g
     return E
 
 
@@ -630,40 +603,40 @@ def energy(case, fbs, X) -> np.ndarray:
 def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
     """(SystemContainer, mbs, items by body name, sensors) of the case."""
     SC, mbs = xc.system()
-    order = case.resolved.order
+    order = case.order
     states = initial_states(case, order, fbs)
     items = {"ground": mbs.AddObject(eii.ObjectGround())}
     for name in order:
-        body = case["bodies"][name]
+        body = case.bodies[name]
         R, p, v, w = states[name]
         if name in fbs:
             items[name] = add_ffrf(mbs, fbs[name], ffrf_interface(fbs[name], rotary), R, p, v, w, fbs[name].Cm)
-        elif body["type"] == "rigid":
+        elif body.type == "rigid":
             items[name] = add_rigid(mbs, body, R, p, v, w)
         else:                                    # a beam declared rigid: its undeformed mass properties
-            rb = rigid_beam(name, body, case)
-            items[name] = add_rigid(mbs, rb, R, p, v, w)
-    joints = {jn: add_joint(mbs, items, case, fbs, jn, j) for jn, j in case["joints"].items()}
+            items[name] = add_rigid(mbs, rigid_beam(body), R, p, v, w)
+    joints = {jn: add_joint(mbs, items, case, fbs, j) for jn, j in case.joints.items()}
     add_loads(mbs, items, case, fbs, states, gravity_mode)
     S = add_sensors(mbs, items, case, fbs, joints)
     mbs.Assemble()
     return SC, mbs, items, S, joints
 
 
-def rigid_beam(name: str, body: dict, case) -> dict:
-    """Mass, COM and inertia about the COM of a beam declared rigid (its lumped undeformed nodes)."""
-    fb = flexbody.undeformed(name, body,
-                        case["materials"][body["material"]])
+def rigid_beam(body: cases.Beam) -> cases.Rigid:
+    """A beam declared rigid as a rigid body: mass, COM and inertia about the COM of its lumped
+    undeformed nodes."""
+    fb = flexbody.undeformed(body.name, body)
     m = fb.m.sum()
     c = fb.m @ fb.x0 / m
     d = fb.x0 - c
     I = fb.J.sum(axis=0) + np.einsum("p,pk,pl->kl", fb.m, d, d) * -1 + np.eye(3) * np.einsum("p,pk,pk->", fb.m, d, d)
-    return {"mass": m, "com": list(c), "inertia": [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]}
+    return cases.Rigid(name=body.name, mass=m, com=tuple(c),
+                       inertia=(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))
 
 
 def step_size(case, settings) -> float:
     """The fixed step (s), rounded so that it divides output_dt."""
-    out_dt = case["integrator"]["output_dt"]
+    out_dt = case.integrator.output_dt
     dt = settings.get("dt", SETTINGS["dt"][1])
     return out_dt / max(int(round(out_dt / dt)), 1) if dt <= out_dt else dt
 
@@ -682,7 +655,7 @@ def run(case, t_end, settings):
     sim = xc.simulation_settings(case, t_end, dt, opt)
     setup_s = time.perf_counter() - t_start
 
-    rec = record_steps(mbs, step_sensors(S), dt, case["integrator"]["output_dt"])
+    rec = record_steps(mbs, step_sensors(S), dt, case.integrator.output_dt)
     status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"], f"{case.name} / exudyn-ffrf")
     t = xc.output_grid(case, t_end)
     recorded = {"dt": dt, **{k: opt[k] for k in ("solver", "spectral_radius", "newton_rtol", "adaptive",
@@ -701,10 +674,5 @@ def run(case, t_end, settings):
         for Xb, Sb in ((X[b], S[b]) for b in axial_bodies(case, fbs)):
             for key in ("a", "f"):
                 Xb[key] = {k: step_mean(Xb[key][k], x, rec, t[:n], dt) for k, x in Sb[key].items()}
-    traj = trajectory(case, fbs, X, t[:n], joints)
-    r.t, r.channels, r.trajectory = t[:n], channels.channels(case, traj), traj
-    extent, outside = channels.validity(traj)
-    r.extra["validity"] = {"largest": extent, "limits": channels.LIMITS}
-    if outside is not None and r.ok:
-        r.status = results.outside_validity(*outside)
+    r.t, r.trajectory = t[:n], trajectory(case, fbs, X, t[:n], joints)
     return r

@@ -44,14 +44,14 @@ def applies(case) -> str:
     return why
 
 
-def load_vectors(case, n_dof: int, node_of) -> list:
-    """(f (n_dof,), profile) per point load, in the body frame."""
+def load_vectors(case, n_dof: int) -> list:
+    """(f (n_dof,), profile) per point load on its node, in the body frame."""
     out = []
-    for ld in case["loads"].values():
+    for ld in case.loads.values():
         f = np.zeros(n_dof)
-        p = node_of(ld["at"])
+        p = ld.point.node
         f[6 * p: 6 * p + 3] = common.body_force(case, ld)
-        out.append((f, ld["profile"]))
+        out.append((f, ld.profile))
     return out
 
 
@@ -59,23 +59,21 @@ def run(case, t_end, settings):
     from flexmbd.results import Result
     t_start = time.perf_counter()
     name, _ = common.clamped_beam(case)
-    body = case["bodies"][name]
-    mat = case["materials"][body["material"]]
-    nodes, elements, sec, K, M, _ = flexbody.fe_model(body, mat)
+    body = case.bodies[name]
+    nodes, elements, sec, K, M, _ = flexbody.fe_model(body)
     n_dof = K.shape[0]
     free = np.arange(6, n_dof)                         # root node clamped by the fixed joint
-    node_of = lambda x: flexbody.node_index(body["length"], body["elements"], x)
 
     # external loads: point loads with their profiles, gravity as constant nodal forces
-    loads = load_vectors(case, n_dof, node_of)
+    loads = load_vectors(case, n_dof)
     g = common.gravity_body(case)
     fg = M @ np.tile(np.r_[g, 0.0, 0.0, 0.0], nodes.shape[0])
 
     Kf, Mf = K[free][:, free].tocsc(), M[free][:, free].tocsc()
-    C = damping(Kf, Mf, body["damping_ratio"])
+    C = damping(Kf, Mf, body.damping_ratio)
 
     scheme = settings.get("scheme", "exact")
-    out_dt = case["integrator"]["output_dt"]
+    out_dt = case.integrator.output_dt
     dt = settings.get("dt") or (out_dt if scheme == "exact" else 5e-5)
     t_out = common.sample_times(case, t_end)
     stride = max(int(round(out_dt / dt)), 1)
@@ -95,26 +93,25 @@ def run(case, t_end, settings):
     traj = trajectory(case, name, t_out, u_full, nodes, elements, sec)
     if channels.wants_energy(case):
         traj.energy = {"total": energy(u_full, v_full, K, M, fg)}
-    return Result(solver="fe-linear", case=case.name, t=t_out, channels=channels.channels(case, traj), wall_s=wall_s,
+    return Result(solver="fe-linear", case=case.name, t=t_out, wall_s=wall_s,
                   setup_s=setup_s, steps=(t_out.size - 1) * stride, rhs_evals=(t_out.size - 1) * stride,
                   settings={"dt": dt, "scheme": scheme, "dofs": int(free.size),
-                            "elements": body["elements"], "mass": body["mass"]}, trajectory=traj)
+                            "elements": body.elements, "mass": body.mass}, trajectory=traj)
 
 
 def trajectory(case, name: str, t, U, nodes, elements, sec) -> channels.Trajectory:
     """The channels' view of the nodal displacements U (n, 6N) of the clamped beam `name`: node
     positions in the body frame (the root node is clamped: its frame is the body frame) and
-    section strains from the element shape functions."""
-    body = case["bodies"][name]
-    mat = case["materials"][body["material"]]
-    node_of = lambda x: flexbody.node_index(body["length"], body["elements"], x)
-    xs = channels.points_needed(case, name)
-    rows = {float(c["at"]): stress.strain_rows(nodes, elements, mat["E"], flexbody.shear_modulus(mat), sec, c["at"],
-                                               shear=body["shear"])
-            for c in case["channels"].values() if c["kind"] == "stress_vm"}
-    beam = channels.Beam(length=body["length"],
-                         points={x: nodes[node_of(x)] + U[:, 6 * node_of(x):6 * node_of(x) + 3] for x in xs},
-                         x0={x: nodes[node_of(x)] for x in xs}, root=np.tile(np.eye(3), (len(t), 1, 1)),
+    section strains from the element shape functions. A point x snaps to its node by the one
+    rule (`flexbody.node_index`, the case's mesh)."""
+    body = case.bodies[name]
+    mat = body.material
+    node = {x: flexbody.node_index(body.length, body.elements, x) for x in channels.points_needed(case, name)}
+    rows = {float(c.at): stress.strain_rows(nodes, elements, mat.E, mat.G, sec, c.at, shear=body.shear)
+            for c in case.channels.values() if c.kind == "stress_vm"}
+    beam = channels.Beam(length=body.length,
+                         points={x: nodes[k] + U[:, 6 * k:6 * k + 3] for x, k in node.items()},
+                         x0={x: nodes[k] for x, k in node.items()}, root=np.tile(np.eye(3), (len(t), 1, 1)),
                          strains={x: U @ r.T for x, r in rows.items()})
     return channels.Trajectory(t=t, beams={name: beam})
 

@@ -43,11 +43,10 @@ import time
 import numpy as np
 
 import mujoco
-from flexmbd import channels, profiles, results
+from flexmbd import cases, channels, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, rot_to_quat
-from flexmbd.integrate import Progress
-from flexmbd.spatial import rotation_rpy
+from flexmbd.progress import Progress
 
 SETTINGS = {
     "edges": ("int+", 40),                  # rod edges per beam
@@ -62,19 +61,19 @@ def version() -> str:
 
 
 def applies(case) -> str:
-    bodies, joints = case["bodies"], case["joints"]
+    bodies, joints = case.bodies, case.joints
     if len(bodies) != 1 or len(joints) != 1:
         return "one beam on one joint only (a hinge on a rod vertex has no material frame to follow)"
     (name, body), (jname, j) = next(iter(bodies.items())), next(iter(joints.items()))
-    if body["type"] != "beam" or body["rigid"]:
+    if body.type != "beam" or body.rigid:
         return f"body {name!r} is not a flexible beam"
-    if j["parent"] != "ground" or j["type"] not in ("fixed", "revolute"):
+    if j.parent != "ground" or j.type not in ("fixed", "revolute"):
         return f"joint {jname!r}: only a fixed or revolute joint to ground"
-    if j["motion"] is not None:
+    if j.motion is not None:
         return f"joint {jname!r}: prescribed motion is not modelled"
-    if body["section"]["shape"] != "rectangle":
+    if body.section.shape != "rectangle":
         return "rectangular sections only (box section of the rod)"
-    if body["damping_ratio"] > 0:
+    if body.damping_ratio > 0:
         return "modal damping has no counterpart in the rod"
     return ""
 
@@ -84,35 +83,37 @@ def applies(case) -> str:
 
 
 def rod_points(L: float, ne: int) -> tuple[np.ndarray, float]:
-    """Vertex positions along the beam x_k = (k - 1/2) l (ne + 1,) and the edge length l."""
+    """Vertex positions along the beam x_k = (k - 1/2) l (ne + 1,) and the edge length l. But for
+    the tip they are not the case's FE nodes (x = i L / elements): the first edge straddles the
+    clamp (vertex 0 at -l/2) and there are `edges` of them, not `elements`."""
     l = L / (ne - 0.5)
     return (np.arange(ne + 1) - 0.5) * l, l
 
 
-def section(body: dict) -> tuple[float, float]:
+def section(body: cases.Beam) -> tuple[float, float]:
     """Extents of the rectangle along the body's y and z axes, m."""
-    s = body["section"]
-    return (s["h"], s["b"]) if s["h_axis"] == "y" else (s["b"], s["h"])
+    s = body.section
+    return (s.h, s.b) if s.h_axis == "y" else (s.b, s.h)
 
 
 def mjcf(case, ne: int, dt: float, tc: float, integrator: str) -> str:
     """MJCF text of the case's beam as a rod named `rod` in a parent body `root`."""
-    (name, body), j = next(iter(case["bodies"].items())), next(iter(case["joints"].values()))
-    mat = case["materials"][body["material"]]
-    L, (ey, ez) = body["length"], section(body)
+    body, j = next(iter(case.bodies.values())), next(iter(case.joints.values()))
+    mat = body.material
+    L, (ey, ez) = body.length, section(body)
     x, l = rod_points(L, ne)
     A = ey * ez
-    m_seg = mat["rho"] * A * l                              # the segment [0, l] held by the root
-    r = np.asarray(j["at"] if isinstance(j["at"], list) else [0.0, 0.0, 0.0], dtype=float)
-    R = rotation_rpy(j["rpy"])
-    axis = np.asarray(j["axis"], dtype=float)
-    hinge = f'<joint name="pivot" type="hinge" axis="{fmt(axis)}"/>' if j["type"] == "revolute" else ""
+    m_seg = mat.rho * A * l                                 # the segment [0, l] held by the root
+    r = np.asarray(j.offset, dtype=float)                   # the joint on ground
+    R = np.array(j.triad)
+    axis = np.asarray(j.axis, dtype=float)
+    hinge = f'<joint name="pivot" type="hinge" axis="{fmt(axis)}"/>' if j.type == "revolute" else ""
     pts = " ".join(fmt(xk, 0.0, 0.0) for xk in x)
     elements = " ".join(f"{k} {k + 1}" for k in range(ne))
-    q0 = float(j["q0"][0]) if j["q0"] else 0.0
+    q0 = float(j.q0[0]) if j.q0 else 0.0
     return f'''<mujoco model="flexmbd rod">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="{fmt(dt)}" integrator="{integrator}" solver="Newton" gravity="{fmt(case["gravity"])}"
+  <option timestep="{fmt(dt)}" integrator="{integrator}" solver="Newton" gravity="{fmt(case.gravity)}"
           tolerance="1e-12" iterations="200">
     <flag contact="disable" energy="enable" refsafe="disable"/>
   </option>
@@ -125,7 +126,7 @@ def mjcf(case, ne: int, dt: float, tc: float, integrator: str) -> str:
                 mass="{fmt(m_seg * (ne + 1))}" radius="{fmt(min(ey, ez) / 2)}">
         <pin id="0 1"/>
         <edge equality="true" solref="{fmt(tc)} 1" solimp="0.9999 0.9999 0.001 0.5 2"/>
-        <elasticity young="{fmt(mat["E"])}" poisson="{fmt(mat["nu"])}" section="box" sectionsize="{fmt(ey / 2, ez / 2)}"/>
+        <elasticity young="{fmt(mat.E)}" poisson="{fmt(mat.nu)}" section="box" sectionsize="{fmt(ey / 2, ez / 2)}"/>
         <contact contype="0" conaffinity="0"/>
       </flexcomp>
     </body>
@@ -136,10 +137,10 @@ def mjcf(case, ne: int, dt: float, tc: float, integrator: str) -> str:
 
 def compile_rod(case, ne: int, dt: float, tc: float, integrator: str):
     """MjModel of the rod with the beam's lumped vertex masses (rho A l inside, rho A l / 2 at the tip)."""
-    body = next(iter(case["bodies"].values()))
-    rho = case["materials"][body["material"]]["rho"]
+    body = next(iter(case.bodies.values()))
+    rho = body.material.rho
     ey, ez = section(body)
-    _, l = rod_points(body["length"], ne)
+    _, l = rod_points(body.length, ne)
     text, q0 = mjcf(case, ne, dt, tc, integrator)
     spec = mujoco.MjSpec.from_string(text)
     for k in range(2, ne + 1):
@@ -190,8 +191,7 @@ def bending_energy(X, E: float, Iz: float, Iy: float, l0: float) -> float:
 def sample(case, m, d, ne: int, l: float) -> dict:
     """What the trajectory needs of the current state: vertex positions X (ne + 1, 3) in the
     root frame, the hinge coordinate q, and the energy E (MuJoCo's plus the rod's bending energy)."""
-    body = next(iter(case["bodies"].values()))
-    mat = case["materials"][body["material"]]
+    body = next(iter(case.bodies.values()))
     R, p = root_frame(m, d)
     X = (vertex_positions(m, d, ne) - p) @ R
     out = {"X": X, "q": d.qpos[m.jnt_qposadr[m.joint("pivot").id]] if "pivot" in names(m) else 0.0}
@@ -199,7 +199,7 @@ def sample(case, m, d, ne: int, l: float) -> dict:
         ey, ez = section(body)
         mujoco.mj_energyPos(m, d)
         mujoco.mj_energyVel(m, d)
-        out["E"] = d.energy.sum() + bending_energy(X, mat["E"], ez * ey ** 3 / 12, ey * ez ** 3 / 12, l)
+        out["E"] = d.energy.sum() + bending_energy(X, body.material.E, ez * ey ** 3 / 12, ey * ez ** 3 / 12, l)
     return out
 
 
@@ -211,16 +211,16 @@ def trajectory(case, rows: list, t: np.ndarray, s: np.ndarray) -> channels.Traje
         traj.joints[jname] = np.array([r["q"] for r in rows])
     if channels.wants_energy(case):
         traj.energy = {"total": np.array([r["E"] for r in rows])}
-    name, body = next(iter(case["bodies"].items()))
+    name, body = next(iter(case.bodies.items()))
     X = np.array([r["X"] for r in rows])                                   # (n, ne + 1, 3)
     at = lambda x, F, grid: np.array([[np.interp(x, grid, f[:, k]) for k in range(F.shape[2])] for f in F])
     xs = channels.points_needed(case, name)
     K = np.array([curvatures(x) for x in X])                               # (n, ne + 1, 3)
     strain = lambda x: np.column_stack([np.zeros(len(t)), at(x, K[:, 1:-1, 1:], s[1:-1]), np.zeros(len(t))])
     traj.beams[name] = channels.Beam(
-        length=body["length"], points={x: at(x, X, s) for x in xs}, x0={x: np.array([x, 0.0, 0.0]) for x in xs},
+        length=body.length, points={x: at(x, X, s) for x in xs}, x0={x: np.array([x, 0.0, 0.0]) for x in xs},
         root=np.tile(np.eye(3), (len(t), 1, 1)),
-        strains={float(c["at"]): strain(c["at"]) for c in case["channels"].values() if c["kind"] == "stress_vm"})
+        strains={float(c.at): strain(c.at) for c in case.channels.values() if c.kind == "stress_vm"})
     return traj
 
 
@@ -229,15 +229,17 @@ def names(m) -> set:
 
 
 def apply_loads(case, m, d, ne: int, s: np.ndarray) -> None:
-    """Point loads on the nearest rod vertex (xfrc_applied, world frame), at time d.time."""
+    """Point loads on the rod vertex nearest to where the case puts them (xfrc_applied, world
+    frame), at time d.time. The vertices s are not the case's FE nodes (`rod_points`), so a load
+    goes to its own nearest vertex, not to the case's node (`Load.point.node`)."""
     d.xfrc_applied[:] = 0.0
     R, _ = root_frame(m, d)
-    for ld in case["loads"].values():
-        k = int(np.argmin(np.abs(s - ld["at"])))
+    for ld in case.loads.values():
+        k = int(np.argmin(np.abs(s - ld.point.x)))
         if k < 2:                                           # on the support: carried by the root body
             continue
-        f = np.asarray(ld["force"], dtype=float) * float(profiles.load_factor(ld["profile"], d.time))
-        d.xfrc_applied[m.body(f"rod_{k}").id, :3] += f if ld["frame"] == "global" else R @ f
+        f = np.asarray(ld.force, dtype=float) * float(profiles.load_factor(ld.profile, d.time))
+        d.xfrc_applied[m.body(f"rod_{k}").id, :3] += f if ld.frame == "global" else R @ f
 
 
 # ---------------------------------------------------------------------------------------------
@@ -249,15 +251,14 @@ def run(case, t_end, settings):
     get = lambda k: settings.get(k, SETTINGS[k][1])
     ne, tc, integrator = get("edges"), get("edge_timeconst"), get("integrator")
     t0 = time.perf_counter()
-    out_dt = case["integrator"]["output_dt"]
+    out_dt = case.integrator.output_dt
     stride = max(int(np.ceil(out_dt / get("dt") - 1e-9)), 1)
     dt = out_dt / stride
     m, q0 = compile_rod(case, ne, dt, tc, integrator)
     d = mujoco.MjData(m)
     if "pivot" in names(m):
         d.qpos[m.jnt_qposadr[m.joint("pivot").id]] = q0
-    body = next(iter(case["bodies"].values()))
-    s, l = rod_points(body["length"], ne)
+    s, l = rod_points(next(iter(case.bodies.values())).length, ne)
     setup_s = time.perf_counter() - t0
 
     t_out = common.sample_times(case, t_end)
@@ -281,7 +282,7 @@ def run(case, t_end, settings):
 
     n = len(rows)
     traj = trajectory(case, rows, t_out[:n], s)
-    return Result(solver="mujoco-rod", case=case.name, t=t_out[:n], channels=channels.channels(case, traj),
+    return Result(solver="mujoco-rod", case=case.name, t=t_out[:n],
                   status=status, wall_s=wall_s, setup_s=setup_s, steps=(n - 1) * stride, rhs_evals=(n - 1) * stride,
                   settings={"edges": ne, "edge_length": l, "dt": dt, "integrator": integrator,
                             "solver": "Newton", "edge_timeconst": tc, "section": "box",

@@ -1,4 +1,16 @@
-"""A flexmbd rigid Model rebuilt as a Pinocchio model (programmatically, no URDF).
+"""Pinocchio models: the `pinocchio` peer's, built from a case, and a flexmbd Model's, for tests.
+
+The peer's model (`rigid_model`, `initial_state`) is built from the case's rigid limit as a user
+of Pinocchio would build it, through Pinocchio's model API (`pin.Model.addJoint`,
+`appendBodyToJoint`, `pin.Inertia`, `pin.SE3`): the bodies, joints and loads of the case
+(`common.rigid_bodies`), never flexmbd's Model arrays, so an error in `build.from_case` shows up
+as a disagreement. The API rather than URDF text: URDF has no spherical joint and only one
+floating base (the cases may hold several free joints, and spherical ones), and the API takes the
+numbers as floats, with no text round trip.
+
+`build`, `build_frames`, `to_pin_q`, `to_pin_v`, `from_pin_v` convert a rigid flexmbd Model
+itself; they serve the checks of flexmbd's recursive algorithms on given Model arrays
+(tests/test_dynamics.py, tests/test_integrate.py, `flexmbd bench`), not the peer.
 
 Conventions converted here and nowhere else: Pinocchio's spatial vectors are [linear; angular],
 its quaternions [x, y, z, w] (flexmbd: [w, x, y, z]), its free-flyer configuration
@@ -15,6 +27,64 @@ import pinocchio as pin
 from flexmbd import spatial
 from flexmbd.joints import FIXED, FREE, PRISMATIC, REVOLUTE, SPHERICAL
 from flexmbd.model import Model
+
+
+# ---------------------------------------------------------------------------------------------
+# the peer: a case's rigid limit
+
+
+def rigid_model(bodies, gravity) -> tuple["pin.Model", dict]:
+    """Pinocchio model of a case's rigid limit (`common.rigid_bodies`, tree order) under gravity
+    (3,); returns (model, frame) with frame[body name] = (pin joint id, placement of the body
+    frame in that joint's frame): a body on a fixed joint lives in its parent's joint at the
+    composed placement of its triad."""
+    pm = pin.Model()
+    pm.gravity.linear = np.asarray(gravity, dtype=float)
+    frame = {"ground": (0, pin.SE3.Identity())}
+    for b in bodies:
+        jid_parent, off = frame[b.parent]
+        placement = off * pin.SE3(b.R, b.r)                    # the input triad in the joint frame
+        inertia = pin.Inertia(b.mass, b.com, b.inertia)         # body frame, about the com
+        if b.type == "fixed":
+            pm.appendBodyToJoint(jid_parent, inertia, placement)
+            frame[b.name] = (jid_parent, placement)
+            continue
+        jm = {"revolute": lambda: pin.JointModelRevoluteUnaligned(b.axis),
+              "prismatic": lambda: pin.JointModelPrismaticUnaligned(b.axis),
+              "spherical": pin.JointModelSpherical, "free": pin.JointModelFreeFlyer}[b.type]()
+        jid = pm.addJoint(jid_parent, jm, placement, b.joint)
+        pm.appendBodyToJoint(jid, inertia, pin.SE3.Identity())  # the body frame is the joint frame
+        frame[b.name] = (jid, pin.SE3.Identity())
+    return pm, frame
+
+
+def initial_state(pm, bodies, frame) -> tuple[np.ndarray, np.ndarray]:
+    """(q, v) in Pinocchio's layout from the case's initial values: rotation vectors become
+    quaternions [x, y, z, w] (`pin.exp3`), the free joint's [w; v] (body frame) becomes [v; w]."""
+    q, v = pin.neutral(pm), np.zeros(pm.nv)
+    for b in bodies:
+        if b.type == "fixed":
+            continue
+        j = pm.joints[frame[b.name][0]]
+        iq, iv = j.idx_q, j.idx_v
+        if b.type in ("revolute", "prismatic"):
+            q[iq], v[iv] = b.q0[0], b.qd0[0]
+        elif b.type == "spherical":
+            q[iq:iq + 4] = quaternion(b.q0)
+            v[iv:iv + 3] = b.qd0
+        else:
+            q[iq:iq + 3], q[iq + 3:iq + 7] = b.q0[3:], quaternion(b.q0[:3])
+            v[iv:iv + 3], v[iv + 3:iv + 6] = b.qd0[3:], b.qd0[:3]
+    return q, v
+
+
+def quaternion(rotvec) -> np.ndarray:
+    """Pinocchio's quaternion [x, y, z, w] of a rotation vector (3,)."""
+    return pin.Quaternion(pin.exp3(np.asarray(rotvec, dtype=float))).coeffs().copy()
+
+
+# ---------------------------------------------------------------------------------------------
+# a rigid flexmbd Model, for the checks of the recursive algorithms
 
 
 def se3(X) -> "pin.SE3":

@@ -1,15 +1,39 @@
 """`pinocchio`: the rigid limit of a case, in Pinocchio.
 
-Every beam is declared rigid (mass, centre of mass and inertia from its reduced body's
-undeformed invariants, `model.rigid_inertia_of_beam`), so a difference from `flexmbd` is
-elasticity and nothing else. The tree is built programmatically (`pinocchio_model.build_frames`,
-no URDF); forward dynamics by `aba` (by `crba` + `rnea` when some joints are prescribed),
-integrated by scipy's DOP853 at tight tolerance.
+The model is built from the case itself, as a user of Pinocchio would build it, never from
+flexmbd's Model (`build.from_case`), so that it checks flexmbd rather than repeating it:
+`common.rigid_bodies` reads the case's bodies, materials and joints, and
+`pinocchio_model.rigid_model` builds the tree through Pinocchio's model API (`addJoint`,
+`appendBodyToJoint`, `pin.Inertia`, `pin.SE3`; no URDF: it has no spherical joint and one
+floating base only).
+
+- Every beam, flexible or declared rigid, is a rigid prism (`common.beam_inertia`): mass
+  m = rho A L, centre of mass [L/2, 0, 0] on its axis, inertia about the centre of mass
+  I_c = diag(rho L (Iy + Iz), m L^2/12 + rho L Iy, m L^2/12 + rho L Iz), with A, Iy = int z^2 dA,
+  Iz = int y^2 dA of the section in closed form (docs/formulation.md, "rigid limit of a beam for
+  the rigid peers"). Setting `beam_mass = "lumped"` models the case's mesh of n elements with
+  lumped node masses instead, the rigid body flexmbd integrates for a beam declared rigid: the
+  terms across the beam become m L^2/12 (1 + 2/n^2), the rest is the same.
+- A rigid body takes its mass, centre of mass and inertia (about the centre of mass) as the case
+  gives them.
+- A joint's input triad sits at `at` in the parent frame (ground, rigid body) or, on a beam, at
+  the node `at` snaps to, [x, 0, 0] on the parent's axis (`case.joints[name].x`, the
+  same node flexmbd uses), turned by the rotation of its `rpy`; the child's body frame is the
+  joint's output frame (Pinocchio's joint frame), the joint axis a unit vector in it.
+- Point loads act at `at` on a rigid body, at the snapped node [x, 0, 0] on a beam, in the body
+  or the global frame, scaled by their time profile.
+
+A difference from `flexmbd` on a case whose beams are declared rigid is then an error in one of
+the two models (with `beam_mass = "prism"` also flexmbd's lumping, 2/n^2 of the inertia across
+each beam about its centre of mass); on a flexible case it is elasticity. Forward dynamics by
+`aba` (by `crba` + `rnea` when some joints are prescribed), integrated by scipy's DOP853 at tight
+tolerance.
 
 State y = [q; v] in Pinocchio's layout (quaternions [x, y, z, w], free flyer [p; quat] and
-[v; w] in the joint frame); `pinocchio_model` converts to and from flexmbd's layout.
+[v; w] in the joint frame), set from the case's initial values (`pinocchio_model.initial_state`).
 Channels: joint angles and energy (kinetic + gravitational, Pinocchio's own energy functions)
-from the engine's state; deflections and stresses of the rigid beams are identically zero.
+from the engine's state; deflections and stresses of the rigid beams are identically zero (the
+trajectory holds no Beam).
 """
 
 from __future__ import annotations
@@ -22,13 +46,13 @@ from scipy.integrate import DOP853, RK45, Radau
 
 from flexmbd import cases, channels, profiles, results
 from flexmbd.adapters import common, pinocchio_model
-from flexmbd.build import from_case
 
 RIGID = True                        # every beam rigid: deformation channels are zero, not compared
 SETTINGS = {
     "method": (("DOP853", "RK45", "Radau"), "DOP853"),
     "rtol": ("float+", 1e-12),
     "atol": ("float+", 1e-12),
+    "beam_mass": (common.BEAM_MASS, "prism"),     # a beam's inertia: the prism, or its lumped mesh
 }
 METHODS = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau}
 QUAT_JOINTS = ("JointModelSpherical", "JointModelFreeFlyer")
@@ -45,8 +69,9 @@ def applies(case) -> str:
 
 
 def rigid_case(case):
-    """The case with every beam declared rigid (validated like any case)."""
-    extra = [f"bodies.{n}.rigid=true" for n, b in case["bodies"].items() if b["type"] == "beam"]
+    """The case with every beam declared rigid (validated like any case): what flexmbd runs to
+    compare with this peer (the peer itself makes every beam rigid when it reads the case)."""
+    extra = [f"bodies.{n}.rigid=true" for n, b in case.bodies.items() if b.type == "beam"]
     return cases.load(str(case.path), list(case.overrides) + extra)
 
 
@@ -55,26 +80,25 @@ def rigid_case(case):
 
 
 class Rigid:
-    """Pinocchio model and data of the rigid limit, with its prescribed joints and point loads."""
+    """Pinocchio model and data of a case's rigid limit, with its prescribed joints and point
+    loads, built from the case (`common.rigid_bodies`, `pinocchio_model.rigid_model`)."""
 
-    def __init__(self, model):
-        self.model = model
-        self.pm, self.frame = pinocchio_model.build_frames(model)
+    def __init__(self, case, beam_mass: str = "prism"):
+        self.bodies = common.rigid_bodies(case, beam_mass)
+        self.pm, self.frame = pinocchio_model.rigid_model(self.bodies, case.gravity)
         self.pd = self.pm.createData()
         self.nq, self.nv = self.pm.nq, self.pm.nv
-        # prescribed 1-DOF joints: (pin q index, pin v index, profile, flexmbd q0)
-        self.prescribed = []
-        for i in range(1, model.nb + 1):
-            p = model.jnt_motion[i]
-            if p is not None:
-                j = self.pm.joints[self.frame[i][0]]
-                self.prescribed.append((j.idx_q, j.idx_v, p, model.q0[model.jnt_qadr[i]]))
+        self.q0, self.v0 = pinocchio_model.initial_state(self.pm, self.bodies, self.frame)
+        # the Pinocchio joint of each case joint that has one (fixed joints have none)
+        self.joint = {b.joint: self.pm.joints[self.frame[b.name][0]] for b in self.bodies if b.type != "fixed"}
+        # prescribed 1-DOF joints: (pin q index, pin v index, profile, the case's q0)
+        self.prescribed = [(self.joint[b.joint].idx_q, self.joint[b.joint].idx_v, b.motion, b.q0[0])
+                           for b in self.bodies if b.motion is not None]
         self.pv = np.array([k[1] for k in self.prescribed], dtype=int)
         self.fv = np.setdiff1d(np.arange(self.nv), self.pv)
         # point loads: (pin joint id, body placement in it, point (3,) and force (3,) body frame, global?, profile)
-        self.loads = [(self.frame[b][0], self.frame[b][1], model.load_point[k], model.load_force[k],
-                       bool(model.load_global[k]), model.load_profiles[k])
-                      for k, b in enumerate(model.load_body) if self.frame[b][0] != 0]
+        self.loads = [(*self.frame[ld.body], ld.point, ld.force, ld.glob, ld.profile)
+                      for ld in common.rigid_loads(case) if self.frame[ld.body][0] != 0]
         self.evals = 0
 
     def impose(self, t, q, v):
@@ -170,26 +194,24 @@ def integrate(eng: Rigid, y0, t_out, method: str, rtol: float, atol: float):
     return Y, steps, results.Status()
 
 
-def trajectory(case, model, eng: Rigid, t, Q, V) -> channels.Trajectory:
+def trajectory(case, eng: Rigid, t, Q, V) -> channels.Trajectory:
     """The trajectory from Pinocchio states Q (n, nq), V (n, nv)."""
-    return common.rigid_trajectory(case, model, t, lambda i: Q[:, eng.pm.joints[eng.frame[i][0]].idx_q].copy(),
+    return common.rigid_trajectory(case, t, lambda jname: Q[:, eng.joint[jname].idx_q].copy(),
                                    lambda: np.array([eng.energy(q, v) for q, v in zip(Q, V)]))
 
 
 def run(case, t_end, settings):
     from flexmbd.results import Result
     t0 = time.perf_counter()
-    model = from_case(rigid_case(case))
-    eng = Rigid(model)
+    beam_mass = settings.get("beam_mass", SETTINGS["beam_mass"][1])
+    eng = Rigid(case, beam_mass)
     setup_s = time.perf_counter() - t0
 
     method = settings.get("method", SETTINGS["method"][1])
     rtol = settings.get("rtol", SETTINGS["rtol"][1])
     atol = settings.get("atol", SETTINGS["atol"][1])
     t_out = common.sample_times(case, t_end)
-    q0 = pinocchio_model.to_pin_q(model, model.q0)
-    v0 = pinocchio_model.to_pin_v(model, model.v0)
-    q0, v0, _ = eng.impose(0.0, q0, v0)
+    q0, v0, _ = eng.impose(0.0, eng.q0.copy(), eng.v0.copy())
 
     t1 = time.perf_counter()
     Y, steps, status = integrate(eng, np.concatenate([q0, v0]), t_out, method, rtol, atol)
@@ -200,8 +222,9 @@ def run(case, t_end, settings):
     Q, V = Y[:, :eng.nq].copy(), Y[:, eng.nq:].copy()
     for k, t in enumerate(t_out):
         Q[k], V[k], _ = eng.impose(t, Q[k], V[k])
-    return Result(solver="pinocchio", case=case.name, t=t_out, channels=channels.channels(
-                      case, trajectory(case, model, eng, t_out, Q, V)),
-                  status=status, wall_s=wall_s, setup_s=setup_s, steps=steps, rhs_evals=eng.evals,
-                  settings={"method": method, "rtol": rtol, "atol": atol,
-                            "model": "rigid limit: every beam rigid, undeformed reduced-body inertia"})
+    traj = trajectory(case, eng, t_out, Q, V)
+    return Result(solver="pinocchio", case=case.name, t=t_out,
+                  trajectory=traj, status=status, wall_s=wall_s, setup_s=setup_s, steps=steps,
+                  rhs_evals=eng.evals,
+                  settings={"method": method, "rtol": rtol, "atol": atol, "beam_mass": beam_mass,
+                            "model": common.rigid_limit_text(beam_mass)})

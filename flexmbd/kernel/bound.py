@@ -19,7 +19,7 @@ from numba.experimental import structref
 from numba.extending import intrinsic
 
 from flexmbd.invariants import stack
-from flexmbd.kernel.jit import PURE_PYTHON, njit
+from flexmbd.jit import PURE_PYTHON, njit
 from flexmbd.model import Arrays, Data, Model, empty_arrays, empty_data, empty_loads
 
 

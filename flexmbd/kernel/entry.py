@@ -16,9 +16,9 @@ import numpy as np
 from numba import carray, types
 
 from flexmbd.dynamics import aba, prescribed
+from flexmbd.jit import PURE_PYTHON, cfunc, njit
 from flexmbd.joints import qdot
 from flexmbd.kernel.bound import Bound, bind, bound_at, call_entry
-from flexmbd.kernel.jit import PURE_PYTHON, cfunc, njit
 from flexmbd.model import Data, Model
 
 _P = types.CPointer(types.float64)

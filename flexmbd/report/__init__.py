@@ -1,1 +1,2 @@
-"""Report generation: a pure function of stored results (it never runs a solver)."""
+"""The report, a pure function of stored results (its pages never run a solver), and the
+regression against the baselines (`regress.run`, which runs the solvers unless given stored results)."""

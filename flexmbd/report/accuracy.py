@@ -7,20 +7,21 @@ from typing import NamedTuple
 import numpy as np
 
 from flexmbd import channels, metrics
+from flexmbd.results import Status
 
 DEFORMATION = ("deflection", "stress_vm")
 
 
 def comparable(case, solver_module, channel: str) -> bool:
     """Rigid peers (module attribute RIGID) report deformation channels as zero: not compared."""
-    kind = case["channels"][channel]["kind"]
+    kind = case.channels[channel].kind
     return not (getattr(solver_module, "RIGID", False) and kind in DEFORMATION)
 
 
 def cutoff_hz(case, channel: str, freqs: dict) -> float:
     """Low-pass cutoff separating the slow part of a channel from its vibration: half the lowest
     retained natural frequency of the channel's body (of any flexible body for body-less channels)."""
-    body = case["channels"][channel].get("body")
+    body = case.channels[channel].body
     pool = freqs.get(body) if body in freqs else [f for fs in freqs.values() for f in fs]
     pool = [f for f in pool if f > 0]
     return 0.5 * min(pool) if pool else np.nan
@@ -35,7 +36,7 @@ def dominant_frequency(t, y, fmin: float) -> float:
 def ungraded(case) -> str:
     """'' when the case grades its runs, else why not: a case that names no reference solver has
     nothing to compare a run with and no tolerance to hold it to."""
-    if case["report"]["reference"] is not None:
+    if case.report.reference is not None:
         return ""
     return ("the case names no reference solver (report.reference; a case file without a [report] table names "
             "none), so no run is compared and no tolerance applies")
@@ -44,21 +45,21 @@ def ungraded(case) -> str:
 @np.errstate(over="ignore")        # a difference beyond the largest double is inf: a fail, shown as such
 def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
     """One row per (solver, channel) compared with the reference. `results`: solver -> Result."""
-    ref_name = case["report"]["reference"]
+    ref_name = case.report.reference
     ref = results.get(ref_name)
     if ref is None or not ref.ok:
         return []
-    tol = case["report"]["tolerances"]
+    tol = case.report.tolerances
     out = []
     for name, r in results.items():
         if name == ref_name or not r.ok:
             continue
-        for ch in case["channels"]:
+        for ch in case.channels:
             if ch not in r.channels or ch not in ref.channels or not comparable(case, modules.get(name), ch):
                 continue
             y = metrics.on_grid(ref.t, r.t, r.channels[ch])
             x = ref.channels[ch]
-            k = metrics.channel_norm(case["channels"][ch]["kind"], x,
+            k = metrics.channel_norm(case.channels[ch].kind, x,
                                      channels.physical_scale(case, ch, ref.extra.get("kinetic_max_J")))
             row = {"case": case.name, "solver": name, "reference": ref_name, "channel": ch,
                    "rms": metrics.rms_diff(x, y, k), "max": metrics.max_diff(x, y, k),
@@ -66,7 +67,7 @@ def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
                    "f_ref": np.nan, "f_solver": np.nan, "envelope": np.nan, "slow": np.nan,
                    "tolerance": tol.get(ch, np.nan)}
             fc = cutoff_hz(case, ch, freqs)
-            if case["channels"][ch]["kind"] in DEFORMATION and np.isfinite(fc):
+            if case.channels[ch].kind in DEFORMATION and np.isfinite(fc):
                 ok = np.isfinite(y)
                 tt, xx, yy = ref.t[ok], x[ok], y[ok]
                 row["f_ref"] = dominant_frequency(tt, xx, fc)
@@ -79,10 +80,13 @@ def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
 
 
 class Verdict(NamedTuple):
-    """One case x solver at a glance: `kind` one of VERDICTS, `text` the one line shown."""
+    """One case x solver at a glance: `kind` one of VERDICTS, `text` the one line shown (str())."""
 
     kind: str
     text: str
+
+    def __str__(self) -> str:
+        return self.text
 
 
 VERDICTS = ("pass", "fail", "outside validity", "failed", "not applicable", "unavailable", "reference",
@@ -117,9 +121,17 @@ def verdict(status, solver: str, reference: str, rows_: list[dict]) -> Verdict:
     return Verdict("pass", f"pass: {len(mine)} channel{'s' * (len(mine) != 1)} within tolerance")
 
 
-def kind_of(text: str) -> str:
-    """The verdict kind a verdict's text starts with (VERDICTS)."""
-    return max((k for k in VERDICTS if text == k or text.startswith((k + ":", k + " "))), key=len, default="")
+class Outcome(NamedTuple):
+    """One run of a case as the pages and the command line show it: its `status`, its `verdict`
+    (`verdict`), its `worst` normalised RMS difference (`worst`; NaN for the reference) and its
+    solve wall time `wall_s` (s; NaN for a result that was not run)."""
+
+    case: str
+    solver: str
+    status: Status
+    verdict: Verdict
+    worst: float
+    wall_s: float
 
 
 def summary(verdicts: list) -> str:

@@ -49,14 +49,13 @@ def save(fig, path: Path) -> str:
 
 def where(case, name: str) -> str:
     """A channel's title: what, on which body, where."""
-    c = case["channels"][name]
-    if c["kind"] in ("deflection", "stress_vm") and "body" in c:
-        at = f" at x = {c['at']:g} m" if "at" in c else ""
-        comp = f", {c['component']}" if c["kind"] == "deflection" else ""
-        return f"{case.name}: {name} ({c['kind']}{comp}) of {c['body']}{at}"
-    if c["kind"] == "joint_angle":
-        return f"{case.name}: {name} (angle of joint {c['joint']})"
-    return f"{case.name}: {name} ({c['kind']})"
+    c = case.channels[name]
+    if c.kind in ("deflection", "stress_vm"):
+        comp = f", {c.component}" if c.kind == "deflection" else ""
+        return f"{case.name}: {name} ({c.kind}{comp}) of {c.body} at x = {c.at:g} m"
+    if c.kind == "joint_angle":
+        return f"{case.name}: {name} (angle of joint {c.joint})"
+    return f"{case.name}: {name} ({c.kind})"
 
 
 def legend(ax, **kw) -> None:
@@ -123,7 +122,7 @@ def channel_figure(case, name: str, results: dict, reference: str):
     the range) draws as a solid band: a third row then shows its first and its last ZOOM_PERIODS (4)
     periods side by side, shaded on the overview. An energy is drawn as its change from t = 0 (each
     solver's own E(0) removed) and is never zoomed. Returns the Figure (`channel` saves it)."""
-    kind = case["channels"][name]["kind"]
+    kind = case.channels[name].kind
     unit, k = UNITS[kind]
     curves = {s: (np.asarray(r.t, dtype=float), drawn(kind, r.channels[name], k)) for s, r in results.items()
               if name in r.channels and len(r.t)}
@@ -210,8 +209,8 @@ def spectra(case, name: str, results: dict, system_hz, nyquist: float, path: Pat
 def elasticity(case, flexible, rigid, rigid_name: str, path: Path) -> str:
     """Flexible minus rigid joint angles: what elasticity changes."""
     fig, ax = plt.subplots(figsize=(9, 3.6))
-    for ch, c in case["channels"].items():
-        if c["kind"] == "joint_angle" and ch in flexible.channels and ch in rigid.channels:
+    for ch, c in case.channels.items():
+        if c.kind == "joint_angle" and ch in flexible.channels and ch in rigid.channels:
             d = flexible.channels[ch] - metrics.on_grid(flexible.t, rigid.t, rigid.channels[ch])
             ax.plot(flexible.t, d, lw=1.0, label=f"{ch}: flexmbd - {rigid_name}")
     ax.set_xlabel("t [s]")
@@ -338,7 +337,7 @@ def work_precision_figure(rows: list):
 
 
 def frozen(case, solver: str, sweep: list, fmin: float, fmax: float, path: Path) -> str:
-    """The system's frequencies along a run (`report.build.frozen_modes`: linearized about the
+    """The system's frequencies along a run (`report.spectra.frozen_modes`: linearized about the
     run's state at each instant, frozen) against time, from fmin to fmax on a log scale: how far a
     swinging or spun system's vibration frequencies move."""
     fig, ax = plt.subplots(figsize=(9, 4.2))

@@ -26,7 +26,7 @@ def drawn(case, results: dict) -> dict:
     for body, size in out.items():
         top = max(size.values())
         out[body] = {c: v for c, v in size.items() if v > 1e-6 * top} or {1: 0.0}
-    return {b: out[b] for b in case["bodies"] if b in out}
+    return {b: out[b] for b in case.bodies if b in out}
 
 
 def nearest(s: dict, instant: float, half: float) -> int | None:
@@ -43,16 +43,16 @@ def snapshot(case, results: dict, path: Path, reference: str | None = None) -> s
     undeformed position along the beam (m), the reference drawn wider. The PNG's file name, or
     None when no result holds shapes."""
     panels = [(body, c) for body, comps in drawn(case, results).items() for c in comps]
-    instants = case["report"]["snapshots"]
+    instants = case.report.snapshots
     if not panels:
         return None
-    half = 0.5 * case["integrator"]["output_dt"] * (1.0 + 1e-9)
+    half = 0.5 * case.integrator.output_dt * (1.0 + 1e-9)
     ncol = min(len(instants), COLUMNS)
     rows_each = -(-len(instants) // ncol)
     fig, axes = plt.subplots(len(panels) * rows_each, ncol, squeeze=False, layout="constrained",
                              figsize=(2.5 * ncol + 0.8, 2.4 * len(panels) * rows_each + 0.8))
     for p, (body, c) in enumerate(panels):
-        frame = "chord" if case["bodies"][body]["modes"]["boundary"] == "hinged-hinged" else "root-node"
+        frame = "chord" if case.bodies[body].modes.boundary == "hinged-hinged" else "root-node"
         for j, instant in enumerate(instants):
             ax = axes[p * rows_each + j // ncol, j % ncol]
             for s, r in results.items():
@@ -91,7 +91,7 @@ def section(case, results: dict, folder: Path, reference: str | None = None) -> 
     img = snapshot(case, results, folder / "shapes.png", reference)
     if img is None:
         return None
-    n = case["report"]["shape_points"]
+    n = case.report.shape_points
     note = (f"Displacement of {n} evenly spaced points along each flexible beam (report.shape_points), in the frame "
             f"of the deformed root node (hinged-hinged modes: of the chord through both ends) minus the undeformed "
             f"position, as the deflection channels measure it, at each solver's output sample nearest to each instant "

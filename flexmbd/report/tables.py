@@ -13,6 +13,8 @@ import math
 from pathlib import Path
 
 from flexmbd.files import atomic_write
+from flexmbd.report.accuracy import Verdict
+from flexmbd.results import Status
 
 ACCURACY_COLUMNS = [
     ("case", "case"), ("solver", "solver"), ("reference", "reference"), ("channel", "channel"),
@@ -23,11 +25,14 @@ ACCURACY_COLUMNS = [
 
 
 def fmt(v) -> str:
-    """Numbers with 3 significant digits; NaN and None as an em dash; strings as they are."""
+    """Numbers with 3 significant digits; NaN and None as an em dash; strings as they are; a run's
+    Status or a Verdict as its one line."""
     if v is None:
         return "—"
     if isinstance(v, str):
         return v
+    if isinstance(v, (Status, Verdict)):
+        return str(v)
     if isinstance(v, (int,)) and not isinstance(v, bool):
         return str(v)
     x = float(v)
@@ -48,16 +53,17 @@ def markdown(head: list, rows: list[list]) -> str:
     return "\n".join(out) + "\n"
 
 
-CLASSES = [("pass", "pass"), ("ok", "ok"), ("reference", "ok"), ("failed", "bad"), ("fail", "fail"),
-           ("ok, outside linear validity", "outside"), ("outside validity", "outside"), ("not applicable", "na"),
-           ("unavailable", "na"), ("not compared", "na")]
+# the colour class of a cell by the kind of its Status (results.KINDS) or Verdict (accuracy.VERDICTS)
+CLASSES = {"pass": "pass", "ok": "ok", "reference": "ok", "failed": "bad", "fail": "fail", "outside validity": "outside",
+           "not applicable": "na", "unavailable": "na", "not compared": "na"}
 
 
-def css_class(text: str) -> str:
-    """The colour class of a verdict or status cell ('' for any other text): the longest prefix wins."""
-    hits = [(len(p), c) for p, c in CLASSES if text == p or text.startswith(p + ":") or text.startswith(p + " ")
-            or (p.startswith("ok,") and text.startswith(p))]
-    return max(hits)[1] if hits else ""
+def css_class(v) -> str:
+    """The colour class of a cell: of a run's Status or a Verdict by its kind (an ok run outside
+    its model's linear validity: 'outside'); '' for any other value."""
+    if isinstance(v, Status):
+        return "outside" if v.outside else CLASSES[v.kind]
+    return CLASSES[v.kind] if isinstance(v, Verdict) else ""
 
 
 def html_table(head: list, rows: list[list], raw_cols: tuple = ()) -> str:
@@ -68,7 +74,7 @@ def html_table(head: list, rows: list[list], raw_cols: tuple = ()) -> str:
         cells = []
         for j, c in enumerate(r):
             text = fmt(c) if j not in raw_cols else c
-            cls = f" class='{css_class(text)}'" if isinstance(text, str) and css_class(text) else ""
+            cls = f" class='{css_class(c)}'" if css_class(c) else ""
             cells.append(f"<td{cls}>{text if j in raw_cols else html.escape(text)}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
     return f"<table><thead><tr>{th}</tr></thead><tbody>{''.join(body)}</tbody></table>"
@@ -152,8 +158,11 @@ def tidy_csv(rows_: list[dict]) -> str:
 
 
 def accuracy_rows(rows_: list[dict]) -> tuple[list, list[list]]:
+    """The accuracy table's header and cells; the result (row key `pass`: 'pass', 'fail' or ''
+    with no tolerance) as a Verdict of that kind."""
     head = [h for _, h in ACCURACY_COLUMNS]
-    return head, [[r[k] for k, _ in ACCURACY_COLUMNS] for r in rows_]
+    cell = lambda k, v: Verdict(v, v) if k == "pass" and v else v
+    return head, [[cell(k, r[k]) for k, _ in ACCURACY_COLUMNS] for r in rows_]
 
 
 def write_accuracy(out: Path, rows_: list[dict]) -> None:

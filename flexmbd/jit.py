@@ -5,9 +5,9 @@ Every compiled function in flexmbd is decorated with `njit` (or, for the kernel'
 
 numba's cache notices edits to a function's own file but not to the functions it calls from
 other files, so the cache lives in a folder named after a hash of every source file that holds
-compiled code (those that import from `kernel.jit`, and the kernel's files), of the Model layout
-in model.py and of the constants in results.py: any edit to them starts a fresh cache, and a
-stale compiled kernel can never be loaded.
+compiled code (`compiled_sources`: those that import from `flexmbd.jit`, this file and the
+kernel's), of the Model layout in model.py and of the constants in results.py: any edit to them
+starts a fresh cache, and a stale compiled kernel can never be loaded.
 """
 
 import hashlib
@@ -20,18 +20,28 @@ from numba.core.errors import NumbaPerformanceWarning
 
 warnings.filterwarnings("ignore", category=NumbaPerformanceWarning)
 
-_SOURCE = Path(__file__).resolve().parent.parent
+_SOURCE = Path(__file__).resolve().parent             # the flexmbd package
+
+
+def compiled_sources() -> list[Path]:
+    """The source files the compiled code depends on, sorted: this file (the compile options),
+    the kernel's files, every file that imports from `flexmbd.jit` (those with compiled
+    functions), model.py (the Model layout) and results.py (the constants they use)."""
+    out = []
+    for p in sorted(_SOURCE.rglob("*.py")):
+        rel = p.relative_to(_SOURCE).as_posix()
+        if rel in ("jit.py", "model.py", "results.py") or rel.startswith("kernel/") \
+                or b"from flexmbd.jit import" in p.read_bytes():
+            out.append(p)
+    return out
 
 
 def source_hash() -> str:
-    """Hash of the files with compiled code (and the layout and constants they import)."""
+    """Hash (16 hex digits) of the files with compiled code (`compiled_sources`)."""
     h = hashlib.sha256()
-    for p in sorted(_SOURCE.rglob("*.py")):
-        text = p.read_bytes()
-        rel = p.relative_to(_SOURCE).as_posix()
-        if rel.startswith("kernel/") or rel in ("model.py", "results.py") or b"from flexmbd.kernel.jit import" in text:
-            h.update(rel.encode())
-            h.update(text)
+    for p in compiled_sources():
+        h.update(p.relative_to(_SOURCE).as_posix().encode())
+        h.update(p.read_bytes())
     return h.hexdigest()[:16]
 
 

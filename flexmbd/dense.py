@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.kernel.jit import njit
+from flexmbd.jit import njit
 
 
 @njit(inline="always")

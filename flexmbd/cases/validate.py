@@ -1,19 +1,7 @@
-"""Case files: TOML in, a validated case out: the plain dicts of the file with every default
-filled in (`Case.data`), and the resolved case built from them once (`Case.resolved`): bodies in
-tree order with their kind and parent index, joints with their triads and coordinate counts,
-every point on a beam snapped to its node by the one rule (`flexbody.node_index`), stress
-sections keyed by channel, nq and nv, and the reduced flexible bodies (computed on first use,
-cached by content: `flexbody.reduce`).
-
-A beam with `segments = N` is split, once, into N beams joined rigidly (`split_segments`):
-`Case.segmented` is the case of that expanded tree, which the modal solvers model, while
-`Case.data` and `Case.resolved` keep the whole beam, which the channels measure and the
-solvers that model the whole beam themselves read.
-
-Every key a case may hold is declared once, in the schema below (`cases/README.md` documents
-the same keys with units). Loading fills defaults, checks types, signs and ranges, resolves
-references between sections, and rejects unknown keys with a "did you mean" hint. Any failure
-raises `InputError` with one line: ``FILE: dotted.key: what was expected``.
+"""Reading and checking a case file: TOML in, the plain dicts of the file with every default
+filled in out. Loading fills defaults, checks types, signs and ranges, resolves references
+between sections, and rejects unknown keys with a "did you mean" hint. Any failure raises
+`InputError` with one line: ``FILE: dotted.key: what was expected``.
 
 Solver names and the `[solvers.NAME]` tables are checked by the solver registry
 (`solvers.check`), where the solvers are known: loading a case imports no solver.
@@ -23,264 +11,20 @@ from __future__ import annotations
 
 import copy
 import difflib
-import hashlib
 import math
 import tomllib
-from dataclasses import dataclass, field
 from pathlib import Path
-from types import MappingProxyType
+from types import SimpleNamespace
 
 from flexmbd import flexbody
+from flexmbd.cases.schema import (BEAM, CASE, CHANNEL_KEYS, DERIVED, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS,
+                                  MAX_SNAPSHOTS, NAME_CHARS, REQUIRED, RIGID)
 from flexmbd.errors import InputError, printable
-from flexmbd.spatial import rotation_rpy
 
-CASES_DIR = Path(__file__).resolve().parent.parent / "cases"
-
-# ---------------------------------------------------------------------------------------------
-# schema: a field is (kind, default); REQUIRED marks a field without default.
-# kinds: "float+" (> 0), "float0+" (>= 0), "float", "int+", "int0+", "str", "bool", "vec3",
-# "vec", a tuple of allowed strings, or a nested dict schema.
-
-REQUIRED = object()
-
-# every number of a case (and of a solver's settings) is finite and at most this in magnitude; the
-# section, stiffness and mass properties derived from a beam's or a rigid body's numbers must in
-# turn lie within DERIVED (`_check_derived`), so that the products the solvers form stay finite
-LARGEST = 1e100
-DERIVED = (1e-200, 1e200)
-
-# names of materials, bodies, joints, loads and channels: what a dotted key can address
-NAME_CHARS = set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-")
-
-MATERIAL = {
-    "E": ("float+", REQUIRED),
-    "nu": ("poisson", REQUIRED),
-    "rho": ("float+", REQUIRED),
-}
-
-SECTION = {
-    "shape": (("rectangle", "circle"), REQUIRED),
-    "b": ("float+", None),          # rectangle width, along the axis that is not h_axis
-    "h": ("float+", None),          # rectangle height, along h_axis
-    "d": ("float+", None),          # circle diameter
-    "h_axis": (("y", "z"), "y"),    # body axis along which h lies
-}
-
-MODES = {
-    "count": ("int0+", REQUIRED),
-    "boundary": (("clamped-free", "hinged-hinged", "free-free", "craig-bampton"), "clamped-free"),
-    "interfaces": ("vec", None),    # craig-bampton: interface positions along the beam, m
-}
-
-BEAM = {
-    "type": (("beam",), REQUIRED),
-    "material": ("str", REQUIRED),
-    "length": ("float+", REQUIRED),
-    "elements": ("int+", 100),
-    "section": (SECTION, REQUIRED),
-    "modes": (MODES, REQUIRED),
-    "damping_ratio": ("float0+", 0.0),
-    "mass": (("lumped", "consistent"), "lumped"),
-    "shear": ("bool", False),
-    "rigid": ("bool", False),
-    "stiffening": ("bool", True),   # geometric stiffening: the foreshortening of bent nodes (formulation §4b)
-    "segments": ("int+", 1),        # modal solvers: N flexible beams of length L / N, joined rigidly
-}
-
-RIGID = {
-    "type": (("rigid",), REQUIRED),
-    "mass": ("float+", REQUIRED),
-    "com": ("vec3", [0.0, 0.0, 0.0]),
-    "inertia": ("inertia", REQUIRED),   # [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the com, kg m^2
-}
-
-PROFILE = {
-    "type": (("constant_rate", "harmonic", "spin_up", "table"), REQUIRED),
-    "rate": ("float", None),            # constant_rate: rad/s or m/s
-    "amplitude": ("float", None),       # harmonic
-    "frequency": ("float+", None),      # harmonic, Hz
-    "phase": ("float", 0.0),            # harmonic, rad
-    "offset": ("float", 0.0),           # harmonic
-    "W": ("float", None),               # spin_up: final rate
-    "T": ("float+", None),              # spin_up: spin-up time
-    "file": ("str", None),              # table: CSV with columns t, q (relative to the case file)
-}
-
-JOINT = {
-    "type": (("revolute", "prismatic", "fixed", "spherical", "free"), REQUIRED),
-    "parent": ("str", REQUIRED),
-    "child": ("str", REQUIRED),
-    "at": ("point", None),              # beam parent: position along it (m); else a point (vec3)
-    "axis": ("vec3", [0.0, 0.0, 1.0]),  # revolute / prismatic axis in the input triad
-    "rpy": ("vec3", [0.0, 0.0, 0.0]),   # input triad orientation in the parent frame, rad
-    "q0": ("floats", None),
-    "qd0": ("floats", None),
-    "motion": (PROFILE, None),          # prescribed motion (1-DOF joints)
-}
-
-LOAD_PROFILE = {
-    "type": (("constant", "step", "ramp", "harmonic"), "constant"),
-    "t0": ("float0+", 0.0),             # step / ramp start, s
-    "t1": ("float+", None),             # ramp end, s
-    "frequency": ("float+", None),      # harmonic, Hz
-    "phase": ("float", 0.0),            # harmonic, rad
-}
-
-LOAD = {
-    "type": (("point_force",), REQUIRED),
-    "body": ("str", REQUIRED),
-    "at": ("point", REQUIRED),
-    "force": ("vec3", REQUIRED),        # N
-    "frame": (("body", "global"), "body"),
-    "profile": (LOAD_PROFILE, {"type": "constant"}),
-}
-
-CHANNEL = {
-    "kind": (("deflection", "stress_vm", "joint_angle", "energy", "reaction_force", "reaction_moment"), REQUIRED),
-    "body": ("str", None),
-    "joint": ("str", None),
-    "at": ("float0+", None),            # m along the beam
-    "component": (("x", "y", "z"), "y"),
-    "fibre": ("vec", None),             # stress point (y, z) in the section, m; default outer fibre
-}
-
-INTEGRATOR = {
-    "method": (("adams", "dopri5", "fox-goodwin", "rk45", "dop853", "rk4"), "adams"),
-    "rtol": ("float+", 1e-8),
-    "atol": ("float+", 1e-10),
-    "max_step": ("float+", 1e-3),       # s
-    "dt": ("float+", 1e-4),             # s, fixed-step methods
-    "output_dt": ("float+", 1e-3),      # s, sampling of the result table
-}
-
-REPORT = {
-    "reference": ("solver", None),
-    "solvers": ("solvers", None),
-    "tolerances": ("tolerances", {}),
-    "snapshots": ("vec", None),         # s: instants of the deformed-shape snapshots (default `snapshot_instants`)
-    "shape_points": ("int0+", 11),      # evenly spaced points along each flexible beam drawn in them (0: none)
-}
-
-# the deformed-shape snapshots: at most this many instants (one panel each) and shape points per beam
-MAX_SNAPSHOTS = 12
-MAX_SHAPE_POINTS = 101
-
-CASE = {
-    "title": ("line", REQUIRED),
-    "duration": ("float+", REQUIRED),
-    "gravity": ("vec3", [0.0, 0.0, 0.0]),
-    "materials": ({"*": MATERIAL}, REQUIRED),
-    "bodies": ({"*": "body"}, REQUIRED),
-    "joints": ({"*": JOINT}, REQUIRED),
-    "loads": ({"*": LOAD}, {}),
-    "channels": ({"*": CHANNEL}, REQUIRED),
-    "integrator": (INTEGRATOR, {}),
-    "solvers": ("solver_settings", {}),
-    "report": (REPORT, {}),
-}
-
-
-@dataclass(frozen=True)
-class Body:
-    name: str
-    index: int          # 1..nb, parents before children (0: ground)
-    kind: str           # "rigid", "beam" (flexible) or "rigid beam" (a beam declared rigid)
-    parent: int         # parent body index, 0 for ground
-    joint: str          # the joint to the parent
-    nodes: int          # beam nodes (elements + 1); 0 for a rigid body
-    modes: int          # modal coordinates (a flexible beam's mode count, else 0)
-
-
-@dataclass(frozen=True)
-class Joint:
-    name: str
-    type: str
-    parent: int         # body index, 0 for ground
-    child: int
-    nq: int             # coordinates: revolute, prismatic 1; spherical 4 (quaternion); free 7
-    nv: int             # velocities: 1, 1, 3, 6
-    node: int           # node of a beam parent it sits on (snapped), -1 otherwise
-    x: float | None     # that node's position along the beam, m (None off a beam)
-    triad: tuple        # (3, 3) rotation of the input triad in the parent (or node) frame, rows
-    axis: tuple         # (3,) unit joint axis in the input triad
-
-
-@dataclass(frozen=True)
-class Point:
-    """A position x along a beam (as the case names it) and the node it snaps to."""
-
-    body: str
-    x: float
-    node: int
-    x_node: float
-
-
-@dataclass(frozen=True)
-class Resolved:
-    bodies: tuple       # Body, in tree order (parents first)
-    joints: MappingProxyType    # name -> Joint
-    points: MappingProxyType    # deflection channel -> Point
-    stress: MappingProxyType    # stress channel -> (Point, fibre (y, z) or None)
-    nq: int
-    nv: int
-    segments: MappingProxyType  # split beam -> its segments' body names, root first (`split_segments`)
-    _data: dict = field(repr=False)
-
-    def place(self, body: str, x: float) -> tuple[str, float]:
-        """(body, x) in the segmented tree of position x (m) along `body` (`place`)."""
-        return place(self._data, body, x)
-
-    def body(self, name: str) -> Body:
-        return next(b for b in self.bodies if b.name == name)
-
-    @property
-    def order(self) -> list:
-        """Body names, parents before children."""
-        return [b.name for b in self.bodies]
-
-    def stress_sections(self, body: str) -> list:
-        """Positions x of a beam's stress channels, sorted, without repeats (FlexBody.stress_x)."""
-        return sorted({p.x for p, _ in self.stress.values() if p.body == body})
-
-    def reduced(self, name: str) -> flexbody.FlexBody:
-        """The reduced flexible beam `name` (computed once per content, `flexbody.reduce`)."""
-        body = self._data["bodies"][name]
-        return flexbody.reduce(name, body, self._data["materials"][body["material"]], self.stress_sections(name))
-
-    def flexible(self) -> dict:
-        """Every flexible beam, reduced, by name, in tree order."""
-        return {b.name: self.reduced(b.name) for b in self.bodies if b.kind == "beam"}
-
-
-@dataclass(frozen=True)
-class Case:
-    """A validated case: `data` is the case as nested dicts with every default filled in,
-    `resolved` what is derived from it once, `segmented` the case of the tree the modal solvers
-    model (every beam split into its `segments`; the case itself when none is)."""
-
-    name: str
-    path: Path
-    data: dict
-    sha256: str = ""
-    overrides: tuple = field(default_factory=tuple)
-    resolved: Resolved | None = field(default=None, repr=False, compare=False)
-    segmented: Case | None = field(default=None, repr=False, compare=False)
-
-    def __post_init__(self):
-        if self.resolved is None:
-            object.__setattr__(self, "resolved", resolve(self.data))
-        if self.segmented is None:
-            data = split_segments(self.data)
-            object.__setattr__(self, "segmented", self if data is self.data else
-                               Case(name=self.name, path=self.path, data=data, sha256=self.sha256,
-                                    overrides=self.overrides))
-
-    def __getitem__(self, key):
-        return self.data[key]
-
+CASES_DIR = Path(__file__).resolve().parent.parent.parent / "cases"
 
 # ---------------------------------------------------------------------------------------------
-# loading
+# finding and reading
 
 
 def find(name_or_path: str) -> Path:
@@ -300,18 +44,6 @@ def find(name_or_path: str) -> Path:
 def available() -> list[str]:
     """Names of the cases shipped in `cases/`."""
     return sorted(p.stem for p in CASES_DIR.glob("*.toml"))
-
-
-def load(name_or_path: str, overrides: list[str] | tuple = ()) -> Case:
-    """Read, override (`KEY=VALUE` strings) and validate a case."""
-    path = find(name_or_path)
-    text = read_text(path)
-    raw = parse_toml(text, path)
-    for item in overrides:
-        apply_override(raw, item, path)
-    data = validate(raw, str(path))
-    digest = hashlib.sha256((text + "\n".join(overrides)).encode()).hexdigest()[:16]
-    return Case(name=path.stem, path=path, data=data, sha256=digest, overrides=tuple(overrides))
 
 
 def read_text(path: Path) -> str:
@@ -635,7 +367,7 @@ def _beam_sizes(b, mat) -> dict:
     """What a beam's stiffness and mass matrices are made of (infinite where they overflow)."""
     le, E, rho = b["length"] / b["elements"], mat["E"], mat["rho"]
     try:
-        sec = flexbody.beam_section(b)
+        sec = flexbody.beam_section(SimpleNamespace(section=SimpleNamespace(**b["section"])))
         I_lo, I_hi = min(sec.Iy, sec.Iz), max(sec.Iy, sec.Iz)
         return {
             "section area (m^2)": sec.A, "smallest second moment of area (m^4)": I_lo,
@@ -716,8 +448,6 @@ def _check_attachment(j, bodies, where, k):
         _fail(where, f"{k}.axis", "the joint axis must not be zero")
 
 
-JOINT_COORDS = {"fixed": (0, 0), "revolute": (1, 1), "prismatic": (1, 1), "spherical": (4, 3), "free": (7, 6)}
-JOINT_DOFS = {k: nv for k, (_, nv) in JOINT_COORDS.items()}
 
 
 def _check_joint_values(j, where, k):
@@ -803,9 +533,6 @@ def _check_fibre(fibre, body, where, key):
               f"(h along {s['h_axis']}; expected |y| <= {ey:g} m and |z| <= {ez:g} m)")
 
 
-# the keys without default that each kind of channel reads (the others must be left out)
-CHANNEL_KEYS = {"deflection": ("body", "at"), "stress_vm": ("body", "at", "fibre"), "joint_angle": ("joint",),
-                "reaction_force": ("joint",), "reaction_moment": ("joint",), "energy": ()}
 
 
 def _check_channel(name, c, bodies, joints, where):
@@ -837,147 +564,3 @@ def _check_channel(name, c, bodies, joints, where):
             _fail(where, f"{k}.joint", f"no joint {j!r}{hint(j, joints)}")
         if c["kind"] == "joint_angle" and joints[j]["type"] != "revolute":
             _fail(where, f"{k}.joint", f"joint_angle needs a revolute joint, {j!r} is {joints[j]['type']}")
-
-
-# ---------------------------------------------------------------------------------------------
-# the resolved case
-
-
-def tree_order(data: dict) -> list:
-    """Body names so that every parent comes before its children (file order kept otherwise)."""
-    parent_of = {j["child"]: j["parent"] for j in data["joints"].values()}
-    order, placed = [], {"ground"}
-    while len(order) < len(parent_of):
-        for name in data["bodies"]:
-            if name not in placed and parent_of[name] in placed:
-                order.append(name)
-                placed.add(name)
-    return order
-
-
-def beam_point(data: dict, body: str, x: float) -> Point:
-    b = data["bodies"][body]
-    return Point(body=body, x=x, node=flexbody.node_index(b["length"], b["elements"], x),
-                 x_node=flexbody.snapped(b["length"], b["elements"], x))
-
-
-def resolve(data: dict) -> Resolved:
-    """The resolved case of validated case data."""
-    order = tree_order(data)
-    index = {"ground": 0, **{name: k + 1 for k, name in enumerate(order)}}
-    joint_of = {j["child"]: name for name, j in data["joints"].items()}
-    bodies, joints, nq, nv = [], {}, 0, 0
-    for name in order:
-        b, jn = data["bodies"][name], joint_of[name]
-        j = data["joints"][jn]
-        kind = "rigid" if b["type"] == "rigid" else "rigid beam" if b["rigid"] else "beam"
-        modes = b["modes"]["count"] if kind == "beam" else 0
-        bodies.append(Body(name=name, index=index[name], kind=kind, parent=index[j["parent"]], joint=jn,
-                           nodes=b["elements"] + 1 if kind != "rigid" else 0, modes=modes))
-        on_beam = j["parent"] != "ground" and data["bodies"][j["parent"]]["type"] == "beam"
-        p = beam_point(data, j["parent"], j["at"]) if on_beam else None
-        jq, jv = JOINT_COORDS[j["type"]]
-        axis = [a / math.hypot(*j["axis"]) for a in j["axis"]] if math.hypot(*j["axis"]) > 0 else [0.0, 0.0, 0.0]
-        joints[jn] = Joint(name=jn, type=j["type"], parent=index[j["parent"]], child=index[name], nq=jq, nv=jv,
-                           node=p.node if p else -1, x=p.x_node if p else None,
-                           triad=tuple(tuple(float(x) for x in row) for row in rotation_rpy(j["rpy"])),
-                           axis=tuple(float(a) for a in axis))
-        nq, nv = nq + jq + modes, nv + jv + modes
-    points = {n: beam_point(data, c["body"], c["at"]) for n, c in data["channels"].items() if c["kind"] == "deflection"}
-    stress = {n: (beam_point(data, c["body"], c["at"]), None if c["fibre"] is None else tuple(c["fibre"]))
-              for n, c in data["channels"].items() if c["kind"] == "stress_vm"}
-    segments = {name: tuple(segment_name(name, k) for k in range(n)) for name, n in split(data).items()}
-    return Resolved(bodies=tuple(bodies), joints=MappingProxyType(joints), points=MappingProxyType(points),
-                    stress=MappingProxyType(stress), nq=nq, nv=nv, _data=data, segments=MappingProxyType(segments))
-
-
-# ---------------------------------------------------------------------------------------------
-# segments: a beam split into flexible beams joined rigidly (docs/formulation.md §9)
-
-
-def split(data: dict) -> dict:
-    """{beam: N} of the flexible beams with `segments` = N > 1 (a beam declared rigid or without
-    modes is not split)."""
-    return {name: b["segments"] for name, b in data["bodies"].items()
-            if b["type"] == "beam" and not b["rigid"] and b["modes"]["count"] > 0 and b["segments"] > 1}
-
-
-def modeless(data: dict) -> list:
-    """Beams not declared rigid that retain no modes (`modes.count = 0`): the modal solvers model
-    their rigid limit, as if declared rigid (`split_segments`)."""
-    return [name for name, b in data["bodies"].items()
-            if b["type"] == "beam" and not b["rigid"] and b["modes"]["count"] == 0]
-
-
-def segment_name(beam: str, k: int) -> str:
-    """Body name of segment k (0-based) of a split beam: 'beam:1' is its root segment."""
-    return f"{beam}:{k + 1}"
-
-
-def segment_of(length: float, n: int, x: float) -> tuple[int, float]:
-    """(k, x - k length / n): the segment (0-based) of a beam split in n that holds position x (m),
-    and x along that segment. A point on a boundary belongs to the segment that starts there
-    (within round-off), the beam's end to the last segment."""
-    s = x * n / length
-    k = min(round(s) if abs(s - round(s)) < 1e-9 else int(s), n - 1)
-    return k, max(x - k * length / n, 0.0)
-
-
-def place(data: dict, body: str, x):
-    """(body, x) in the segmented tree of position x along `body` (a point [x, y, z] on a body
-    that is not split is returned as it is)."""
-    n = split(data).get(body)
-    if n is None:
-        return body, x
-    k, local = segment_of(data["bodies"][body]["length"], n, x)
-    return segment_name(body, k), local
-
-
-def split_segments(data: dict) -> dict:
-    """The case data of the tree the modal solvers model: every flexible beam with `segments` = N
-    > 1 replaced by N beams `beam:1` .. `beam:N` of length L / N and elements / N elements, each
-    with the beam's `modes` table, joined by fixed joints `beam:k-k+1` at the end node of segment
-    k. Segment 1 takes the beam's joint (same name, same parent); joints on the beam, loads and
-    channels at position x go to the segment that holds x (`segment_of`). A beam without modes
-    becomes a beam declared rigid, the modal model's limit (`modeless`). `data` itself when no
-    beam is split or without modes."""
-    parts, still = split(data), modeless(data)
-    if not parts and not still:
-        return data
-    bodies, joints = {}, {}
-    for jn, j in data["joints"].items():
-        j = copy.deepcopy(j)
-        if j["child"] in parts:
-            j["child"] = segment_name(j["child"], 0)
-        j["parent"], j["at"] = place(data, j["parent"], j["at"])
-        joints[jn] = j
-    for name, b in data["bodies"].items():
-        n = parts.get(name)
-        if n is None:
-            bodies[name] = {**copy.deepcopy(b), "rigid": True} if name in still else copy.deepcopy(b)
-            continue
-        seg = {**copy.deepcopy(b), "length": b["length"] / n, "elements": b["elements"] // n, "segments": 1}
-        for k in range(n):
-            bodies[segment_name(name, k)] = copy.deepcopy(seg)
-        for k in range(1, n):
-            j = check_table({"type": "fixed", "parent": segment_name(name, k - 1), "child": segment_name(name, k),
-                             "at": seg["length"]}, JOINT, "segments", "")
-            _check_joint_values(j, "segments", "")
-            joints[f"{name}:{k}-{k + 1}"] = j
-    loads = copy.deepcopy(data["loads"])
-    for ld in loads.values():
-        ld["body"], ld["at"] = place(data, ld["body"], ld["at"])
-    chans = copy.deepcopy(data["channels"])
-    for c in chans.values():
-        if c["kind"] in ("deflection", "stress_vm"):
-            c["body"], c["at"] = place(data, c["body"], c["at"])
-    return {**copy.deepcopy(data), "bodies": bodies, "joints": joints, "loads": loads, "channels": chans}
-
-
-# ---------------------------------------------------------------------------------------------
-# derived facts used by several solvers
-
-
-def is_fixed_base(case: Case) -> bool:
-    """True when every joint is fixed: the structure cannot move as a whole."""
-    return all(j["type"] == "fixed" for j in case["joints"].values())

@@ -1,0 +1,67 @@
+"""Case files: TOML in (`validate`: defaults filled, every key checked, one-line errors naming the
+file and key), the resolved case out (`resolve`: typed, read-only, every position snapped once,
+the tree, the split of segmented beams, the reduced flexible bodies on first use).
+
+A `Case` is a file's name, path, content hash and overrides, and its resolved case: a consumer
+reads `case.bodies`, `case.joints`, `case.channels`, `case.integrator`, ... (`resolve.Resolved`),
+never the file's dicts, which stay inside this package (`Case.data`). The schema (`schema`) holds
+every key a case may hold, once; `cases/README.md` documents the same keys with units.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from flexmbd.cases.resolve import (Beam, Channel, Integrator, Joint, Link, Load, Material, Modes, Point, Report,
+                                   Resolved, Rigid, Section, is_fixed_base, resolve, segment_name, segment_of)
+from flexmbd.cases.schema import JOINT_COORDS, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS, MAX_SNAPSHOTS
+from flexmbd.cases.validate import (CASES_DIR, apply_override, available, check_table, find, hint, parse_toml,
+                                    read_text, snapshot_instants, validate)
+
+__all__ = ["Beam", "CASES_DIR", "Case", "Channel", "Integrator", "JOINT_COORDS", "JOINT_DOFS", "Joint", "LARGEST", "Link", "Load",
+           "MAX_SHAPE_POINTS", "MAX_SNAPSHOTS", "Material", "Modes", "Point", "Report", "Resolved", "Rigid", "Section",
+           "available", "check_table", "find", "hint", "is_fixed_base", "load", "segment_name", "segment_of",
+           "snapshot_instants"]
+
+# what a Case reads from its resolved case (`resolve.Resolved`)
+TYPED = ("title", "duration", "gravity", "materials", "bodies", "joints", "loads", "channels", "integrator",
+         "report", "solvers", "tree", "nq", "nv", "segments", "whole", "split", "modelled", "order", "link",
+         "joint_of", "children", "place", "stress_sections", "reduced", "flexible")
+
+
+@dataclass(frozen=True)
+class Case:
+    """A validated case: its name, file, content hash (of the text and the overrides) and
+    overrides, and the resolved case everything reads (`resolved`, whose fields and methods
+    the case also answers: TYPED). `data` is the file's content with every default filled in,
+    read by this package only."""
+
+    name: str
+    path: Path
+    data: dict = field(repr=False)
+    sha256: str = ""
+    overrides: tuple = field(default_factory=tuple)
+    resolved: Resolved | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self):
+        if self.resolved is None:
+            object.__setattr__(self, "resolved", resolve(self.data))
+
+
+for _name in TYPED:
+    setattr(Case, _name, property(lambda self, _n=_name: getattr(self.resolved, _n),
+                                  doc=f"`resolved.{_name}` (resolve.Resolved)"))
+
+
+def load(name_or_path: str, overrides: list[str] | tuple = ()) -> Case:
+    """Read, override (`KEY=VALUE` strings) and validate a case."""
+    path = find(name_or_path)
+    text = read_text(path)
+    raw = parse_toml(text, path)
+    for item in overrides:
+        apply_override(raw, item, path)
+    data = validate(raw, str(path))
+    digest = hashlib.sha256((text + "\n".join(overrides)).encode()).hexdigest()[:16]
+    return Case(name=path.stem, path=path, data=data, sha256=digest, overrides=tuple(overrides))

@@ -1,0 +1,453 @@
+"""The resolved case: what every solver, the channels and the report read, derived once from the
+validated case data (`validate`) as typed, read-only values.
+
+    materials   name -> Material (E, nu, rho; G)
+    bodies      name -> Beam (material, section, modes, ...) or Rigid (mass, com, inertia), file order
+    joints      name -> Joint: parent and child, where it sits (a snapped Point on a beam parent, an
+                offset in the parent frame), triad, unit axis, q0, qd0, motion, nq, nv
+    loads       name -> Load: the body, the snapped Point on a beam, the offset, force, frame, profile
+    channels    name -> Channel: kind, body or joint, the snapped Point on a beam, component, fibre
+    tree        Link per body in tree order (parents first): index, kind, parent index, joint
+    integrator, report, title, duration, gravity, solvers (the [solvers.NAME] tables as given)
+
+Every position along a beam is snapped to its node once, by the one rule (`flexbody.node_index`).
+A beam with `segments = N` is split, once, into N beams joined rigidly: `split` is the resolved
+case of that expanded tree, which the modal solvers model (`split_segments`), with `whole` mapping
+each segment back to its beam and `place` any position along a beam to its segment; the case
+itself keeps the whole beam, which the channels measure. The reduced flexible bodies are computed
+on first use, once per content (`flexbody.reduce`): the 20 equal segments of a rod reduce once.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+from flexmbd import flexbody
+from flexmbd.cases.schema import JOINT, JOINT_COORDS
+from flexmbd.spatial import rotation_rpy
+
+
+def frozen(x):
+    """A read-only copy of plain case data: tables as mappings, lists as tuples."""
+    if isinstance(x, dict):
+        return MappingProxyType({k: frozen(v) for k, v in x.items()})
+    if isinstance(x, list):
+        return tuple(frozen(v) for v in x)
+    return x
+
+
+# ---------------------------------------------------------------------------------------------
+# the parts of a case
+
+
+@dataclass(frozen=True)
+class Material:
+    name: str
+    E: float            # Young's modulus, Pa
+    nu: float           # Poisson's ratio
+    rho: float          # density, kg/m^3
+
+    @property
+    def G(self) -> float:
+        """Shear modulus E / (2 (1 + nu)), Pa."""
+        return flexbody.shear_modulus(self)
+
+
+@dataclass(frozen=True)
+class Section:
+    shape: str          # "rectangle" or "circle"
+    b: float | None     # rectangle width, along the body axis that is not h_axis, m
+    h: float | None     # rectangle height, along h_axis, m
+    d: float | None     # circle diameter, m
+    h_axis: str         # "y" or "z"
+
+
+@dataclass(frozen=True)
+class Modes:
+    count: int
+    boundary: str       # "clamped-free", "hinged-hinged", "free-free", "craig-bampton"
+    interfaces: tuple | None    # craig-bampton: interface positions along the beam, m
+
+
+@dataclass(frozen=True)
+class Beam:
+    name: str
+    material: Material
+    length: float       # m, along the body's +x
+    elements: int
+    section: Section
+    modes: Modes
+    damping_ratio: float
+    mass: str           # the FE mass matrix: "lumped" or "consistent"
+    shear: bool
+    rigid: bool         # declared rigid
+    stiffening: bool    # geometric stiffening (docs/formulation.md §4b)
+    segments: int       # the modal solvers' flexible segments joined rigidly
+    type: str = "beam"
+
+    @property
+    def geometry(self):
+        """The section's properties (A, Iy, Iz, J, cy, cz, ...; `fe.section.Section`)."""
+        return flexbody.beam_section(self)
+
+    @property
+    def flexible(self) -> bool:
+        """Not declared rigid and with modes: flexible in the modal solvers' model."""
+        return not self.rigid and self.modes.count > 0
+
+
+@dataclass(frozen=True)
+class Rigid:
+    name: str
+    mass: float         # kg
+    com: tuple          # (3,) centre of mass in the body frame, m
+    inertia: tuple      # (6,) [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the com, kg m^2
+    type: str = "rigid"
+
+
+@dataclass(frozen=True)
+class Point:
+    """A position x along a beam (as the case names it) and the node it snaps to."""
+
+    body: str
+    x: float
+    node: int
+    x_node: float
+
+
+@dataclass(frozen=True)
+class Joint:
+    name: str
+    type: str           # revolute, prismatic, fixed, spherical, free
+    parent: str         # body name, or "ground"
+    child: str
+    parent_index: int   # 0 for ground
+    child_index: int
+    point: Point | None  # on a beam parent: the position along it and its node
+    offset: tuple       # (3,) where it sits in the parent frame, m (on a beam: its node, (x_node, 0, 0))
+    rpy: tuple          # (3,) input triad orientation in the parent (or node) frame, rad
+    triad: tuple        # (3, 3) rotation of the input triad, rows
+    axis: tuple         # (3,) unit joint axis in the input triad
+    q0: tuple
+    qd0: tuple
+    motion: MappingProxyType | None     # prescribed motion profile (`profiles`)
+    nq: int             # coordinates: revolute, prismatic 1; spherical 4 (quaternion); free 7
+    nv: int             # velocities: 1, 1, 3, 6
+
+    @property
+    def node(self) -> int:
+        """The node of a beam parent the joint sits on, -1 off a beam."""
+        return self.point.node if self.point else -1
+
+    @property
+    def x(self) -> float | None:
+        """That node's position along the beam, m (None off a beam)."""
+        return self.point.x_node if self.point else None
+
+
+@dataclass(frozen=True)
+class Load:
+    name: str
+    type: str           # point_force
+    body: str
+    point: Point | None  # on a beam: the position along it and its node
+    offset: tuple       # (3,) where it acts in the body frame, m (on a beam: its node)
+    force: tuple        # (3,) N
+    frame: str          # "body" or "global"
+    profile: MappingProxyType   # time profile (`profiles.load_factor`)
+
+
+@dataclass(frozen=True)
+class Channel:
+    name: str
+    kind: str           # deflection, stress_vm, joint_angle, energy, reaction_force, reaction_moment
+    body: str | None
+    joint: str | None
+    at: float | None    # position along the beam as the case names it, m
+    component: str      # x, y or z
+    fibre: tuple | None  # stress point (y, z) in the section, m (None: the outer fibre)
+    point: Point | None  # deflection and stress: at, snapped
+
+
+@dataclass(frozen=True)
+class Integrator:
+    method: str
+    rtol: float
+    atol: float
+    max_step: float     # s
+    dt: float           # s, fixed-step methods
+    output_dt: float    # s, sampling of the result table
+
+
+@dataclass(frozen=True)
+class Report:
+    reference: str | None
+    solvers: tuple | None
+    tolerances: MappingProxyType    # channel -> relative tolerance
+    snapshots: tuple    # instants of the deformed-shape snapshots, s
+    shape_points: int   # evenly spaced points along each flexible beam drawn in them
+
+
+@dataclass(frozen=True)
+class Link:
+    """A body's place in the tree."""
+
+    name: str
+    index: int          # 1..nb, parents before children (0: ground)
+    kind: str           # "rigid", "beam" (flexible) or "rigid beam" (a beam declared rigid)
+    parent: int         # parent body index, 0 for ground
+    joint: str          # the joint to the parent
+    nodes: int          # beam nodes (elements + 1); 0 for a rigid body
+    modes: int          # modal coordinates (a flexible beam's mode count, else 0)
+
+
+# ---------------------------------------------------------------------------------------------
+# the resolved case
+
+
+@dataclass(frozen=True)
+class Resolved:
+    title: str
+    duration: float     # s
+    gravity: tuple      # (3,) m/s^2, global frame
+    materials: MappingProxyType     # name -> Material
+    bodies: MappingProxyType        # name -> Beam | Rigid, file order
+    joints: MappingProxyType        # name -> Joint, file order
+    loads: MappingProxyType         # name -> Load
+    channels: MappingProxyType      # name -> Channel
+    integrator: Integrator
+    report: Report
+    solvers: MappingProxyType       # solver name -> its [solvers.NAME] table as given
+    tree: tuple         # Link, in tree order (parents first)
+    nq: int
+    nv: int
+    segments: MappingProxyType      # split beam -> its segments' body names, root first
+    whole: MappingProxyType         # segment -> (its beam, the segment's root position along it, m);
+                                    # held by the case and by its `split`
+    split: Resolved | None = field(default=None, repr=False, compare=False)     # None: this one
+
+    @property
+    def modelled(self) -> Resolved:
+        """The tree the modal solvers model: `split`, or this case when no beam is split."""
+        return self.split or self
+
+    @property
+    def order(self) -> list:
+        """Body names, parents before children."""
+        return [b.name for b in self.tree]
+
+    def link(self, name: str) -> Link:
+        return next(b for b in self.tree if b.name == name)
+
+    def joint_of(self, body: str) -> Joint:
+        """The joint whose child is `body`."""
+        return self.joints[self.link(body).joint]
+
+    def children(self, body: str) -> list:
+        """The joints whose parent is `body` ("ground" for the base), file order."""
+        return [j for j in self.joints.values() if j.parent == body]
+
+    def place(self, body: str, x: float) -> tuple[str, float]:
+        """(segment, position along it) in `split` of position x (m) along `body`; a body that
+        is not split is returned as it is."""
+        n = len(self.segments.get(body, ()))
+        if not n:
+            return body, x
+        k, local = segment_of(self.bodies[body].length, n, x)
+        return segment_name(body, k), local
+
+    def stress_sections(self, body: str) -> list:
+        """Positions x of a beam's stress channels, sorted, without repeats (FlexBody.stress_x)."""
+        return sorted({c.point.x for c in self.channels.values() if c.kind == "stress_vm" and c.body == body})
+
+    def reduced(self, name: str) -> flexbody.FlexBody:
+        """The reduced flexible beam `name` (computed once per content, `flexbody.reduce`)."""
+        return flexbody.reduce(name, self.bodies[name], self.stress_sections(name))
+
+    def flexible(self) -> dict:
+        """Every flexible beam, reduced, by name, in tree order."""
+        return {b.name: self.reduced(b.name) for b in self.tree if b.kind == "beam"}
+
+
+def tree_order(data: dict) -> list:
+    """Body names so that every parent comes before its children (file order kept otherwise)."""
+    parent_of = {j["child"]: j["parent"] for j in data["joints"].values()}
+    order, placed = [], {"ground"}
+    while len(order) < len(parent_of):
+        for name in data["bodies"]:
+            if name not in placed and parent_of[name] in placed:
+                order.append(name)
+                placed.add(name)
+    return order
+
+
+def beam_point(beam: Beam, x: float) -> Point:
+    return Point(body=beam.name, x=x, node=flexbody.node_index(beam.length, beam.elements, x),
+                 x_node=flexbody.snapped(beam.length, beam.elements, x))
+
+
+def _body(name: str, b: dict, materials: dict):
+    if b["type"] == "rigid":
+        return Rigid(name=name, mass=b["mass"], com=tuple(b["com"]), inertia=tuple(b["inertia"]))
+    m = b["modes"]
+    return Beam(name=name, material=materials[b["material"]], length=b["length"], elements=b["elements"],
+                section=Section(**b["section"]), damping_ratio=b["damping_ratio"], mass=b["mass"], shear=b["shear"],
+                modes=Modes(count=m["count"], boundary=m["boundary"],
+                            interfaces=None if m["interfaces"] is None else tuple(m["interfaces"])),
+                rigid=b["rigid"], stiffening=b["stiffening"], segments=b["segments"])
+
+
+def _where(bodies: dict, body: str, at) -> tuple:
+    """(Point or None, offset (3,)) of a position `at` on `body` (along a beam, or a point)."""
+    b = bodies.get(body)
+    if isinstance(b, Beam):
+        p = beam_point(b, at)
+        return p, (p.x_node, 0.0, 0.0)
+    return None, tuple(float(v) for v in at)
+
+
+def resolve(data: dict, split: bool = True) -> Resolved:
+    """The resolved case of validated case data (`split`: also resolve the split tree)."""
+    materials = {n: Material(name=n, **m) for n, m in data["materials"].items()}
+    bodies = {n: _body(n, b, materials) for n, b in data["bodies"].items()}
+    order = tree_order(data)
+    index = {"ground": 0, **{name: k + 1 for k, name in enumerate(order)}}
+    joint_of = {j["child"]: name for name, j in data["joints"].items()}
+    joints = {}
+    for jn, j in data["joints"].items():
+        point, offset = _where(bodies, j["parent"], j["at"])
+        jq, jv = JOINT_COORDS[j["type"]]
+        norm = math.hypot(*j["axis"])
+        joints[jn] = Joint(name=jn, type=j["type"], parent=j["parent"], child=j["child"],
+                           parent_index=index[j["parent"]], child_index=index[j["child"]], point=point, offset=offset,
+                           rpy=tuple(j["rpy"]), triad=tuple(tuple(float(x) for x in row) for row in rotation_rpy(j["rpy"])),
+                           axis=tuple(float(a / norm) if norm > 0 else 0.0 for a in j["axis"]),
+                           q0=tuple(j["q0"]), qd0=tuple(j["qd0"]), motion=frozen(j["motion"]), nq=jq, nv=jv)
+    tree, nq, nv = [], 0, 0
+    for name in order:
+        b, j = bodies[name], joints[joint_of[name]]
+        kind = "rigid" if isinstance(b, Rigid) else "rigid beam" if b.rigid else "beam"
+        modes = b.modes.count if kind == "beam" else 0
+        tree.append(Link(name=name, index=index[name], kind=kind, parent=j.parent_index, joint=j.name,
+                         nodes=b.elements + 1 if kind != "rigid" else 0, modes=modes))
+        nq, nv = nq + j.nq + modes, nv + j.nv + modes
+    loads = {}
+    for ln, ld in data["loads"].items():
+        point, offset = _where(bodies, ld["body"], ld["at"])
+        loads[ln] = Load(name=ln, type=ld["type"], body=ld["body"], point=point, offset=offset,
+                         force=tuple(ld["force"]), frame=ld["frame"], profile=frozen(ld["profile"]))
+    channels = {n: Channel(name=n, kind=c["kind"], body=c["body"], joint=c["joint"], at=c["at"],
+                           component=c["component"], fibre=None if c["fibre"] is None else tuple(c["fibre"]),
+                           point=beam_point(bodies[c["body"]], c["at"]) if c["kind"] in ("deflection", "stress_vm")
+                           else None)
+                for n, c in data["channels"].items()}
+    ig, rep = data["integrator"], data["report"]
+    parts = splits(data)
+    segments = {name: tuple(segment_name(name, k) for k in range(n)) for name, n in parts.items()}
+    whole = {s: (name, k * bodies[name].length / len(segs)) for name, segs in segments.items()
+             for k, s in enumerate(segs)}
+    expanded = split_segments(data) if split else data
+    return Resolved(
+        title=data["title"], duration=data["duration"], gravity=tuple(data["gravity"]),
+        materials=MappingProxyType(materials), bodies=MappingProxyType(bodies), joints=MappingProxyType(joints),
+        loads=MappingProxyType(loads), channels=MappingProxyType(channels), integrator=Integrator(**ig),
+        report=Report(reference=rep["reference"], solvers=None if rep["solvers"] is None else tuple(rep["solvers"]),
+                      tolerances=frozen(rep["tolerances"]), snapshots=tuple(rep["snapshots"]),
+                      shape_points=rep["shape_points"]),
+        solvers=frozen(data["solvers"]), tree=tuple(tree), nq=nq, nv=nv,
+        segments=MappingProxyType(segments), whole=MappingProxyType(whole),
+        split=None if expanded is data else dataclasses.replace(resolve(expanded, split=False),
+                                                                whole=MappingProxyType(whole)))
+
+
+def is_fixed_base(case) -> bool:
+    """True when every joint is fixed: the structure cannot move as a whole."""
+    return all(j.type == "fixed" for j in case.joints.values())
+
+
+# ---------------------------------------------------------------------------------------------
+# segments: a beam split into flexible beams joined rigidly (docs/formulation.md §9)
+
+
+def splits(data: dict) -> dict:
+    """{beam: N} of the flexible beams with `segments` = N > 1 (a beam declared rigid or without
+    modes is not split)."""
+    return {name: b["segments"] for name, b in data["bodies"].items()
+            if b["type"] == "beam" and not b["rigid"] and b["modes"]["count"] > 0 and b["segments"] > 1}
+
+
+def modeless(data: dict) -> list:
+    """Beams not declared rigid that retain no modes (`modes.count = 0`): the modal solvers model
+    their rigid limit, as if declared rigid (`split_segments`)."""
+    return [name for name, b in data["bodies"].items()
+            if b["type"] == "beam" and not b["rigid"] and b["modes"]["count"] == 0]
+
+
+def segment_name(beam: str, k: int) -> str:
+    """Body name of segment k (0-based) of a split beam: 'beam:1' is its root segment."""
+    return f"{beam}:{k + 1}"
+
+
+def segment_of(length: float, n: int, x: float) -> tuple[int, float]:
+    """(k, x - k length / n): the segment (0-based) of a beam split in n that holds position x (m),
+    and x along that segment. A point on a boundary belongs to the segment that starts there
+    (within round-off), the beam's end to the last segment."""
+    s = x * n / length
+    k = min(round(s) if abs(s - round(s)) < 1e-9 else int(s), n - 1)
+    return k, max(x - k * length / n, 0.0)
+
+
+def _place(data: dict, body: str, x):
+    """(body, x) in the split tree of position x along `body` (a point [x, y, z] on a body that
+    is not split is returned as it is)."""
+    n = splits(data).get(body)
+    if n is None:
+        return body, x
+    k, local = segment_of(data["bodies"][body]["length"], n, x)
+    return segment_name(body, k), local
+
+
+def split_segments(data: dict) -> dict:
+    """The case data of the tree the modal solvers model: every flexible beam with `segments` = N
+    > 1 replaced by N beams `beam:1` .. `beam:N` of length L / N and elements / N elements, each
+    with the beam's `modes` table, joined by fixed joints `beam:k-k+1` at the end node of segment
+    k. Segment 1 takes the beam's joint (same name, same parent); joints on the beam, loads and
+    channels at position x go to the segment that holds x (`segment_of`). A beam without modes
+    becomes a beam declared rigid, the modal model's limit (`modeless`). `data` itself when no
+    beam is split or without modes."""
+    from flexmbd.cases.validate import _check_joint_values, check_table
+    parts, still = splits(data), modeless(data)
+    if not parts and not still:
+        return data
+    bodies, joints = {}, {}
+    for jn, j in data["joints"].items():
+        j = copy.deepcopy(j)
+        if j["child"] in parts:
+            j["child"] = segment_name(j["child"], 0)
+        j["parent"], j["at"] = _place(data, j["parent"], j["at"])
+        joints[jn] = j
+    for name, b in data["bodies"].items():
+        n = parts.get(name)
+        if n is None:
+            bodies[name] = {**copy.deepcopy(b), "rigid": True} if name in still else copy.deepcopy(b)
+            continue
+        seg = {**copy.deepcopy(b), "length": b["length"] / n, "elements": b["elements"] // n, "segments": 1}
+        for k in range(n):
+            bodies[segment_name(name, k)] = copy.deepcopy(seg)
+        for k in range(1, n):
+            j = check_table({"type": "fixed", "parent": segment_name(name, k - 1), "child": segment_name(name, k),
+                             "at": seg["length"]}, JOINT, "segments", "")
+            _check_joint_values(j, "segments", "")
+            joints[f"{name}:{k}-{k + 1}"] = j
+    loads = copy.deepcopy(data["loads"])
+    for ld in loads.values():
+        ld["body"], ld["at"] = _place(data, ld["body"], ld["at"])
+    chans = copy.deepcopy(data["channels"])
+    for c in chans.values():
+        if c["kind"] in ("deflection", "stress_vm"):
+            c["body"], c["at"] = _place(data, c["body"], c["at"])
+    return {**copy.deepcopy(data), "bodies": bodies, "joints": joints, "loads": loads, "channels": chans}

@@ -1,0 +1,155 @@
+"""The schema of a case file: every key a case may hold, declared once, with its kind and default
+(`cases/README.md` documents the same keys with units).
+
+A field is (kind, default); REQUIRED marks a field without default. Kinds: "float+" (> 0),
+"float0+" (>= 0), "float", "int+", "int0+", "str", "line", "bool", "vec3", "vec", "floats",
+"inertia", "point", "poisson", a tuple of allowed strings, or a nested dict schema.
+"""
+
+from __future__ import annotations
+
+REQUIRED = object()
+
+# every number of a case (and of a solver's settings) is finite and at most this in magnitude; the
+# section, stiffness and mass properties derived from a beam's or a rigid body's numbers must in
+# turn lie within DERIVED (`_check_derived`), so that the products the solvers form stay finite
+LARGEST = 1e100
+DERIVED = (1e-200, 1e200)
+
+# names of materials, bodies, joints, loads and channels: what a dotted key can address
+NAME_CHARS = set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-")
+
+MATERIAL = {
+    "E": ("float+", REQUIRED),
+    "nu": ("poisson", REQUIRED),
+    "rho": ("float+", REQUIRED),
+}
+
+SECTION = {
+    "shape": (("rectangle", "circle"), REQUIRED),
+    "b": ("float+", None),          # rectangle width, along the axis that is not h_axis
+    "h": ("float+", None),          # rectangle height, along h_axis
+    "d": ("float+", None),          # circle diameter
+    "h_axis": (("y", "z"), "y"),    # body axis along which h lies
+}
+
+MODES = {
+    "count": ("int0+", REQUIRED),
+    "boundary": (("clamped-free", "hinged-hinged", "free-free", "craig-bampton"), "clamped-free"),
+    "interfaces": ("vec", None),    # craig-bampton: interface positions along the beam, m
+}
+
+BEAM = {
+    "type": (("beam",), REQUIRED),
+    "material": ("str", REQUIRED),
+    "length": ("float+", REQUIRED),
+    "elements": ("int+", 100),
+    "section": (SECTION, REQUIRED),
+    "modes": (MODES, REQUIRED),
+    "damping_ratio": ("float0+", 0.0),
+    "mass": (("lumped", "consistent"), "lumped"),
+    "shear": ("bool", False),
+    "rigid": ("bool", False),
+    "stiffening": ("bool", True),   # geometric stiffening: the foreshortening of bent nodes (formulation §4b)
+    "segments": ("int+", 1),        # modal solvers: N flexible beams of length L / N, joined rigidly
+}
+
+RIGID = {
+    "type": (("rigid",), REQUIRED),
+    "mass": ("float+", REQUIRED),
+    "com": ("vec3", [0.0, 0.0, 0.0]),
+    "inertia": ("inertia", REQUIRED),   # [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the com, kg m^2
+}
+
+PROFILE = {
+    "type": (("constant_rate", "harmonic", "spin_up", "table"), REQUIRED),
+    "rate": ("float", None),            # constant_rate: rad/s or m/s
+    "amplitude": ("float", None),       # harmonic
+    "frequency": ("float+", None),      # harmonic, Hz
+    "phase": ("float", 0.0),            # harmonic, rad
+    "offset": ("float", 0.0),           # harmonic
+    "W": ("float", None),               # spin_up: final rate
+    "T": ("float+", None),              # spin_up: spin-up time
+    "file": ("str", None),              # table: CSV with columns t, q (relative to the case file)
+}
+
+JOINT = {
+    "type": (("revolute", "prismatic", "fixed", "spherical", "free"), REQUIRED),
+    "parent": ("str", REQUIRED),
+    "child": ("str", REQUIRED),
+    "at": ("point", None),              # beam parent: position along it (m); else a point (vec3)
+    "axis": ("vec3", [0.0, 0.0, 1.0]),  # revolute / prismatic axis in the input triad
+    "rpy": ("vec3", [0.0, 0.0, 0.0]),   # input triad orientation in the parent frame, rad
+    "q0": ("floats", None),
+    "qd0": ("floats", None),
+    "motion": (PROFILE, None),          # prescribed motion (1-DOF joints)
+}
+
+LOAD_PROFILE = {
+    "type": (("constant", "step", "ramp", "harmonic"), "constant"),
+    "t0": ("float0+", 0.0),             # step / ramp start, s
+    "t1": ("float+", None),             # ramp end, s
+    "frequency": ("float+", None),      # harmonic, Hz
+    "phase": ("float", 0.0),            # harmonic, rad
+}
+
+LOAD = {
+    "type": (("point_force",), REQUIRED),
+    "body": ("str", REQUIRED),
+    "at": ("point", REQUIRED),
+    "force": ("vec3", REQUIRED),        # N
+    "frame": (("body", "global"), "body"),
+    "profile": (LOAD_PROFILE, {"type": "constant"}),
+}
+
+CHANNEL = {
+    "kind": (("deflection", "stress_vm", "joint_angle", "energy", "reaction_force", "reaction_moment"), REQUIRED),
+    "body": ("str", None),
+    "joint": ("str", None),
+    "at": ("float0+", None),            # m along the beam
+    "component": (("x", "y", "z"), "y"),
+    "fibre": ("vec", None),             # stress point (y, z) in the section, m; default outer fibre
+}
+
+INTEGRATOR = {
+    "method": (("adams", "dopri5", "fox-goodwin", "rk45", "dop853", "rk4"), "adams"),
+    "rtol": ("float+", 1e-8),
+    "atol": ("float+", 1e-10),
+    "max_step": ("float+", 1e-3),       # s
+    "dt": ("float+", 1e-4),             # s, fixed-step methods
+    "output_dt": ("float+", 1e-3),      # s, sampling of the result table
+}
+
+REPORT = {
+    "reference": ("solver", None),
+    "solvers": ("solvers", None),
+    "tolerances": ("tolerances", {}),
+    "snapshots": ("vec", None),         # s: instants of the deformed-shape snapshots (default `snapshot_instants`)
+    "shape_points": ("int0+", 11),      # evenly spaced points along each flexible beam drawn in them (0: none)
+}
+
+# the deformed-shape snapshots: at most this many instants (one panel each) and shape points per beam
+MAX_SNAPSHOTS = 12
+MAX_SHAPE_POINTS = 101
+
+CASE = {
+    "title": ("line", REQUIRED),
+    "duration": ("float+", REQUIRED),
+    "gravity": ("vec3", [0.0, 0.0, 0.0]),
+    "materials": ({"*": MATERIAL}, REQUIRED),
+    "bodies": ({"*": "body"}, REQUIRED),
+    "joints": ({"*": JOINT}, REQUIRED),
+    "loads": ({"*": LOAD}, {}),
+    "channels": ({"*": CHANNEL}, REQUIRED),
+    "integrator": (INTEGRATOR, {}),
+    "solvers": ("solver_settings", {}),
+    "report": (REPORT, {}),
+}
+
+
+JOINT_COORDS = {"fixed": (0, 0), "revolute": (1, 1), "prismatic": (1, 1), "spherical": (4, 3), "free": (7, 6)}
+JOINT_DOFS = {k: nv for k, (_, nv) in JOINT_COORDS.items()}
+
+# the keys without default that each kind of channel reads (the others must be left out)
+CHANNEL_KEYS = {"deflection": ("body", "at"), "stress_vm": ("body", "at", "fibre"), "joint_angle": ("joint",),
+                "reaction_force": ("joint",), "reaction_moment": ("joint",), "energy": ()}
