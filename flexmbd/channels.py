@@ -353,14 +353,18 @@ def gravity_energy(case) -> float:
 
 
 def channels(case, traj: Trajectory) -> dict:
-    """Every channel of the case, (n,) each. A reaction the solver does not recover is left out."""
+    """Every channel of the case, (n,) each. What the solver does not report is left out: a joint
+    coordinate, the energy (no parts), a reaction it does not recover. A beam the trajectory has no
+    Beam for is rigid in the solver's model: its deflections and stresses are zero."""
     out, n = {}, len(traj.t)
     for name, c in case.channels.items():
         kind = c.kind
         if kind == "joint_angle":
-            out[name] = np.array(traj.joints[c.joint], dtype=float)
+            if c.joint in traj.joints:
+                out[name] = np.array(traj.joints[c.joint], dtype=float)
         elif kind == "energy":
-            out[name] = energy(traj)
+            if traj.energy:
+                out[name] = np.asarray(energy(traj), dtype=float)
         elif kind in ("reaction_force", "reaction_moment"):
             if c.joint in traj.reactions:
                 out[name] = reaction(traj.reactions[c.joint], kind, c.component)
