@@ -181,16 +181,35 @@ def check_all(jobs: list, out: Path, allow_large: bool = False) -> None:
     cost.check_stored(stored_sidecars(out, [(c, []) for c in {c.name: c for c, _ in jobs}.values()]), allow_large)
 
 
-def run_checked(jobs: list, out: Path) -> None:
-    """Run jobs already checked (`check_all`) into out/results with a progress bar."""
+def run_checked(jobs: list, out: Path, keep: bool = False) -> None:
+    """Run jobs already checked (`check_all`) into out/results with a progress bar. With `keep`,
+    a job whose stored result is readable and has the key of the run it would make
+    (`solvers.content_key`: the same case content, solver, settings, versions and source) is not
+    run again: its result stays."""
     from flexmbd import results
     t0 = time.perf_counter()
     for k, (c, s) in enumerate(jobs, 1):
+        if keep and kept(out, c, s):
+            job(k, len(jobs), f"{c.name} / {s} (stored, unchanged)", time.perf_counter() - t0)
+            continue
         job(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
         with files.signals_exit():                      # nothing written while it runs
             r = solvers.run(c, s)
         results.write(r, results.folder(out))
     jobs_done(len(jobs), time.perf_counter() - t0)
+
+
+def kept(out: Path, case, solver: str) -> bool:
+    """True when out/results holds a readable result of `solver` on `case` whose key is the one
+    a run would have now (`solvers.content_key`)."""
+    from flexmbd import results
+    key = solvers.content_key(case, solver)
+    if key is None:
+        return False
+    try:
+        return results.read(results.folder(out), case.name, solver).extra.get("key") == key
+    except InputError:
+        return False
 
 
 def stored_sidecars(out, pages) -> list:
@@ -269,7 +288,7 @@ def cmd_report(args) -> int:
             warn(f"{c.name}: its reference {ref} {'is read' if args.no_run else 'runs'} too "
                  f"(every comparison is against it)")
     if not args.no_run:
-        run_checked(jobs, out)
+        run_checked(jobs, out, keep=not args.rerun)
     spectra.prepare(loaded, warn)
     t0 = time.perf_counter()
     index, runs, acc = build.write(out, loaded, chosen, warn,
@@ -290,7 +309,7 @@ def cmd_compare(args) -> int:
     check_all(jobs, out, args.allow_large)
     if names != chosen:
         warn(f"{case.name}: its reference {names[0]} runs too (every comparison is against it)")
-    run_checked(jobs, out)
+    run_checked(jobs, out, keep=not args.rerun)
     spectra.prepare([case], warn)
     got = build.case_page(out, case, names, warn)
     _show(args, "page", out / case.name / "index.html", got["runs"], got["accuracy"])
@@ -503,6 +522,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--solvers", default=None, help=f"comma-separated solver names (default: all: {names})")
     s.add_argument("--out", default="reports", help="the report folder (results in OUT/results)")
     s.add_argument("--no-run", action="store_true", help="rebuild the pages from the stored results only")
+    s.add_argument("--rerun", action="store_true", help="run every solver again, also where a stored result has the "
+                   "same case content, settings, versions and source (kept otherwise)")
     s.add_argument("--allow-large", action="store_true", help=large)
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout (verdicts and accuracy rows)")
     s.add_argument("--strict", action="store_true", help=strict)
@@ -513,6 +534,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--solvers", default=None, help=f"comma-separated solver names (default: all: {names})")
     s.add_argument("--out", default="reports", help="the report folder (results in OUT/results)")
     s.add_argument("--set", action="append", metavar="KEY=VALUE", help=over)
+    s.add_argument("--rerun", action="store_true", help="run every solver again, also where a stored result has the "
+                   "same case content, settings, versions and source (kept otherwise)")
     s.add_argument("--allow-large", action="store_true", help=large)
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout (verdicts and accuracy rows)")
     s.add_argument("--strict", action="store_true", help=strict)

@@ -383,6 +383,7 @@ SIDECAR = {
     "csv_sha256": ("a SHA-256 in hex, or null", lambda v: v is None or isinstance(v, str)),
     "solver_version": _TEXT, "case_sha256": _TEXT, "python": _TEXT, "git_commit": _TEXT, "date": _TEXT,
     "machine": _TEXT, "settings": _TABLE, "versions": _TABLE, "imported": _TABLE, "overrides": _NAMES,
+    "key": ("a SHA-256 in hex, or null", lambda v: v is None or (isinstance(v, str) and bool(re.fullmatch("[0-9a-f]{64}", v)))),
 }
 
 

@@ -23,10 +23,14 @@ validity, no snapshots).
 from __future__ import annotations
 
 import dataclasses
+import functools
+import hashlib
 import importlib
+import json
 import time
 import traceback
 from importlib.metadata import entry_points
+from pathlib import Path
 
 import numpy as np
 
@@ -167,6 +171,32 @@ def _precondition(case, name: str) -> results.Status | None:
     return results.not_applicable(why) if why else None
 
 
+@functools.cache
+def source_sha256() -> str:
+    """SHA-256 (hex) of flexmbd's own source: every .py file of the package, by path and content."""
+    root = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for p in sorted(root.rglob("*.py")):
+        h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def content_key(case, name: str) -> str | None:
+    """SHA-256 (hex) of everything a run of solver `name` on `case` depends on: the case's content
+    (`Case.content_sha256`), the solver's name, settings and version, a plug-in's own source file,
+    and flexmbd's source (`source_sha256`). A run with the key of a stored result would give that
+    result again: `flexmbd report` and `compare` keep it (`--rerun`: run anyway). None when the
+    solver cannot run the case here (unavailable, not applicable: nothing to keep)."""
+    if _precondition(case, name) is not None:
+        return None
+    mod = module(name)
+    own = Path(getattr(mod, "__file__", None) or "") if name not in BUILT_IN else None
+    parts = {"case": case.content_sha256, "solver": name, "settings": settings(case, name), "version": mod.version(),
+             "module": hashlib.sha256(own.read_bytes()).hexdigest() if own and own.is_file() else "",
+             "flexmbd": source_sha256()}
+    return hashlib.sha256(json.dumps(parts, sort_keys=True, default=str).encode()).hexdigest()
+
+
 def channel_bounds(case) -> dict:
     """Channel -> largest plausible magnitude (the divergence rule): a deflection,
     DIVERGED_LENGTHS times its beam's length; other channels need only be finite."""
@@ -187,6 +217,7 @@ def run(case, name: str, t_end: float | None = None) -> Result:
         return Result(solver=name, case=case.name, status=pre, case_sha256=case.sha256)
     mod = module(name)
     chosen = settings(case, name)
+    key = content_key(case, name)
     start = time.perf_counter()
     try:
         r = reported(mod.run(case, t_end, chosen), name, case)
@@ -207,6 +238,7 @@ def run(case, name: str, t_end: float | None = None) -> Result:
     r.solver, r.case, r.case_sha256 = name, case.name, case.sha256
     r.solver_version = r.solver_version or mod.version()
     r.extra["overrides"] = list(case.overrides)        # the --set items, recorded in the sidecar
+    r.extra["key"] = key                                # what the run depends on (`content_key`)
     if traj is not None:                                # the kept samples' deformed shapes, once for every solver
         shapes = channels.shapes(case, dataclasses.replace(traj, t=r.t), case.report.snapshots)
         if shapes:

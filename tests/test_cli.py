@@ -92,3 +92,42 @@ def test_version_and_help_text_for_every_option(capsys):
             assert a.help, (name, a.dest)
     help_text = subs["run"].format_help()
     assert "(default: reports)" in help_text and "OUT/results/CASE" in help_text and "one of: flexmbd, fe-linear" in help_text
+
+
+# ---------------------------------------------------------------------------------------------
+# stored results kept when nothing they depend on changed (report, compare)
+
+
+def test_a_stored_result_with_the_runs_key_is_kept_and_any_change_runs_again(tmp_path, monkeypatch):
+    from flexmbd import cases, cli, results, solvers
+    out, ran, real = tmp_path / "rep", [], solvers.run
+    monkeypatch.setattr(solvers, "run", lambda c, s, t_end=None: ran.append((c.name, s)) or real(c, s, t_end))
+    case = cases.load("cantilever_step")
+    stored = results.folder(out) / case.name / "analytic.json"
+    cli.run_checked([(case, "analytic")], out, keep=True)
+    key = json.loads(stored.read_text())["key"]
+    assert len(ran) == 1 and key == solvers.content_key(case, "analytic") and len(key) == 64
+    before = (stored.stat().st_ino, stored.read_bytes())
+    cli.run_checked([(cases.load("cantilever_step"), "analytic")], out, keep=True)    # unchanged: kept
+    assert len(ran) == 1 and (stored.stat().st_ino, stored.read_bytes()) == before
+    cli.run_checked([(case, "analytic")], out, keep=False)                             # --rerun
+    assert len(ran) == 2
+    stiffer = cases.load("cantilever_step", ["materials.steel.E=2.1e11"])            # the case's content
+    cli.run_checked([(stiffer, "analytic")], out, keep=True)
+    cli.run_checked([(cases.load("cantilever_step", ["solvers.analytic.modes=8"]), "analytic")], out, keep=True)
+    assert len(ran) == 4                                                               # a setting
+    csv = stored.with_suffix(".csv")
+    csv.write_text(csv.read_text().replace("\n0.5,", "\n0.5000001,"))                # not its CSV any more
+    cli.run_checked([(cases.load("cantilever_step", ["solvers.analytic.modes=8"]), "analytic")], out, keep=True)
+    assert len(ran) == 5
+    cli.run_checked([(case, "mujoco")], out, keep=True)          # not applicable: nothing to keep, cheap
+    assert len(ran) == 6 and solvers.content_key(case, "mujoco") is None
+
+
+def test_a_case_s_content_hash_ignores_comments_and_follows_values(tmp_path):
+    from flexmbd import cases
+    text = (cases.CASES_DIR / "cantilever_step.toml").read_text()
+    (tmp_path / "a.toml").write_text("# a comment\n" + text)
+    a, b = cases.load("cantilever_step"), cases.load(str(tmp_path / "a.toml"))
+    assert a.sha256 != b.sha256 and a.content_sha256 == b.content_sha256
+    assert cases.load("cantilever_step", ["materials.steel.E=2.1e11"]).content_sha256 != a.content_sha256

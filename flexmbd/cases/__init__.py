@@ -10,7 +10,9 @@ every key a case may hold, once; `cases/README.md` documents the same keys with 
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -48,6 +50,17 @@ class Case:
     def __post_init__(self):
         if self.resolved is None:
             object.__setattr__(self, "resolved", resolve(self.data))
+
+    @functools.cached_property
+    def content_sha256(self) -> str:
+        """SHA-256 (hex) of what the case says: every value with its defaults and overrides filled
+        in, and the content of the motion tables it reads. Unlike `sha256` (the file's text), a
+        comment or a reordered table leaves it unchanged."""
+        h = hashlib.sha256(json.dumps(self.data, sort_keys=True, default=str).encode())
+        for j in self.joints.values():
+            if j.motion is not None and j.motion["type"] == "table":
+                h.update(Path(j.motion["file"]).read_bytes())
+        return h.hexdigest()
 
 
 for _name in TYPED:
