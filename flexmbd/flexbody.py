@@ -99,13 +99,18 @@ def snapped(length: float, elements: int, x: float) -> float:
 
 
 def beam_section(beam) -> section.Section:
-    """The FE section of a case beam (`cases.Beam`); FE convention: extent h along y, b along z."""
+    """The FE section of a case beam (`cases.Beam`): `section_of` its section."""
     s = beam.section
-    if s.shape == "circle":
-        return section.circle(s.d)
-    if s.h_axis == "y":
-        return section.rectangle(b=s.b, h=s.h)
-    return section.rectangle(b=s.h, h=s.b)
+    return section_of(s.shape, s.b, s.h, s.d, s.h_axis)
+
+
+def section_of(shape: str, b=None, h=None, d=None, h_axis: str = "y") -> section.Section:
+    """The FE section of a case's section table (m); FE convention: extent h along y, b along z."""
+    if shape == "circle":
+        return section.circle(d)
+    if h_axis == "y":
+        return section.rectangle(b=b, h=h)
+    return section.rectangle(b=h, h=b)
 
 
 def shear_modulus(material) -> float:

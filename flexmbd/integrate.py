@@ -202,8 +202,9 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
     if bar:
         bar.close()
     keep = slice(0, k + 1)
-    if status.ok and state_code(Y[k], model.nq) != OK:      # the integrators without a check of their own
-        status = results.failed(WHY[state_code(Y[k], model.nq)], t_out[k])
+    code = state_code(Y[k], model.nq) if status.ok else OK     # the integrators without a check of their own
+    if code != OK:
+        status = results.failed(WHY[code], t_out[k])
     return Simulation(t=t_out[keep], q=Y[keep, :model.nq], v=Y[keep, model.nq:], status=status,
                       steps=steps, rhs_evals=count[0], wall_s=wall, settings=settings)
 

@@ -167,8 +167,7 @@ def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
         E = energies(model, Q, V) if E is None else E
         traj.energy = {"kinetic": E[:, 0], "potential": E[:, 1]}
     asked = [c.joint for c in case.channels.values() if c.kind in ("reaction_force", "reaction_moment")]
-    stressed = {c.body for c in seg.channels.values() if c.kind == "stress_vm"}
-    rules = {name: channels.axial_rule(seg.bodies[name].stiffening, name in stressed, fb)
+    rules = {name: channels.axial_rule(seg.bodies[name].stiffening, bool(seg.stress_sections(name)), fb)
              for name, fb in model.bodies.items()}
     ev = evaluate(model, t, Q, V) if asked or any(map(any, rules.values())) or case.segments else None
     traj.reactions = {j: ev.f[:, model.index(seg.joints[j].child)] for j in asked}

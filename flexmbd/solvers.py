@@ -189,9 +189,13 @@ def content_key(case, name: str) -> str | None:
     solver cannot run the case here (unavailable, not applicable: nothing to keep)."""
     if _precondition(case, name) is not None:
         return None
-    mod = module(name)
+    return _key(case, name, module(name), settings(case, name))
+
+
+def _key(case, name: str, mod, chosen: dict) -> str:
+    """`content_key` of a solver that can run the case, its module and settings at hand."""
     own = Path(getattr(mod, "__file__", None) or "") if name not in BUILT_IN else None
-    parts = {"case": case.content_sha256, "solver": name, "settings": settings(case, name), "version": mod.version(),
+    parts = {"case": case.content_sha256, "solver": name, "settings": chosen, "version": mod.version(),
              "module": hashlib.sha256(own.read_bytes()).hexdigest() if own and own.is_file() else "",
              "flexmbd": source_sha256()}
     return hashlib.sha256(json.dumps(parts, sort_keys=True, default=str).encode()).hexdigest()
@@ -217,7 +221,7 @@ def run(case, name: str, t_end: float | None = None) -> Result:
         return Result(solver=name, case=case.name, status=pre, case_sha256=case.sha256)
     mod = module(name)
     chosen = settings(case, name)
-    key = content_key(case, name)
+    key = _key(case, name, mod, chosen)
     start = time.perf_counter()
     try:
         r = reported(mod.run(case, t_end, chosen), name, case)

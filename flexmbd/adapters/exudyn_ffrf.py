@@ -44,7 +44,6 @@ import numpy as np
 import scipy.sparse as sp
 
 from flexmbd import cases, channels, flexbody, invariants, profiles, results
-from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
 
@@ -392,8 +391,7 @@ def fixed_to_ground(case, name: str) -> bool:
 def axial_rules(case, fbs) -> dict:
     """Beam name -> where its quasi-static axial force enters (`channels.axial_rule`): this model
     has no geometric stiffening, so the axial load is always one of its validity measures."""
-    stressed = {c.body for c in case.channels.values() if c.kind == "stress_vm"}
-    return {n: channels.axial_rule(False, n in stressed, fb) for n, fb in fbs.items()}
+    return {n: channels.axial_rule(False, bool(case.stress_sections(n)), fb) for n, fb in fbs.items()}
 
 
 def axial_bodies(case, fbs) -> list:

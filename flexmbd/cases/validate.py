@@ -14,7 +14,6 @@ import difflib
 import math
 import tomllib
 from pathlib import Path
-from types import SimpleNamespace
 
 from flexmbd import flexbody
 from flexmbd.cases.schema import (BEAM, CASE, CHANNEL_KEYS, DERIVED, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS,
@@ -367,7 +366,7 @@ def _beam_sizes(b, mat) -> dict:
     """What a beam's stiffness and mass matrices are made of (infinite where they overflow)."""
     le, E, rho = b["length"] / b["elements"], mat["E"], mat["rho"]
     try:
-        sec = flexbody.beam_section(SimpleNamespace(section=SimpleNamespace(**b["section"])))
+        sec = flexbody.section_of(**b["section"])
         I_lo, I_hi = min(sec.Iy, sec.Iz), max(sec.Iy, sec.Iz)
         return {
             "section area (m^2)": sec.A, "smallest second moment of area (m^4)": I_lo,
