@@ -53,6 +53,23 @@ def _positive(text: str) -> float:
     return x
 
 
+def _count(text: str) -> int:
+    """A whole number of at least 1 (an option's value)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {n}")
+    return n
+
+
+def _where(args):
+    """Where the command's runs go (executor.Where), from --workers, --scheduler, --dask-local."""
+    from flexmbd import executor
+    return executor.Where(args.workers, args.scheduler, args.dask_local)
+
+
 # ---------------------------------------------------------------------------------------------
 # commands
 
@@ -166,14 +183,6 @@ def _solver_list(text: str | None, flag: str) -> list:
     return chosen
 
 
-def run_all(jobs: list, out: Path, allow_large: bool = False) -> None:
-    """Run (case, solver) jobs into out/results with a progress bar; failures become results.
-    Before any runs, the cost of every job and the sizes of the imported results that the jobs'
-    pages will read beside them are checked."""
-    check_all(jobs, out, allow_large)
-    run_checked(jobs, out)
-
-
 def check_all(jobs: list, out: Path, allow_large: bool = False) -> None:
     """The cost of every (case, solver) job and the sizes of the imported results that the jobs'
     pages will read beside them, within the limits (cost.check, cost.check_stored)."""
@@ -181,35 +190,12 @@ def check_all(jobs: list, out: Path, allow_large: bool = False) -> None:
     cost.check_stored(stored_sidecars(out, [(c, []) for c in {c.name: c for c, _ in jobs}.values()]), allow_large)
 
 
-def run_checked(jobs: list, out: Path, keep: bool = False) -> None:
-    """Run jobs already checked (`check_all`) into out/results with a progress bar. With `keep`,
-    a job whose stored result is readable and has the key of the run it would make
-    (`solvers.content_key`: the same case content, solver, settings, versions and source) is not
-    run again: its result stays."""
-    from flexmbd import results
-    t0 = time.perf_counter()
-    for k, (c, s) in enumerate(jobs, 1):
-        if keep and kept(out, c, s):
-            job(k, len(jobs), f"{c.name} / {s} (stored, unchanged)", time.perf_counter() - t0)
-            continue
-        job(k, len(jobs), f"{c.name} / {s}", time.perf_counter() - t0)
-        with files.signals_exit():                      # nothing written while it runs
-            r = solvers.run(c, s)
-        results.write(r, results.folder(out))
-    jobs_done(len(jobs), time.perf_counter() - t0)
-
-
-def kept(out: Path, case, solver: str) -> bool:
-    """True when out/results holds a readable result of `solver` on `case` whose key is the one
-    a run would have now (`solvers.content_key`)."""
-    from flexmbd import results
-    key = solvers.content_key(case, solver)
-    if key is None:
-        return False
-    try:
-        return results.read(results.folder(out), case.name, solver).extra.get("key") == key
-    except InputError:
-        return False
+def run_checked(jobs: list, out: Path, keep: bool = False, where=None) -> None:
+    """Run jobs already checked (`check_all`) into out/results (`executor.into`: with `keep`, a
+    stored result with the key of the run it would be is kept), where `where` says (executor.Where:
+    a local pool of one worker per core by default)."""
+    from flexmbd import executor, results
+    executor.into(jobs, lambda case: results.folder(out), keep, where or executor.Where())
 
 
 def stored_sidecars(out, pages) -> list:
@@ -288,11 +274,12 @@ def cmd_report(args) -> int:
             warn(f"{c.name}: its reference {ref} {'is read' if args.no_run else 'runs'} too "
                  f"(every comparison is against it)")
     if not args.no_run:
-        run_checked(jobs, out, keep=not args.rerun)
-    spectra.prepare(loaded, warn)
+        run_checked(jobs, out, keep=not args.rerun, where=_where(args))
+    reuse = not (args.no_run or args.rerun)                 # unchanged pages kept (--no-run, --rerun: all drawn)
+    spectra.prepare([c for c in loaded if not (reuse and build.unchanged(out, c, chosen))], warn)
     t0 = time.perf_counter()
     index, runs, acc = build.write(out, loaded, chosen, warn,
-                                   lambda k, n, label: job(k, n, label, time.perf_counter() - t0))
+                                   lambda k, n, label: job(k, n, label, time.perf_counter() - t0), reuse)
     jobs_done(len(loaded) + 1, time.perf_counter() - t0)
     _show(args, "report", index, runs, acc)
     return _verdict(args, runs, acc)
@@ -309,7 +296,7 @@ def cmd_compare(args) -> int:
     check_all(jobs, out, args.allow_large)
     if names != chosen:
         warn(f"{case.name}: its reference {names[0]} runs too (every comparison is against it)")
-    run_checked(jobs, out, keep=not args.rerun)
+    run_checked(jobs, out, keep=not args.rerun, where=_where(args))
     spectra.prepare([case], warn)
     got = build.case_page(out, case, names, warn)
     _show(args, "page", out / case.name / "index.html", got["runs"], got["accuracy"])
@@ -320,7 +307,8 @@ def cmd_regress(args) -> int:
     from flexmbd.report import regress, tables
     listed = lambda text: text.split(",") if text else None
     rows = regress.run(Path(args.baseline), listed(args.cases), listed(args.solvers), args.results, args.update,
-                       args.allow_large, load=_case, warn=warn, updated=lambda path: print(f"updated {path}"))
+                       args.allow_large, load=_case, warn=warn, updated=lambda path: print(f"updated {path}"),
+                       where=_where(args))
     if args.update:
         return OK
     if args.json:
@@ -335,6 +323,37 @@ def cmd_regress(args) -> int:
         print(f"moved: {r['case']} / {r['solver']} / {r['channel']}: RMS difference {tables.fmt(r['rms'])} "
               f"> tolerance {tables.fmt(r['tolerance'])}", file=sys.stderr)
     return DIFFERENT if moved else OK
+
+
+def cmd_study(args) -> int:
+    from flexmbd import executor, study
+    from flexmbd.report import loading
+    out = Path(args.out)
+    if args.file:
+        st = study.from_file(Path(args.file))
+        if args.cases or args.vary:
+            raise InputError(f"{args.file}: give the study in the file or on the command line, not both")
+    else:
+        if not args.cases or not args.vary:
+            raise InputError("study: give CASE ... and --vary KEY=V1,V2,... (or --file STUDY.toml)")
+        st = study.Study(tuple(args.cases), tuple(study.parse_vary(v) for v in args.vary),
+                         tuple(args.solvers.split(",")) if args.solvers else ())
+    for name in st.solvers:
+        solvers.check_name(name, "--solvers" if not args.file else f"{args.file}: study.solvers")
+    points = study.loaded(st, _case)                    # every point, before any runs
+    files.writable_dir(out, "--out")
+    jobs = [(c, s) for c, names in points for s in names]
+    check_all(jobs, out, args.allow_large)
+    refs = {c.name: loading.added_reference(c, list(st.solvers)) for c, _ in points if st.solvers}
+    for name, ref in refs.items():
+        if ref:
+            warn(f"{name}: its reference {ref} runs at every point too (rms_vs_reference is against it)")
+    executor.into(jobs, lambda case: study.folder(out, case.overrides), not args.rerun, _where(args))
+    df = study.write(st, out, points)
+    print(f"{len(points)} points, {len(jobs)} runs, {len(df)} rows")
+    print(f"table: {out / 'study.parquet'}")
+    print(f"figures: {out / 'figures'}")
+    return OK
 
 
 def cmd_completion(args) -> int:
@@ -473,6 +492,14 @@ def parser() -> argparse.ArgumentParser:
     over = "override a case value, e.g. materials.steel.E=2.1e11 (repeatable)"
     names = ", ".join(solvers.NAMES)
     large = "run even beyond the cost limits (README.md, Cost limits)"
+    executors = Parser(add_help=False)                  # where the runs go (executor.Where; docs/studies.md)
+    on = executors.add_argument_group("where the runs go").add_mutually_exclusive_group()
+    on.add_argument("--workers", type=_count, default=None, metavar="N",
+                    help="local worker processes (default: one per core; 1: one run after another in this process)")
+    on.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                    help="run on the Dask distributed cluster of this scheduler (docs/studies.md)")
+    on.add_argument("--dask-local", type=_count, default=None, metavar="N",
+                    help="run on a Dask LocalCluster of N worker processes started for the command")
 
     s = sub.add_parser("list", help="the cases, with title, bodies and solvers", parents=[debug])
     s.add_argument("--json", action="store_true", help="print one JSON array on stdout")
@@ -517,7 +544,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print the result's JSON sidecar on stdout")
     s.set_defaults(func=cmd_import)
 
-    s = sub.add_parser("report", help="every case on every available solver, and the report", parents=[debug])
+    s = sub.add_parser("report", help="every case on every available solver, and the report", parents=[debug, executors])
     s.add_argument("--cases", default=None, help="comma-separated case names or paths (default: all)")
     s.add_argument("--solvers", default=None, help=f"comma-separated solver names (default: all: {names})")
     s.add_argument("--out", default="reports", help="the report folder (results in OUT/results)")
@@ -529,7 +556,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_report)
 
-    s = sub.add_parser("compare", help="run solvers on one case and write its report page", parents=[debug])
+    s = sub.add_parser("compare", help="run solvers on one case and write its report page", parents=[debug, executors])
     s.add_argument("case", help=case)
     s.add_argument("--solvers", default=None, help=f"comma-separated solver names (default: all: {names})")
     s.add_argument("--out", default="reports", help="the report folder (results in OUT/results)")
@@ -540,6 +567,21 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout (verdicts and accuracy rows)")
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_compare)
+
+    s = sub.add_parser("study", help="a grid of overrides on cases and solvers: its table (Parquet) and figures "
+                       "(docs/studies.md)", parents=[debug, executors])
+    s.add_argument("cases", nargs="*", metavar="CASE", help=case)
+    s.add_argument("--vary", action="append", metavar="KEY=V1,V2,...",
+                   help="a case key and its values, coarse to fine (repeatable: the grid is their product)")
+    s.add_argument("--solvers", default=None, help=f"comma-separated solver names (default: each case's report "
+                   f"solvers; the case's reference runs too)")
+    s.add_argument("--file", default=None, metavar="STUDY.toml", help="the study as a [study] table (cases, vary, "
+                   "solvers) instead of the arguments")
+    s.add_argument("--out", default="reports/study", help="the study folder (its runs in OUT/points)")
+    s.add_argument("--rerun", action="store_true", help="run every point again, also where a stored result has the "
+                   "key of its run (kept otherwise)")
+    s.add_argument("--allow-large", action="store_true", help=large)
+    s.set_defaults(func=cmd_study)
 
     s = sub.add_parser("completion", help="print the shell completion script (bash; zsh through bashcompinit)",
                        parents=[debug], description='bash: eval "$(flexmbd completion bash)" in ~/.bashrc; zsh: '
@@ -555,7 +597,7 @@ def parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_bench)
 
     s = sub.add_parser("regress", help="compare fresh results with stored baselines (exit 1 if anything moved)",
-                       parents=[debug])
+                       parents=[debug, executors])
     s.add_argument("--baseline", default=str(Path(__file__).resolve().parent.parent / "references" / "baselines"),
                    help="folder of baselines BASELINE/CASE/SOLVER.csv")
     s.add_argument("--results", default=None, metavar="DIR",

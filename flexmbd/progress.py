@@ -8,6 +8,14 @@ from __future__ import annotations
 import sys
 import time
 
+_shown = [True]         # False in a worker process of the executor: its parent shows the job bar
+
+
+def silence() -> None:
+    """No run's own bar from this process (an executor's worker: runs side by side would mix
+    their bars; the parent's job bar says which are running)."""
+    _shown[0] = False
+
 
 class Progress:
     """A progress bar on stderr for work that takes longer than a couple of seconds: the first line
@@ -25,8 +33,8 @@ class Progress:
 
     def due(self, now: float) -> bool:
         """Whether a line is due at `now` (time.perf_counter(), s): from `after` past the start, one
-        every `every`."""
-        return now - self.start >= self.after and now - self.last >= self.every
+        every `every` (never in a silenced process: `silence`)."""
+        return _shown[0] and now - self.start >= self.after and now - self.last >= self.every
 
     def update(self, t: float) -> None:
         now = time.perf_counter()

@@ -37,7 +37,7 @@ CASE, SOLVER = "cantilever_step", "analytic"
 # with the case's reference (fe-linear, as cheap), which a report runs anyway (said in one line)
 ONE = ["--cases", CASE, "--solvers", f"fe-linear,{SOLVER}"]
 BASE = ["--cases", CASE, "--solvers", SOLVER]          # regress: the analytic baseline alone
-# progress lines: run_all's bar and the integrators' bar
+# progress lines: the executor's job bar and the integrators' bar
 PROGRESS = re.compile(r"^\[[# ]{20}\] \d+/\d+ |^.* \[[# ]{30}\] t = ")
 
 
@@ -561,7 +561,7 @@ def test_a_real_signal_during_a_report_ends_it_with_one_generation(report, sig, 
     `delay` s later, wherever that is: it ends with exit 128 + signal and one line, or finished
     before the signal came, and the pages are all of the old report or all of the new one."""
     old = {p: (report / p).stat().st_ino for p in PAGES}
-    cmd = [sys.executable, "-m", "flexmbd.cli", "report", *ONE, "--out", report]
+    cmd = [sys.executable, "-m", "flexmbd.cli", "report", *ONE, "--out", report, "--rerun"]   # runs, then pages drawn
     with child(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True) as p:
         said = [p.stderr.readline()]
         while said[-1] and not PROGRESS.match(said[-1]):   # until the first progress line: main is at work

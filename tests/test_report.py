@@ -1,6 +1,7 @@
 """The report: pages and links, the same numbers in every format, FFT peaks, regression, robustness."""
 
 import csv
+import json
 import re
 import shutil
 from pathlib import Path
@@ -240,8 +241,9 @@ def test_a_failing_solver_does_not_stop_the_report(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise RuntimeError("boom")
 
-    monkeypatch.setattr(analytic, "run", boom)
-    assert main(["report", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(tmp_path)]) == 0
+    monkeypatch.setattr(analytic, "run", boom)                  # in this process: the runs too (--workers 1)
+    assert main(["report", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(tmp_path),
+                 "--workers", "1"]) == 0
     index = (tmp_path / "index.html").read_text()
     assert "failed: RuntimeError: boom" in index
     assert "fe-linear" in index
@@ -442,3 +444,25 @@ def test_report_runs_the_reference_it_compares_against(tmp_path, capsys):
         out, err = capsys.readouterr()
         assert want in out.splitlines()[0], (name, out)
     assert "--strict: nothing was compared" in err
+
+
+def test_a_page_whose_inputs_are_unchanged_is_kept_and_any_change_draws_it_again(tmp_path, capsys):
+    """A second report keeps each unchanged page (copied, its record's key the same), with the same
+    index and tables; a changed stored result draws its page again; --no-run draws every page."""
+    out = tmp_path / "rep"
+    argv = ["report", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(out), "--workers", "1"]
+    assert main(argv) == 0
+    first = {p: (out / p).read_bytes() for p in ("index.html", "accuracy.csv", "cantilever_step/index.html")}
+    capsys.readouterr()
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "page cantilever_step (unchanged, kept)" in err and "(stored, unchanged)" in err
+    assert {p: (out / p).read_bytes() for p in first} == first
+    sidecar = out / "results" / "cantilever_step" / "analytic.json"
+    meta = json.loads(sidecar.read_text())
+    meta["wall_s"] *= 2                                  # the page's timing table shows it
+    sidecar.write_text(json.dumps(meta, indent=2) + "\n")
+    assert main(argv) == 0
+    assert "page cantilever_step (unchanged, kept)" not in capsys.readouterr().err
+    assert main([*argv, "--no-run"]) == 0
+    assert "(unchanged, kept)" not in capsys.readouterr().err

@@ -7,14 +7,26 @@
 Each is built in a staging folder swapped in whole (`files.generation`): the stored results are
 read by `loading`, the system modes the spectra are matched against come from `spectra`, the
 pages are written by `pages` and the reviewer tables by `tables`.
+
+A case page is a function of its inputs only: the case (its text and content), the solvers it
+shows, their stored results (sidecar and CSV bytes), whether the report has an index, and
+flexmbd's source. `OUT/CASE/page.json` records their digest (`page_key`) with what the page gave
+the index (its accuracy rows, its runs' outcomes, the warnings said while it was built); a report
+that may reuse pages (`reuse`) copies an unchanged page into the new generation and says its
+warnings again, instead of drawing it again.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
+import shutil
 from pathlib import Path
 
-from flexmbd import files
-from flexmbd.report import loading, pages, tables
+from flexmbd import files, results, solvers
+from flexmbd.report import accuracy, loading, pages, tables
+
+RECORD = "page.json"        # in OUT/CASE/: the page's key and what it gave the index
 
 
 def case_page(out: Path, case, names, warn=None) -> dict:
@@ -25,23 +37,30 @@ def case_page(out: Path, case, names, warn=None) -> dict:
         return pages.write_case(out, stage, case, names, warn, indexed)
 
 
-def write(out: Path, chosen_cases, names, warn=None, progress=None) -> tuple[Path, list, list]:
+def write(out: Path, chosen_cases, names, warn=None, progress=None, reuse: bool = False) -> tuple[Path, list, list]:
     """Every case page, the index and the reviewer tables, as one generation (built in a staging
     folder and swapped in at the end: `files.generation`); (the index path, every run's
-    accuracy.Outcome, the accuracy rows). `progress(k, n, label)` is told before each page."""
+    accuracy.Outcome, the accuracy rows). `progress(k, n, label)` is told before each page. With
+    `reuse`, a case page whose inputs are unchanged is copied, not drawn again (`page_key`)."""
     out = Path(out)
     with files.generation(out) as stage:
-        all_acc, runs = _write(out, stage, chosen_cases, names, warn, progress)
+        all_acc, runs = _write(out, stage, chosen_cases, names, warn, progress, reuse)
     return out / "index.html", runs, all_acc
 
 
-def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None) -> tuple[list, list]:
+def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None, reuse: bool = False) -> tuple[list, list]:
     """Every case page, the reviewer tables and the index into `stage`: (accuracy rows, runs)."""
     all_acc, runs = [], []
     for k, case in enumerate(chosen_cases, 1):
+        shown = loading.jobs(case, names)
+        key = page_key(out, case, shown)
+        got = reused(out, stage, case, key, warn) if reuse else None
         if progress:
-            progress(k, len(chosen_cases) + 1, f"page {case.name}")
-        got = pages.write_case(out, stage, case, loading.jobs(case, names), warn)
+            progress(k, len(chosen_cases) + 1, f"page {case.name}" + (" (unchanged, kept)" if got else ""))
+        if got is None:
+            said = []
+            got = pages.write_case(out, stage, case, shown, lambda line: said.append(line) or (warn and warn(line)))
+            files.atomic_write(stage / case.name / RECORD, record(key, got, said))
         all_acc += got["accuracy"]
         runs += got["runs"]
     if progress:
@@ -49,3 +68,54 @@ def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None) -> 
     tables.write_accuracy(stage, all_acc)
     pages.write_index(out, stage, runs, warn)
     return all_acc, runs
+
+
+def page_key(out: Path, case, names) -> str:
+    """SHA-256 (hex) of everything a case page in a report (with an index) is drawn from: the case's
+    text and content, the solvers it shows (`names` and those imported), the bytes of their stored
+    sidecars and CSVs, and flexmbd's source (`solvers.source_sha256`)."""
+    h = hashlib.sha256(json.dumps({"case": [case.sha256, case.content_sha256], "flexmbd": solvers.source_sha256(),
+                                   "names": list(names)}).encode())
+    for s in loading.page_solvers(out, case, names):
+        for f in (results.folder(out) / case.name / f"{s}.json", results.folder(out) / case.name / f"{s}.csv"):
+            h.update(f"\0{f.name}\0".encode())
+            h.update(hashlib.sha256(f.read_bytes()).digest() if f.is_file() else b"absent")
+    return h.hexdigest()
+
+
+def unchanged(out: Path, case, names) -> bool:
+    """Whether the case's page in `out` was drawn from exactly the inputs it would be drawn from
+    now (its record's key is `page_key`): a report that reuses pages keeps it."""
+    try:
+        rec = json.loads((Path(out) / case.name / RECORD).read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(rec, dict) and rec.get("key") == page_key(out, case, loading.jobs(case, names))
+
+
+def record(key: str, got: dict, said: list) -> str:
+    """The page's record (RECORD): its key, accuracy rows, runs' outcomes and warnings, as JSON."""
+    runs = [{"case": o.case, "solver": o.solver, "status": [o.status.kind, o.status.why, o.status.t],
+             "verdict": [o.verdict.kind, o.verdict.text], "worst": o.worst, "wall_s": o.wall_s} for o in got["runs"]]
+    return json.dumps({"key": key, "accuracy": got["accuracy"], "runs": runs, "warnings": said}, default=float) + "\n"
+
+
+def reused(out: Path, stage: Path, case, key: str, warn) -> dict | None:
+    """The page of `case` in `out`, copied into `stage`, when its record has `key` (its inputs are
+    unchanged); its warnings said again (`warn`). None when it must be drawn (no page, no record,
+    another key, a record that cannot be read)."""
+    old = Path(out) / case.name
+    try:
+        rec = json.loads((old / RECORD).read_text())
+        if rec.get("key") != key or not (old / "index.html").is_file():
+            return None
+        runs = [accuracy.Outcome(o["case"], o["solver"], results.Status(*o["status"]), accuracy.Verdict(*o["verdict"]),
+                                 o["worst"], o["wall_s"]) for o in rec["runs"]]
+        got = {"accuracy": rec["accuracy"], "runs": runs}
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    shutil.copytree(old, stage / case.name)
+    for line in rec.get("warnings", []):
+        if warn:
+            warn(line)
+    return got

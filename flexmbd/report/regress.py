@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import cases, channels, cost, files, metrics, results, solvers
+from flexmbd import cases, channels, cost, executor, files, metrics, results, solvers
 from flexmbd.errors import InputError
 from flexmbd.files import atomic_write
 from flexmbd.progress import job, jobs_done
@@ -164,31 +164,27 @@ def compare(case, r: Result, baseline: pd.DataFrame, kinetic: float | None = Non
 
 
 def run(base: Path, case_names, solver_names, stored_in, update: bool, allow_large: bool, load, warn,
-        updated) -> list[dict]:
+        updated, where=None) -> list[dict]:
     """`flexmbd regress`: the rows of `compare` for every (case, solver) pair (`pairs`), fresh
-    runs or, from the report folder `stored_in` (a path or None), stored results; with `update`
-    the baselines are written instead (`updated(path)` told of each) and there are no rows.
-    Every case, baseline and stored result is checked first (`checked`). `load(name)`: a case
-    as the command line loads it; `warn(line)` is told of stale inputs."""
+    runs (on the executor, `where`: executor.Where) or, from the report folder `stored_in` (a path
+    or None), stored results; with `update` the baselines are written instead (`updated(path)`
+    told of each) and there are no rows. Every case, baseline and stored result is checked first
+    (`checked`). `load(name)`: a case as the command line loads it; `warn(line)` is told of stale
+    inputs."""
     pairs = selected(base, case_names, solver_names, bool(stored_in), update, load)
     loaded, stored, fresh = checked(base, pairs, stored_in, update, allow_large, load, warn)
+    if not stored_in:
+        jobs = [(loaded[c], s) for c, s in pairs]
+        executor.execute(jobs, lambda k, r: fresh.__setitem__(pairs[k], r), where or executor.Where())
     rows = []
-    t0 = time.perf_counter()
-    for k, (c, s) in enumerate(pairs, 1):
-        job(k, len(pairs), f"{c} / {s}", time.perf_counter() - t0)
-        case = loaded[c]
-        if stored_in:
-            r = fresh[c, s]
-        else:
-            with files.signals_exit():                  # nothing written while it runs
-                r = solvers.run(case, s)
+    for c, s in pairs:
+        r, case = fresh[c, s], loaded[c]
         if update:
             if not r.ok:
                 raise InputError(f"{c} / {s}: {r.status}; baseline not written")
             updated(write(base, case, r))
             continue
         rows += compare(case, r, stored[c, s], reference_kinetic(base, case))
-    jobs_done(len(pairs), time.perf_counter() - t0)
     return rows
 
 

@@ -1,0 +1,349 @@
+"""One executor for every set of runs: `report`, `compare`, `regress` and `study` hand it their jobs
+(a case, a solver) and take each result as it comes (`execute`). Where the jobs run (`Where`):
+
+- in this process, one after another (`workers = 1`, or a single job);
+- a local pool of worker processes, as many as cores by default (`pool`);
+- a Dask distributed cluster: an existing one by its scheduler's address, or a `LocalCluster`
+  of N worker processes started for the command (`dask`; docs/studies.md).
+
+A worker loads the case from its file and overrides (`Task`) and runs `solvers.run`; the Result
+comes back to this process, where `done` writes it. Workers write nothing, so a lost worker or a
+signal here leaves every finished result written and nothing half-written, and a command run
+again keeps what is stored (`cli.run_checked`). The same job gives the same result, bitwise,
+wherever it runs: the same code on the same input, one thread of linear algebra per worker, no
+state shared between runs. A job whose worker dies (killed, out of memory, a crash in native
+code) runs again once on a fresh worker; if that one dies too, the job is a failed result saying
+so. A result computed from another case content, solver version or flexmbd source than this
+process has (a cluster's workers at another version) is refused (`checked`: one line, exit 2).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+import time
+import traceback
+from collections import deque
+from multiprocessing import connection, get_context
+
+from flexmbd import cases, files, jit, results, solvers
+from flexmbd.errors import InputError
+from flexmbd.progress import job, jobs_done
+from flexmbd.results import Result
+
+THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
+TRIES = 2               # runs of a job whose worker died, before it is a failed result
+POOL_ABOVE = 5.0        # s of estimated work (`cost.stages`) from which the default pool starts workers
+COMPILES = ("flexmbd",)  # solvers whose first run on a machine compiles the kernel (`jit.is_cached`)
+COMPILE_S = 80.0        # s, about what that compile takes on this project's reference machine
+
+
+class WorkerError(RuntimeError):
+    """A worker's internal error: its exception's line, and its traceback as a note (saved with
+    this process's by the command's internal-error handler)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Where:
+    """Where jobs run: `workers` local processes (None: one per core; 1: in this process), or a
+    Dask cluster at `scheduler` (tcp://HOST:PORT), or a Dask LocalCluster of `dask_local` workers."""
+    workers: int | None = None
+    scheduler: str | None = None
+    dask_local: int | None = None
+
+    def count(self) -> int:
+        return self.workers or os.cpu_count() or 1
+
+
+@dataclasses.dataclass(frozen=True)
+class Task:
+    """What a worker needs to run one job: the case file, its `--set` overrides and the solver
+    (a Case itself stays in the process that loaded it)."""
+    path: str
+    overrides: tuple
+    solver: str
+
+
+def task(case, solver: str) -> Task:
+    return Task(str(case.path.resolve()), tuple(case.overrides), solver)
+
+
+def compute(t: Task) -> Result:
+    """A worker's job: the case loaded as the command loaded it, and the run (`solvers.run`)."""
+    return solvers.run(cases.load(t.path, list(t.overrides)), t.solver)
+
+
+def label(case, solver: str) -> str:
+    return f"{case.name} / {solver}" + (f" ({', '.join(case.overrides)})" if case.overrides else "")
+
+
+def into(jobs: list, folder, keep: bool = False, where: Where = Where()) -> None:
+    """Run the (case, solver) jobs and write each result into folder(case) (a results folder:
+    FOLDER/CASE/SOLVER.{csv,json}) as it comes. With `keep`, a job whose stored result is readable
+    and has the key of the run it would make (`kept`) is not run: its result stays."""
+    t0 = time.perf_counter()
+    todo, n = [], 0
+    for c, s in jobs:
+        if keep and kept(folder(c), c, s):
+            n += 1
+            job(n, len(jobs), f"{label(c, s)} (stored, unchanged)", time.perf_counter() - t0)
+        else:
+            todo.append((c, s))
+    execute(todo, lambda k, r: results.write(r, folder(todo[k][0])), where, skipped=len(jobs) - len(todo), t0=t0)
+
+
+def kept(folder, case, solver: str) -> bool:
+    """True when `folder` holds a readable result of `solver` on `case` whose key is the one a run
+    would have now (`solvers.content_key`)."""
+    key = solvers.content_key(case, solver)
+    if key is None:
+        return False
+    try:
+        return results.read(folder, case.name, solver).extra.get("key") == key
+    except InputError:
+        return False
+
+
+def execute(jobs: list, done, where: Where = Where(), skipped: int = 0, t0: float | None = None) -> None:
+    """Run the (case, solver) jobs where `where` says, calling done(k, result) in this process as
+    each result comes (k: the job's index in `jobs`), with the k-of-n job bar on stderr (after
+    `skipped` jobs already counted, from `t0`). A job its solver cannot run (unavailable, not
+    applicable) is answered here at once; the others start longest first (`cost.stages`'
+    estimates), so the last to finish are short. Without a count of workers, work estimated
+    under POOL_ABOVE seconds runs in this process (starting workers would cost more)."""
+    t0 = time.perf_counter() if t0 is None else t0
+    total, n = len(jobs) + skipped, skipped
+    runnable = []
+    for k, (case, solver) in enumerate(jobs):
+        if solvers.status_for(case, solver):
+            n += 1
+            job(n, total, label(case, solver), time.perf_counter() - t0)
+            done(k, solvers.run(case, solver))
+        else:
+            runnable.append(k)
+    seconds = {k: _seconds(*jobs[k]) for k in runnable}
+    first = next((k for k in runnable if jobs[k][1] in COMPILES), None)
+    if first is not None and not jit.is_cached():       # its compile: the longest job of all
+        seconds[first] += COMPILE_S
+    order = sorted(runnable, key=lambda k: -seconds[k])
+    started = lambda m, k: job(n + m, total, label(*jobs[k]), time.perf_counter() - t0)
+    small = where.workers is None and sum(seconds.values()) < POOL_ABOVE
+    if not order:
+        pass
+    elif where.scheduler or where.dask_local:
+        dask(jobs, order, done, started, where)
+    elif where.count() == 1 or len(order) == 1 or small:
+        for m, k in enumerate(order, 1):
+            started(m, k)
+            with files.signals_exit():                  # nothing written while it runs
+                r = solvers.run(*jobs[k])
+            done(k, r)
+    else:
+        pool(jobs, order, done, started, min(where.count(), len(order)))
+    jobs_done(total, time.perf_counter() - t0)
+
+
+def _seconds(case, solver: str) -> float:
+    from flexmbd import cost
+    return sum(st.seconds for st in cost.stages(case, solver))
+
+
+def checked(case, solver: str, r: Result) -> Result:
+    """A worker's result, if it is the run this process would have made: its key (`solvers.
+    content_key`: case content, solver, settings, versions, flexmbd's source) is this process's."""
+    key = solvers.content_key(case, solver)
+    if key is not None and r.extra.get("key") != key:
+        raise InputError(f"{case.path}: {solver}: a worker's result is of another flexmbd, solver or case version "
+                         f"than this command's (the source changed while it ran, or a cluster's worker differs: "
+                         f"docs/studies.md)")
+    return r
+
+
+def lost(case, solver: str, why: str) -> Result:
+    """The failed result of a job whose worker died TRIES times."""
+    return Result(solver=solver, case=case.name, case_sha256=case.sha256,
+                  status=results.failed(f"its worker process died {TRIES} times ({why})"))
+
+
+# ---------------------------------------------------------------------------------------------
+# the local pool
+
+
+def pool(jobs: list, order: list, done, started, n: int) -> None:
+    """The jobs on n worker processes of this machine, each fed one job at a time through a pipe.
+    While the kernel is not compiled, one job of COMPILES at a time runs (the others would compile
+    it again, side by side); the rest go on meanwhile. A worker that dies takes only its job with
+    it: the job goes back to the queue (TRIES in all) and a fresh worker replaces it. On any
+    exception here (a signal: Interrupted) every worker is killed before it is passed on."""
+    todo, tries, count = deque(order), {}, [0]
+    idle, busy = [], {}                                 # busy: worker -> the job k it runs
+
+    def next_job():
+        """The first job of the queue that may start now, or None."""
+        compiling = any(jobs[k][1] in COMPILES for k in busy.values()) and not jit.is_cached()
+        k = next((k for k in todo if not (compiling and jobs[k][1] in COMPILES)), None)
+        if k is not None:
+            todo.remove(k)
+        return k
+
+    try:
+        while todo or busy:
+            while todo and (idle or len(busy) < n):
+                k = next_job()
+                if k is None:
+                    break
+                w = idle.pop() if idle else Worker()
+                tries[k] = tries.get(k, 0) + 1
+                count[0] += 1
+                started(count[0], k)
+                w.send(task(*jobs[k]))
+                busy[w] = k
+            ready = connection.wait([x for w in busy for x in (w.conn, w.proc.sentinel)])
+            for w in [w for w in busy if w.conn in ready or w.proc.sentinel in ready]:
+                k = busy.pop(w)
+                got = w.receive()
+                if got is not None:
+                    done(k, checked(*jobs[k], got))
+                    idle.append(w)
+                    continue
+                why = w.death()
+                if tries[k] < TRIES:
+                    todo.appendleft(k)
+                    count[0] -= 1
+                else:
+                    done(k, lost(*jobs[k], why))
+    finally:
+        for w in idle + list(busy):
+            w.stop()
+
+
+class Worker:
+    """One worker process (spawned: a fresh interpreter, nothing inherited but the environment) and
+    the pipe it takes Tasks from and answers through."""
+
+    def __init__(self):
+        ctx = get_context("spawn")
+        self.conn, theirs = ctx.Pipe()
+        with _threads_one():
+            self.proc = ctx.Process(target=serve, args=(theirs,), daemon=True)
+            self.proc.start()
+        theirs.close()
+
+    def send(self, t: Task) -> None:
+        self.conn.send(t)
+
+    def receive(self) -> Result | None:
+        """The worker's answer, or None when it died before giving one. An internal error in the
+        worker is raised here (WorkerError, with its traceback)."""
+        try:
+            kind, value = self.conn.recv()
+        except (EOFError, OSError):
+            return None
+        if kind == "error":
+            err = WorkerError(f"{value.strip().splitlines()[-1]} (in a worker process)")
+            err.add_note(f"The worker's traceback:\n{value}")
+            raise err
+        return value
+
+    def death(self) -> str:
+        """Why the process ended (waited for): its signal or exit status."""
+        self.proc.join()
+        code = self.proc.exitcode
+        return f"killed by {signal.Signals(-code).name}" if code is not None and code < 0 else f"exit status {code}"
+
+    def stop(self) -> None:
+        if self.proc.is_alive():
+            self.proc.kill()
+        self.proc.join()
+        self.conn.close()
+
+
+class _threads_one:
+    """The environment a worker starts with: one thread of linear algebra and of numba (the
+    workers share the cores, and a result must not depend on a thread count)."""
+
+    def __enter__(self):
+        self.old = {k: os.environ.get(k) for k in THREADS}
+        os.environ.update({k: "1" for k in THREADS})
+
+    def __exit__(self, *exc):
+        for k, v in self.old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def serve(conn) -> None:
+    """A worker's life: take a Task, answer ("ok", Result) or ("error", traceback), until the pipe
+    closes. SIGINT is ignored (a Ctrl-C reaches the whole process group: the parent stops the
+    workers); the worker dies with its parent; no progress bars of its own."""
+    from flexmbd import progress
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent()
+    progress.silence()
+    while True:
+        try:
+            t = conn.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            answer = ("ok", compute(t))
+        except Exception:                               # noqa: BLE001 - the parent raises it
+            answer = ("error", traceback.format_exc())
+        conn.send(answer)
+
+
+def _die_with_parent() -> None:
+    """On Linux, SIGKILL when the parent process ends (a parent killed outright cannot stop its
+    workers); elsewhere nothing (a worker then ends when it reads the closed pipe)."""
+    try:
+        import ctypes
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)    # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
+# ---------------------------------------------------------------------------------------------
+# Dask
+
+
+def dask(jobs: list, order: list, done, started, where: Where) -> None:
+    """The jobs on a Dask distributed cluster: the one at `where.scheduler`, or a LocalCluster of
+    `where.dask_local` single-threaded worker processes on loopback, closed at the end. Dask
+    runs a lost worker's jobs again (its `allowed-failures`); a job that kills its workers that
+    often is a failed result. Every worker must have this flexmbd and the case files at the same
+    paths (docs/studies.md)."""
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+        from distributed.scheduler import KilledWorker
+    except ImportError as e:
+        from flexmbd.errors import InputError
+        raise InputError(f"--scheduler/--dask-local: Dask is not installed ({e}); "
+                         f"pip install 'dask[distributed]'") from None
+    import dask as dask_
+    import logging
+    cluster = None
+    with dask_.config.set({"distributed.worker.daemon": False, "distributed.scheduler.allowed-failures": TRIES - 1}), \
+            _threads_one():
+        if where.dask_local:
+            cluster = LocalCluster(n_workers=where.dask_local, threads_per_worker=1, processes=True,
+                                   host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR)
+        client = Client(cluster or where.scheduler, timeout="30s")
+    try:
+        futures = {}
+        for n, k in enumerate(order, 1):
+            started(n, k)
+            futures[client.submit(compute, task(*jobs[k]), pure=False)] = k
+        for fut in as_completed(futures):
+            k = futures[fut]
+            try:
+                r = checked(*jobs[k], fut.result())
+            except KilledWorker as e:
+                r = lost(*jobs[k], str(e).splitlines()[0])
+            done(k, r)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

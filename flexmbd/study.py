@@ -1,0 +1,324 @@
+"""`flexmbd study`: a grid of overrides on one or more cases, run on the executor, and its tidy table
+and figures (docs/studies.md).
+
+A study is cases x the product of the varied keys' values (`grid`) x solvers; each grid point is a
+set of `--set` overrides, and its results live in OUT/points/ID/results/CASE/SOLVER.{csv,json}
+(ID: `point_id`, a digest of the overrides), so a study run again keeps every result already
+stored with the key of its run (`executor.into`) and runs only the missing ones. Every point is
+loaded and checked before anything runs.
+
+The table (`table`, OUT/study.parquet) has one row per point, solver, channel and metric
+(METRICS), with each varied key as a column, the run's status and its provenance; it holds no
+times, so the same study gives the same table, bitwise, wherever it ran (the runs' times are in
+OUT/timing.csv). The values of a varied key are listed from coarse to fine: the last point of the
+grid is the finest, which the `rms_vs_finest` metric measures each solver against.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import tomllib
+from dataclasses import dataclass, field
+from itertools import product
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from flexmbd import cases, channels, metrics, results, solvers
+from flexmbd.errors import InputError
+from flexmbd.files import atomic_write
+from flexmbd.report import accuracy, loading
+from flexmbd.version import __version__
+
+# metric -> what it is (docs/studies.md); the two differences are RMS over the reference's
+# largest magnitude (or the channel's physical scale), as the report grades them
+METRICS = {"rms_vs_reference": "RMS difference from the case's reference solver at the same point",
+           "rms_vs_finest": "RMS difference from the same solver at the finest point (the last of the grid)",
+           "max_abs": "largest magnitude over the run", "mean": "time mean", "final": "value at the last instant"}
+DRAWN = ("rms_vs_reference", "rms_vs_finest")      # metrics drawn against each varied key
+LABEL = {"rms_vs_reference": "RMS difference from the reference", "rms_vs_finest": "RMS difference from the finest point"}
+
+
+@dataclass(frozen=True)
+class Study:
+    """What a study runs: case names or paths, the varied keys with their values (override text, in
+    the order given: coarse to fine) and the solvers (empty: each case's report solvers)."""
+    cases: tuple
+    vary: tuple                                     # ((dotted key, (value text, ...)), ...)
+    solvers: tuple = field(default=())
+
+
+def parse_vary(item: str, where: str = "--vary") -> tuple:
+    """'KEY=v1,v2,...' as (KEY, (v1, v2, ...)); a comma inside brackets or quotes stays in its
+    value (`gravity=[0,-9.81,0],[0,0,0]`). InputError naming the item when it is not that form."""
+    key, sep, text = item.partition("=")
+    values, depth, quote, cur = [], 0, "", ""
+    for ch in text:
+        if quote:
+            quote = "" if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch in "[{":
+            depth += 1
+        elif ch in "]}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            values.append(cur.strip())
+            cur = ""
+            continue
+        cur += ch
+    values.append(cur.strip())
+    if not sep or not key.strip() or not all(values):
+        raise InputError(f"{where} {item!r}: expected KEY=VALUE1,VALUE2,... (e.g. bodies.beam.modes.count=4,8,12)")
+    return key.strip(), tuple(values)
+
+
+def from_file(path: Path) -> Study:
+    """The `[study]` table of a TOML file: cases = [...], solvers = [...] (optional), and a `vary`
+    table of dotted key -> list of values (TOML values, coarse to fine). InputError naming the
+    file and key for anything else."""
+    where = str(path)
+    try:
+        doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except OSError as e:
+        raise InputError(f"{where}: cannot be read ({e.strerror or e})") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise InputError(f"{where}: not a TOML file ({e})") from None
+    st = doc.get("study")
+    if not isinstance(st, dict):
+        raise InputError(f"{where}: study: expected a [study] table (cases, vary, solvers)")
+    unknown = set(st) - {"cases", "vary", "solvers"}
+    if unknown:
+        raise InputError(f"{where}: study.{sorted(unknown)[0]}: unknown key (expected cases, vary, solvers)")
+    names = st.get("cases")
+    if not (isinstance(names, list) and names and all(isinstance(c, str) for c in names)):
+        raise InputError(f"{where}: study.cases: expected a list of case names or paths")
+    chosen = st.get("solvers", [])
+    if not (isinstance(chosen, list) and all(isinstance(s, str) for s in chosen)):
+        raise InputError(f"{where}: study.solvers: expected a list of solver names")
+    vary = st.get("vary")
+    if not (isinstance(vary, dict) and vary):
+        raise InputError(f"{where}: study.vary: expected a table of dotted keys, each a list of values")
+    flat = dict(_dotted(vary))
+    for key, values in flat.items():
+        if not (isinstance(values, list) and values):
+            raise InputError(f"{where}: study.vary.{key}: expected a list of values")
+    return Study(tuple(names), tuple((k, tuple(_toml(v) for v in vs)) for k, vs in flat.items()), tuple(chosen))
+
+
+def _dotted(table: dict, prefix: str = ""):
+    """(dotted key, value) of a nested table down to its non-table values (`a.b = [..]` in TOML
+    is nested)."""
+    for k, v in table.items():
+        if isinstance(v, dict):
+            yield from _dotted(v, f"{prefix}{k}.")
+        else:
+            yield f"{prefix}{k}", v
+
+
+def _toml(v) -> str:
+    """A TOML value as the text of an override (`--set KEY=TEXT`)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml(x) for x in v) + "]"
+    return repr(v)
+
+
+def grid(st: Study) -> list[tuple[str, ...]]:
+    """Every point of the study as its overrides ('KEY=VALUE', ...), the last key varying fastest;
+    the finest point (every key at its last value) last."""
+    keys = [k for k, _ in st.vary]
+    return [tuple(f"{k}={v}" for k, v in zip(keys, combo)) for combo in product(*(vs for _, vs in st.vary))]
+
+
+def point_id(overrides) -> str:
+    """A point's folder name: a digest of its overrides (12 hex digits)."""
+    return hashlib.sha256("\n".join(overrides).encode()).hexdigest()[:12]
+
+
+def folder(out: Path, overrides) -> Path:
+    """The results folder of a point (results.folder of OUT/points/ID)."""
+    return results.folder(Path(out) / "points" / point_id(overrides))
+
+
+def loaded(st: Study, load) -> list:
+    """Every (case, its solvers) of the study at every point, loaded and checked (`load(name,
+    overrides)`, which raises InputError naming the file and key) before anything runs: one bad
+    point stops the study. A case's solvers are the study's (or its report solvers) with its
+    reference (`loading.jobs`)."""
+    chosen = list(st.solvers) or list(solvers.NAMES)
+    out = []
+    for name in st.cases:
+        for over in grid(st):
+            case = load(name, over)
+            out.append((case, loading.jobs(case, chosen)))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# the table
+
+
+def table(st: Study, out: Path, points: list) -> pd.DataFrame:
+    """The tidy table of a study run into `out`: one row per point, solver, channel and metric
+    (METRICS), with the varied keys' values (as their TOML values), the run's status, solver
+    version, the run's key and flexmbd's version; sorted, no times (see the module docstring).
+    `points`: `loaded`'s list."""
+    keys = [k for k, _ in st.vary]
+    rows = []
+    by_case = {}
+    for case, names in points:
+        by_case.setdefault(case.name, []).append((case, names))
+    for name, entries in by_case.items():
+        finest_case, finest_names = entries[-1]
+        finest = {s: _read(out, finest_case, s) for s in finest_names}
+        for case, names in entries:
+            got = {s: _read(out, case, s) for s in names}
+            values = dict(zip(keys, (_value(o.partition("=")[2]) for o in case.overrides)))
+            ref = case.report.reference
+            for s, r in got.items():
+                for ch in case.channels:
+                    base = {"case": case.name, "point": point_id(case.overrides), **values, "solver": s,
+                            "channel": ch, "tolerance": case.report.tolerances.get(ch, np.nan),
+                            "status": str(r.status), "solver_version": r.solver_version,
+                            "key": r.extra.get("key", ""), "flexmbd": __version__}
+                    for metric, v in _metrics(case, ch, r, got.get(ref) if s != ref else None,
+                                              finest.get(s)).items():
+                        rows.append({**base, "metric": metric, "reference": ref if metric == "rms_vs_reference" else
+                                     ("finest point" if metric == "rms_vs_finest" else ""), "value": v})
+    df = pd.DataFrame(rows)
+    return df[["case", "point", *keys, "solver", "channel", "metric", "value", "reference", "tolerance", "status",
+               "solver_version", "key", "flexmbd"]] if rows else df
+
+
+def _read(out: Path, case, solver: str):
+    """The stored result of a point's run, or a Result whose status says why it cannot be used."""
+    try:
+        return results.read(folder(out, case.overrides), case.name, solver)
+    except InputError as e:
+        return results.Result(solver=solver, case=case.name, status=results.unavailable(f"{results.UNUSABLE}: {e}"))
+
+
+def _value(text: str):
+    """An override's value as its TOML value (a number, a bool, a string)."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def _metrics(case, ch: str, r, ref, finest) -> dict:
+    """METRICS of channel `ch` of the run r; NaN where the run, its reference or its finest point
+    has no usable value. `ref`: the reference's Result at the same point (None for the reference
+    itself); `finest`: the same solver's Result at the finest point."""
+    nan = {m: np.nan for m in METRICS}
+    if not r.ok or ch not in r.channels or not len(r.t):
+        return nan
+    y = np.asarray(r.channels[ch], dtype=float)
+    got = {"max_abs": float(np.max(np.abs(y))), "mean": float(np.mean(y)), "final": float(y[-1]),
+           "rms_vs_reference": _rms(case, ch, ref, r), "rms_vs_finest": _rms(case, ch, finest, r)}
+    return {m: got[m] for m in METRICS}
+
+
+@np.errstate(over="ignore")
+def _rms(case, ch: str, ref, r) -> float:
+    """The RMS difference of r's channel from ref's on ref's instants, over ref's largest magnitude
+    or the channel's physical scale (`metrics.channel_norm`), as the report grades it."""
+    if ref is None or not ref.ok or ch not in ref.channels:
+        return np.nan
+    x = np.asarray(ref.channels[ch], dtype=float)
+    y = metrics.on_grid(ref.t, r.t, r.channels[ch])
+    k = metrics.channel_norm(case.channels[ch].kind, x, channels.physical_scale(case, ch, ref.extra.get("kinetic_max_J")))
+    return float(metrics.rms_diff(x, y, k))
+
+
+def timing(out: Path, points: list) -> pd.DataFrame:
+    """The runs' own times (solve and set-up, s) and steps, one row per point and solver."""
+    rows = []
+    for case, names in points:
+        for s in names:
+            r = _read(out, case, s)
+            rows.append({"case": case.name, "point": point_id(case.overrides), "overrides": " ".join(case.overrides),
+                         "solver": s, "status": str(r.status), "wall_s": r.wall_s, "setup_s": r.setup_s,
+                         "steps": r.steps})
+    return pd.DataFrame(rows)
+
+
+def write(st: Study, out: Path, points: list) -> pd.DataFrame:
+    """OUT/study.parquet, OUT/timing.csv and the figures (`figures`) of a study whose runs are
+    stored in `out`; returns the table."""
+    df = table(st, out, points)
+    atomic_write(out / "study.parquet", lambda f: df.to_parquet(f, index=False))
+    atomic_write(out / "timing.csv", timing(out, points).to_csv(index=False, float_format="%.6g"))
+    figures(st, df, out / "figures")
+    return df
+
+
+# ---------------------------------------------------------------------------------------------
+# figures
+
+
+def figures(st: Study, df: pd.DataFrame, where: Path) -> list:
+    """For each case, varied key (of two values or more) and metric of DRAWN: one figure, a panel per channel, the metric
+    against the key's values with one curve per solver, the other keys at their finest (last)
+    values; the channel's tolerance drawn as a dashed line. Returns the file names."""
+    from flexmbd.files import make_dir
+    from flexmbd.report import figures as figs
+    if df.empty:
+        return []
+    make_dir(where)
+    keys = [k for k, _ in st.vary]
+    finest = {k: _value(vs[-1]) for k, vs in st.vary}
+    names = []
+    for case in df["case"].unique():
+        for key in [k for k, vs in st.vary if len(vs) > 1]:
+            others = np.ones(len(df), dtype=bool)
+            for k in keys:
+                if k != key:
+                    others &= (df[k] == finest[k]).to_numpy()
+            for metric in DRAWN:
+                sel = df[(df["case"] == case) & (df["metric"] == metric) & others]
+                sel = sel[sel["value"].astype(float) > 0]          # finite: on a log scale (the finest point: 0)
+                if sel.empty:
+                    continue
+                names.append(figs.save(_figure(sel, case, key, metric), where / f"{case}__{key}__{metric}.png"))
+    return names
+
+
+def _figure(sel: pd.DataFrame, case: str, key: str, metric: str):
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter, NullLocator
+
+    from flexmbd.report import figures as figs
+    chans = list(dict.fromkeys(sel["channel"]))
+    fig, axes = plt.subplots(1, len(chans), figsize=(max(3.6 * len(chans), 5.0), 3.6), squeeze=False,
+                             layout="constrained")
+    numeric = pd.api.types.is_numeric_dtype(sel[key]) and not pd.api.types.is_bool_dtype(sel[key])
+    for ax, ch in zip(axes[0], chans):
+        part = sel[sel["channel"] == ch]
+        order = list(dict.fromkeys(part[key]))
+        for s in dict.fromkeys(part["solver"]):
+            pts = part[part["solver"] == s]
+            x = pts[key].to_numpy() if numeric else [order.index(v) for v in pts[key]]
+            ax.plot(x, pts["value"].to_numpy(dtype=float), marker="o", ms=4, lw=1.2, label=s, **figs.style(s))
+        tol = part["tolerance"].iloc[0]
+        if np.isfinite(tol):
+            ax.axhline(tol, ls="--", lw=0.8, color="k", label="tolerance")
+        ax.set_yscale("log")
+        ax.yaxis.set_minor_formatter(NullFormatter())
+        if numeric and (part[key] > 0).all():
+            ax.set_xscale("log")
+        ax.xaxis.set_minor_locator(NullLocator())
+        ax.set_xticks(order if numeric else range(len(order)), [f"{v:g}" if numeric else str(v) for v in order])
+        ax.set_title(ch, fontsize=10)
+        ax.set_xlabel(key)
+        ax.grid(alpha=0.3, which="both")
+    axes[0][0].set_ylabel(LABEL[metric], fontsize=9)
+    figs.legend(axes[0][-1], fontsize=8)
+    fig.suptitle(f"{case}: {metric} against {key}", fontsize=10)
+    return fig

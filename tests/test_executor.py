@@ -1,0 +1,175 @@
+"""The executor: the same results, bitwise, in this process, on the local pool and on a Dask
+LocalCluster; a lost worker loses no finished result and its job runs again; an interrupted set
+of runs resumes where it stopped; no worker outlives its command.
+
+The jobs are the cheapest there are (`analytic` on `cantilever_step`, a few variants through
+overrides); the processes are real, and a test that races one waits for what it says (a progress
+line, a result on disk) and stops what it started."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import flexmbd
+from flexmbd import cases, executor, results
+from flexmbd.errors import InputError
+
+ROOT = Path(flexmbd.__file__).resolve().parent.parent
+ENV = dict(os.environ, PYTHONPATH=str(ROOT), OPENBLAS_NUM_THREADS="1")
+VARIANTS = [[], ["solvers.analytic.modes=2"], ["solvers.analytic.modes=8"], ["materials.steel.E=2.1e11"]]
+
+
+def jobs():
+    return [(cases.load("cantilever_step", v), "analytic") for v in VARIANTS]
+
+
+def stored(where: executor.Where, out: Path) -> list[bytes]:
+    """Every variant run where `where` says, each written into its own folder; the CSVs' bytes."""
+    js = jobs()
+    executor.execute(js, lambda k, r: results.write(r, out / str(k)), where)
+    return [(out / str(k) / "cantilever_step" / "analytic.csv").read_bytes() for k in range(len(js))]
+
+
+def test_the_pool_gives_the_results_of_a_run_in_this_process_bitwise(tmp_path):
+    here = stored(executor.Where(workers=1), tmp_path / "here")
+    assert stored(executor.Where(workers=2), tmp_path / "pool") == here
+    assert len(set(here)) == len(here)                  # the variants differ: the comparison can fail
+
+
+def test_a_dask_local_cluster_gives_the_pool_s_results_bitwise(tmp_path):
+    pytest.importorskip("distributed")
+    pool = stored(executor.Where(workers=2), tmp_path / "pool")
+    assert stored(executor.Where(dask_local=2), tmp_path / "dask") == pool
+
+
+def test_done_is_told_each_job_once_with_its_index(tmp_path):
+    got = {}
+    js = jobs()
+    executor.execute(js, lambda k, r: got.setdefault(k, []).append(r), executor.Where(workers=2))
+    assert sorted(got) == list(range(len(js))) and all(len(v) == 1 for v in got.values())
+    assert [got[k][0].extra["overrides"] for k in range(len(js))] == VARIANTS
+
+
+def test_a_result_of_another_flexmbd_is_refused():
+    case, solver = jobs()[0]
+    r = executor.compute(executor.task(case, solver))
+    assert executor.checked(case, solver, r) is r
+    r.extra["key"] = "0" * 64                           # as a worker at another version would give it
+    with pytest.raises(InputError, match="another flexmbd"):
+        executor.checked(case, solver, r)
+
+
+def test_a_job_whose_worker_died_twice_is_a_failed_result_saying_so():
+    case, solver = jobs()[0]
+    r = executor.lost(case, solver, "killed by SIGKILL")
+    assert r.status.kind == "failed" and "worker process died 2 times (killed by SIGKILL)" in str(r.status)
+
+
+# ---------------------------------------------------------------------------------------------
+# real processes: a study killed in part or whole
+
+
+STUDY = ["cantilever_step", "--vary", "integrator.output_dt=1e-3,5e-4", "--vary", "solvers.analytic.modes=2,8",
+         "--vary", "duration=0.8",
+         "--solvers", "fe-linear,analytic"]
+
+
+def study(out: Path, *extra) -> subprocess.Popen:
+    def dispositions():                                 # SIGINT and SIGTERM at their defaults, whatever pytest has
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.SIG_DFL)
+    return subprocess.Popen([sys.executable, "-m", "flexmbd.cli", "study", *STUDY, "--out", str(out), "--workers", "2",
+                             *extra], env=ENV, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+                            preexec_fn=dispositions)
+
+
+def workers_of(pid: int) -> list[int]:
+    """The worker processes of process pid (its children running multiprocessing's spawn)."""
+    out = []
+    for d in Path("/proc").iterdir():
+        try:
+            stat = (d / "stat").read_text()
+            cmd = (d / "cmdline").read_bytes()
+        except (OSError, ValueError):
+            continue
+        if int(stat.rpartition(")")[2].split()[1]) == pid and b"spawn_main" in cmd:
+            out.append(int(d.name))
+    return out
+
+
+def alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def until(p, what, timeout: float = 120.0):
+    """Read p's stderr lines until what(line) holds; those lines. A failure if p ends first."""
+    lines, deadline = [], time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        line = p.stderr.readline()
+        if not line:
+            pytest.fail(f"the study ended ({p.wait()}) first: {''.join(lines)[-500:]}")
+        lines.append(line)
+        if what(line):
+            return lines
+    pytest.fail("the study never said it")
+
+
+def points(out: Path) -> list[Path]:
+    return sorted(out.glob("points/*/results/cantilever_step/*.json"))
+
+
+@pytest.mark.signals
+def test_a_killed_worker_loses_no_finished_result_and_its_job_runs_again(tmp_path):
+    out = tmp_path / "study"
+    p = study(out)
+    try:
+        lines = until(p, lambda line: " 2/8 " in line)                 # both workers have a job
+        victims = workers_of(p.pid)
+        assert len(victims) == 2, lines
+        os.kill(victims[0], signal.SIGKILL)
+        err = "".join(lines) + p.stderr.read()
+        assert p.wait(timeout=300) == 0, err
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    assert "Traceback" not in err and len(points(out)) == 8
+    assert all(results.read(f.parent.parent, "cantilever_step", f.stem).ok for f in points(out))
+    assert not any(alive(w) for w in victims)                           # none outlives the command
+    again = subprocess.run([sys.executable, "-m", "flexmbd.cli", "study", *STUDY, "--out", str(out)], env=ENV,
+                           capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0 and again.stderr.count("(stored, unchanged)") == 8, again.stderr
+
+
+@pytest.mark.signals
+def test_an_interrupted_study_resumes_where_it_stopped(tmp_path):
+    out = tmp_path / "study"
+    p = study(out)
+    try:
+        until(p, lambda line: " 3/8 " in line)                         # a first job has finished
+        victims = workers_of(p.pid)
+        p.send_signal(signal.SIGTERM)
+        err = p.stderr.read()
+        assert p.wait(timeout=120) == 143, err
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    assert err.strip().splitlines()[-1] == "flexmbd: interrupted (SIGTERM)", err
+    assert not any(alive(w) for w in victims)
+    hidden = [q for q in out.rglob("*") if q.name.startswith(".") or q.suffix == ".tmp"]
+    assert hidden == []                                                 # nothing half-written
+    done = len(points(out))
+    assert 1 <= done < 8
+    again = subprocess.run([sys.executable, "-m", "flexmbd.cli", "study", *STUDY, "--out", str(out)], env=ENV,
+                           capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    assert again.stderr.count("(stored, unchanged)") == done and len(points(out)) == 8
