@@ -70,8 +70,12 @@ def task(case, solver: str) -> Task:
 
 
 def compute(t: Task) -> Result:
-    """A worker's job: the case loaded as the command loaded it, and the run (`solvers.run`)."""
-    return solvers.run(cases.load(t.path, list(t.overrides)), t.solver)
+    """A worker's job: the case loaded as the command loaded it, and the run (`solvers.run`),
+    stamped with the worker's environment (`results.environment`: its machine, versions and
+    date go into the sidecar, not those of the process that writes it)."""
+    r = solvers.run(cases.load(t.path, list(t.overrides)), t.solver)
+    r.extra = {**results.environment(), **r.extra}
+    return r
 
 
 def label(case, solver: str) -> str:

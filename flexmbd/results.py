@@ -11,6 +11,7 @@ deferred, and the JSON records the CSV's SHA-256, so a reader sees the old pair 
 from __future__ import annotations
 
 import datetime
+import functools
 import hashlib
 import io
 import json
@@ -174,9 +175,11 @@ class Result:
         return pd.DataFrame(cols)
 
 
+@functools.cache
 def git_commit() -> str:
     """The commit of the source tree, with '+dirty' when the code or the case files (flexmbd/,
-    cases/, pyproject.toml: what a result depends on) have uncommitted changes ('' outside git)."""
+    cases/, pyproject.toml: what a result depends on) have uncommitted changes ('' outside git);
+    read once per process."""
     root = Path(__file__).resolve().parent.parent
     try:
         rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True,
@@ -189,15 +192,22 @@ def git_commit() -> str:
     return rev + ("+dirty" if rev and dirty else "")
 
 
-def environment() -> dict:
-    """Python, dependency versions, machine: provenance stored with every result."""
-    versions = {}
+@functools.cache
+def _versions() -> tuple:
+    """(name, version or None) of each of DEPENDENCIES installed here, read once per process."""
+    out = []
     for name in DEPENDENCIES:
         try:
-            versions[name] = metadata.version(name)
+            out.append((name, metadata.version(name)))
         except metadata.PackageNotFoundError:
-            versions[name] = None
-    return {"python": sys.version.split()[0], "versions": versions, "git_commit": git_commit(),
+            out.append((name, None))
+    return tuple(out)
+
+
+def environment() -> dict:
+    """Python, dependency versions, machine: provenance stored with every result (the process
+    that ran it: an executor's worker stamps its own, `executor.compute`)."""
+    return {"python": sys.version.split()[0], "versions": dict(_versions()), "git_commit": git_commit(),
             "machine": f"{platform.machine()} {platform.system()} {os.cpu_count()} cpu",
             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")}
 

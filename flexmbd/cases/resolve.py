@@ -190,6 +190,7 @@ class Report:
     tolerances: MappingProxyType    # channel -> relative tolerance
     snapshots: tuple    # instants of the deformed-shape snapshots, s
     shape_points: int   # evenly spaced points along each flexible beam drawn in them
+    notes: str = ""     # shown on the case page beside its accuracy table
 
 
 @dataclass(frozen=True)
@@ -357,7 +358,7 @@ def resolve(data: dict, split: bool = True) -> Resolved:
         loads=MappingProxyType(loads), channels=MappingProxyType(channels), integrator=Integrator(**ig),
         report=Report(reference=rep["reference"], solvers=None if rep["solvers"] is None else tuple(rep["solvers"]),
                       tolerances=frozen(rep["tolerances"]), snapshots=tuple(rep["snapshots"]),
-                      shape_points=rep["shape_points"]),
+                      shape_points=rep["shape_points"], notes=rep["notes"]),
         solvers=frozen(data["solvers"]), tree=tuple(tree), nq=nq, nv=nv,
         segments=MappingProxyType(segments), whole=MappingProxyType(whole),
         split=None if expanded is data else dataclasses.replace(resolve(expanded, split=False),

@@ -198,7 +198,12 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
             "(over many cycles a small frequency difference becomes a large phase difference): dominant "
             "frequency, RMS difference of the amplitude envelopes and of the slow (low-pass below half the "
             "lowest natural frequency) parts.</p>")
-    sections.append(("Accuracy", note + tables.html_table(head, rows), tables.markdown(head, rows)))
+    notes = case.report.notes.strip()
+    if notes:                                               # the case file's notes on its reference and verdicts
+        note += "".join(f"<p>{html.escape(' '.join(par.split()))}</p>" for par in notes.split("\n\n"))
+    sections.append(("Accuracy", note + tables.html_table(head, rows),
+                     ("\n\n".join(" ".join(par.split()) for par in notes.split("\n\n")) + "\n\n" if notes else "")
+                     + tables.markdown(head, rows)))
 
     # provenance
     head = ["solver", "version", "case sha256", "git commit", "date", "machine", "Python, numba", "overrides / source",
