@@ -20,6 +20,7 @@ process has (a cluster's workers at another version) is refused (`checked`: one 
 from __future__ import annotations
 
 import dataclasses
+import logging
 import os
 import signal
 import time
@@ -320,28 +321,28 @@ def dask(jobs: list, order: list, done, started, where: Where) -> None:
     often is a failed result. Every worker must have this flexmbd and the case files at the same
     paths (docs/studies.md)."""
     try:
+        import dask as dask_
         from dask.distributed import Client, LocalCluster, as_completed
         from distributed.scheduler import KilledWorker
     except ImportError as e:
-        from flexmbd.errors import InputError
         raise InputError(f"--scheduler/--dask-local: Dask is not installed ({e}); "
                          f"pip install 'dask[distributed]'") from None
-    import dask as dask_
-    import logging
     cluster = None
-    with dask_.config.set({"distributed.worker.daemon": False, "distributed.scheduler.allowed-failures": TRIES - 1}), \
-            _threads_one():
+    with dask_.config.set({"distributed.scheduler.allowed-failures": TRIES - 1}), _threads_one():
         if where.dask_local:
             cluster = LocalCluster(n_workers=where.dask_local, threads_per_worker=1, processes=True,
                                    host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR)
-        client = Client(cluster or where.scheduler, timeout="30s")
+        try:
+            client = Client(cluster or where.scheduler, timeout="30s")
+        except (OSError, TimeoutError, ValueError) as e:
+            if cluster is not None:
+                cluster.close()
+            raise InputError(f"--scheduler {where.scheduler}: no Dask scheduler answers there ({e})") from None
     try:
-        futures = {}
-        for n, k in enumerate(order, 1):
-            started(n, k)
-            futures[client.submit(compute, task(*jobs[k]), pure=False)] = k
-        for fut in as_completed(futures):
+        futures = {client.submit(compute, task(*jobs[k]), pure=False): k for k in order}
+        for n, fut in enumerate(as_completed(futures), 1):
             k = futures[fut]
+            started(n, k)                               # the cluster says when a job starts: shown as it ends
             try:
                 r = checked(*jobs[k], fut.result())
             except KilledWorker as e:

@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip("exudyn")
 
 from flexmbd import cases, channels, flexbody, invariants, profiles, solvers  # noqa: E402
-from flexmbd.adapters import exudyn_beam, exudyn_ffrf  # noqa: E402
+from flexmbd.adapters import exudyn_beam, exudyn_common, exudyn_ffrf  # noqa: E402
 
 
 def rel_rms(a, b):
@@ -94,12 +94,80 @@ def test_ffrf_axial_stress_step_means(step_means, monkeypatch):
     stresses (axial term included) follow flexmbd's; sampled raw, the part of them alternating
     from step to step (index-3 constraints, no numerical damping) spoils them."""
     if not step_means:
-        monkeypatch.setattr(exudyn_ffrf, "record_steps", lambda *a: {})
+        monkeypatch.setattr(exudyn_ffrf, "write_around_outputs", lambda *a: False)
     case = cases.load("double_pendulum")
     ref = solvers.run(linear("double_pendulum"), "flexmbd", 0.2)
     r = solvers.run(case, "exudyn-ffrf", 0.2)
     err = [rel_rms(ref.channels[ch], r.channels[ch]) for ch in ("stress_vm_1", "stress_vm_2")]
     assert (err[0] < 0.005 and err[1] < 0.015) == step_means, err
+
+
+def test_ffrf_step_means_from_exudyn_storage_are_a_per_step_record():
+    """The step means formed after the run from what Exudyn stored (`write_around_outputs`,
+    `step_mean`) are, to the last bit, those of the values a post-step function reads at every
+    step; Exudyn stores the sensors at step 0 and at the three steps around each output step,
+    nowhere else; the adapter itself installs no pre- or post-step function."""
+    case, t_end = cases.load("double_pendulum"), 0.01
+    opt = exudyn_ffrf.options({})
+    dt, out_dt = exudyn_ffrf.step_size(case, opt), case.integrator.output_dt
+    sim = exudyn_common.simulation_settings(case, t_end, dt, opt)
+    SC, mbs, items, S, joints = exudyn_ffrf.build(case, flexbody.for_case(case), True)
+    assert exudyn_ffrf.write_around_outputs(mbs, sim, dt, out_dt)
+    mbs.Assemble()
+    sensors, rec = exudyn_ffrf.step_sensors(S), {}
+
+    def post_step(m, t):
+        rec[round(t / dt)] = {x: np.asarray(m.GetSensorValues(x), dtype=float) for x in sensors}
+        return True
+    mbs.SetPostStepUserFunction(post_step)
+    status, *_ = exudyn_common.solve(mbs, sim, opt["solver"])
+    assert status.ok, status
+    assert mbs.GetPreStepUserFunction() == 0
+    t = exudyn_common.output_grid(case, t_end)
+    for x in sensors:
+        v = exudyn_common.sensor_series(mbs, x, t)
+        want = v.copy()
+        for k, i in enumerate(np.round(t / dt).astype(int)):
+            if i - 1 in rec and i + 1 in rec:
+                want[k] = 0.25 * rec[i - 1][x] + 0.5 * rec[i][x] + 0.25 * rec[i + 1][x]
+            elif i - 1 in rec:
+                want[k] = 0.5 * (rec[i - 1][x] + rec[i][x])
+        np.testing.assert_array_equal(exudyn_ffrf.step_mean(v, exudyn_common.stored(mbs, x), t, dt), want)
+    e, last = round(out_dt / dt), round(t_end / dt)
+    around = [0] + [s for k in range(1, last // e + 1) for s in (k * e - 1, k * e, k * e + 1) if s <= last]
+    steps = np.round(exudyn_common.stored(mbs, sensors[0])[:, 0] / dt).astype(int)
+    assert steps.tolist() == around and e == 20
+
+
+@pytest.mark.parametrize("every", [1, 2, 3, 4, 5, 20, 40])
+def test_ffrf_sensor_writes_around_every_output_step(every):
+    """`next_write` from step 0 visits exactly the steps k every - 1, k every, k every + 1 (k >= 1)."""
+    n, seen = 0, []
+    while n < 10 * every:
+        n = exudyn_ffrf.next_write(n, every)
+        seen.append(n)
+    want = sorted({s for k in range(1, 12) for s in (k * every - 1, k * every, k * every + 1)
+                   if 0 < s and s <= seen[-1]})
+    assert seen == want
+
+
+def test_exudyn_progress_line_moves_the_bar():
+    """Exudyn's own progress line ('STEP.., t = ..s', every 2 s and at the end of a solve) is read for
+    the simulated time; Exudyn's other console output is dropped."""
+    got = []
+    out = exudyn_common.ConsoleProgress(got.append)
+    for line in ["+++++\n", "EXUDYN V1.13.6 solver: implicit second order time integration\n",
+                 "STEP9111, t = 0.9111s\n", "", "STEP20000, t = 2s\n", "Solver terminated successfully after 4.4 seconds.\n"]:
+        assert out.write(line) == len(line)
+    assert got == [0.9111, 2.0]
+    case, seen = cases.load("cantilever_step"), []
+    opt = {k: d for k, (_, d) in exudyn_beam.SETTINGS.items()}
+    with exudyn_common.quiet():
+        SC, mbs, beams, S = exudyn_beam.build(case, 4)
+    sim = exudyn_common.simulation_settings(case, 0.01, 1e-4, opt)
+    with exudyn_common.quiet(seen.append):
+        assert mbs.SolveDynamic(sim, showHints=False, showCausingItems=False)
+    assert seen and seen[-1] == pytest.approx(0.01)
 
 
 def linear(name):
@@ -150,7 +218,7 @@ def test_ffrf_gravity_nodal_vs_mass_proportional():
         assert r.ok, r.status
         drift[mode] = np.abs(r.channels["energy"]).max()
     assert drift["nodal"] < 2e-6 < 1e-3 < drift["mass-proportional"]
-    assert case.solvers == {}
+    assert "exudyn-ffrf" not in case.solvers                  # the overrides left the case file alone
 
 
 def test_broken_run_is_a_failed_result_and_others_untouched(tmp_path):
@@ -281,6 +349,30 @@ def test_beam_constant_rate_hub_carries_the_beam_rigidly():
     assert np.abs(r.channels["tip_deflection"]).max() < 1e-4 * 10.0
     stretch = 3000.0 * 4.0 ** 2 * 10.0 ** 3 / (3 * 7e10)
     assert np.mean(r.channels["tip_x"]) == pytest.approx(stretch, rel=0.03)
+
+
+SYMBOLIC_PROFILES = {           # gentle hubs starting at rest: the linear FFRF body stays valid
+    "constant_rate": "{type='constant_rate', rate=0.5}",
+    "harmonic": "{type='harmonic', amplitude=0.3, frequency=0.7, phase=1.5707963267948966, offset=-0.3}",
+    "spin_up": "{type='spin_up', W=1.0, T=1.5}",
+}
+
+
+@pytest.mark.parametrize("solver", ["exudyn-beam", "exudyn-ffrf"])
+@pytest.mark.parametrize("kind", list(SYMBOLIC_PROFILES))
+def test_symbolic_hub_motion_is_the_python_profile(kind, solver, monkeypatch):
+    """The prescribed hub motion as a symbolic user function Exudyn evaluates in C++
+    (`exudyn_common.motion_expr`) gives the channels the Python function `profiles.motion` gives,
+    to 1e-12 of each channel's largest value (on this machine: to the last bit), over 2 s (both
+    branches of the spin-up)."""
+    case = cases.load("spinup_beam", [f"joints.hub.motion={SYMBOLIC_PROFILES[kind]}", "joints.hub.q0=0.25",
+                                      f"solvers.{solver}.dt=1e-3", "solvers.exudyn-beam.elements=8"])
+    sym = solvers.run(case, solver, 2.0)
+    monkeypatch.setattr(exudyn_common, "SYMBOLIC", ())
+    py = solvers.run(case, solver, 2.0)
+    assert sym.ok and py.ok and sym.t.size == py.t.size, (sym.status, py.status)
+    for ch, v in py.channels.items():
+        assert np.abs(sym.channels[ch] - v).max() <= 1e-12 * np.abs(v).max(), ch
 
 
 def test_beam_declines_motion_off_ground():

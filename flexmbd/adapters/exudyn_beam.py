@@ -13,7 +13,9 @@ node of this mesh nearest to `at`, `mesh_node`) and the child's root node; a fix
 ground clamps the root node's three coordinates. A revolute joint to ground with prescribed
 motion (the hub of a spin-up or slewing beam) is the same pin plus a `CoordinateConstraint` that
 holds the root node's rotation on the profile: its offset user functions are `profiles.motion`
-(angle and rate), so the root is clamped to a hub turning exactly as flexmbd's joint does. The
+(angle and rate), so the root is clamped to a hub turning exactly as flexmbd's joint does; written
+as Exudyn symbolic user functions (`exudyn_common.motion_expr`), Exudyn evaluates them in C++
+(a table profile stays a Python function). The
 beam starts undeformed on the profile's q(0), every node moving with the rigid rotation at its
 rate qd(0). Point loads are `LoadForceVector` on their node of this mesh (a body-frame load
 turns with the root node); gravity is `LoadMassProportional` on every element.
@@ -180,26 +182,31 @@ def add_joint(mbs, case, beams: dict, ground, j: cases.Joint) -> None:
         ng = mbs.AddNode(eii.NodePointGround(visualization=eii.VNodePointGround(show=False)))
         mg = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=ng, coordinate=0))
         mr = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=child["nodes"][0], coordinate=2))
-        kw = hub_offset(j) if j.motion is not None else {}
+        kw = hub_offset(mbs, j) if j.motion is not None else {}
         mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[mg, mr], **kw,
                                                visualization=eii.VCoordinateConstraint(show=False)))
 
 
-def hub_offset(j: cases.Joint) -> dict:
+def hub_offset(mbs, j: cases.Joint) -> dict:
     """Offset user functions of the root rotation's coordinate constraint on a driven joint.
 
     The constraint holds the rotation coordinate, which Exudyn counts from the node's reference
     angle (the profile's q(0)), so the offset is q(t) - q(0); its rate qd(t) serves the
-    velocity-level (index-2) solvers."""
+    velocity-level (index-2) solvers. Both are symbolic user functions, evaluated by Exudyn
+    itself (`xc.motion_expr`), except for a table profile, which stays a Python function."""
     prof, q0 = j.motion, float(j.q0[0])
     q_start = profiles.motion(prof, 0.0, q0)[0]
+    motion = xc.motion_expr if prof["type"] in xc.SYMBOLIC else profiles.motion
 
     def offset(mbs, t, itemNumber, lOffset):
-        return profiles.motion(prof, t, q0)[0] - q_start
+        return motion(prof, t, q0)[0] - q_start
 
     def offset_t(mbs, t, itemNumber, lOffset):
-        return profiles.motion(prof, t, q0)[1]
-    return {"offsetUserFunction": offset, "offsetUserFunction_t": offset_t}
+        return motion(prof, t, q0)[1]
+    if motion is profiles.motion:
+        return {"offsetUserFunction": offset, "offsetUserFunction_t": offset_t}
+    return {name: xc.symbolic(mbs, f, name, "ObjectConnectorCoordinate")
+            for name, f in (("offsetUserFunction", offset), ("offsetUserFunction_t", offset_t))}
 
 
 def add_loads(mbs, case, beams: dict) -> None:

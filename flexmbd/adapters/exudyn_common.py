@@ -4,6 +4,11 @@ Exudyn prints progress and solver statistics to stdout; everything here runs wit
 output off, so `flexmbd run --json` keeps a clean stdout. A failed Exudyn solve (no Newton
 convergence, singular system, exception) becomes a `failed: ...` Result carrying Exudyn's own
 error text.
+
+A solve runs as Exudyn's own users run one: no Python function is called at every step. The
+progress bar reads Exudyn's own progress line (one every 2 s, `ConsoleProgress`), a signal is
+noticed by Exudyn itself, which runs Python's signal handlers between steps, and prescribed joint
+motion is a symbolic user function Exudyn evaluates in C++ (`motion_expr`, `symbolic`).
 """
 
 from __future__ import annotations
@@ -11,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import re
 import sys
 import time
 
@@ -18,6 +24,7 @@ import numpy as np
 
 import exudyn as exu                     # ImportError here: the adapters are 'unavailable'
 import exudyn.itemInterface as eii       # noqa: F401  (used by the adapters)
+from exudyn.advancedUtilities import CreateSymbolicUserFunction
 
 from flexmbd import files, results
 from flexmbd.adapters import common
@@ -39,11 +46,16 @@ def version() -> str:
 
 
 def silence() -> None:
-    """Exudyn's console output off (the config flag; the older call where there is no flag)."""
+    """Exudyn's console output off."""
+    console(False)
+
+
+def console(on: bool) -> None:
+    """Exudyn's console output on or off (the config flag; the older call where there is no flag)."""
     if hasattr(exu, "config") and hasattr(exu.config, "printToConsole"):
-        exu.config.printToConsole = False
+        exu.config.printToConsole = on
     else:
-        exu.SetWriteToConsole(False)
+        exu.SetWriteToConsole(on)
 
 
 def system():
@@ -54,24 +66,51 @@ def system():
 
 
 @contextlib.contextmanager
-def quiet():
-    """Silence Exudyn's C++ console output (fd 1) and Python prints while building / solving."""
+def quiet(progress=None):
+    """Silence Exudyn's C++ console output (fd 1) and Python prints while building / solving.
+
+    With `progress`, a function of the simulated time (s), Exudyn's console output is switched on
+    but read instead of printed: its progress lines go to `progress` (`ConsoleProgress`)."""
     silence()
     sys.stdout.flush()
     saved = os.dup(1)
     try:
         with open(os.devnull, "w") as null:
             os.dup2(null.fileno(), 1)
-            with contextlib.redirect_stdout(io.StringIO()):
+            with contextlib.redirect_stdout(ConsoleProgress(progress) if progress else io.StringIO()):
+                if progress:
+                    console(True)                        # Exudyn prints through Python's sys.stdout
                 yield
     finally:
+        silence()
         sys.stdout.flush()
         os.dup2(saved, 1)
         os.close(saved)
 
 
+class ConsoleProgress(io.TextIOBase):
+    """Exudyn's console output during a solve, read instead of printed: each of its progress lines
+    ('STEP9111, t = 0.9111s', one every 2 s of wall time with `verboseMode` 1) hands the simulated
+    time to `progress`; everything else is dropped."""
+
+    TIME = re.compile(r"\bt = ([-+0-9.eE]+) ?s\b")
+
+    def __init__(self, progress):
+        self.progress = progress
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, text: str) -> int:
+        m = self.TIME.search(text)
+        if m:
+            self.progress(float(m.group(1)))
+        return len(text)
+
+
 def simulation_settings(case, t_end: float, dt: float, solver: dict):
-    """Exudyn SimulationSettings: fixed step dt (s), implicit solver, no files, sensors in memory.
+    """Exudyn SimulationSettings: fixed step dt (s), implicit solver, no files, sensors in memory
+    at output_dt, Exudyn's progress line every 2 s (read by `solve`, never printed).
 
     `solver`: solver, spectral_radius, newton_rtol, adaptive (bool), as in the adapters' SETTINGS.
     """
@@ -79,7 +118,7 @@ def simulation_settings(case, t_end: float, dt: float, solver: dict):
     ti = s.timeIntegration
     ti.endTime = t_end
     ti.numberOfSteps = max(int(round(t_end / dt)), 1)
-    ti.verboseMode = 0
+    ti.verboseMode = 1
     ti.stepInformation = 0
     ti.adaptiveStep = bool(solver["adaptive"])
     ti.newton.relativeTolerance = solver["newton_rtol"]
@@ -102,16 +141,20 @@ def simulation_settings(case, t_end: float, dt: float, solver: dict):
 
 def solve(mbs, settings, solver_type: str, label: str = "exudyn"):
     """Run Exudyn's implicit solver, with a progress bar on stderr past a couple of seconds
-    (`progress.Progress`); (status, wall_s, steps, newton_iterations).
+    (`progress.Progress`, moved by Exudyn's own progress line: `quiet`); (status, wall_s, steps,
+    newton_iterations).
 
-    status is ok or failed with Exudyn's message; never raises for a solver failure.
+    No Python function is called per step. A SIGINT or SIGTERM is noticed by Exudyn between two
+    steps (it runs Python's signal handlers there) and raised again when the solve has returned
+    (`files.signals_kept`). status is ok or failed with Exudyn's message; never raises for a
+    solver failure.
     """
     t0 = time.perf_counter()
     status = results.Status()
     bar = Progress(settings.timeIntegration.endTime, label)
-    mbs.SetPreStepUserFunction(lambda mbs, t: bar.update(t) or True)
     try:
-        with files.signals_kept(), quiet():
+        with files.signals_kept(), quiet(bar.update):
+            bar.update(settings.timeIntegration.startTime)       # the solve starts
             ok = mbs.SolveDynamic(settings, solverType=IMPLICIT[solver_type], showHints=False,
                                   showCausingItems=False)
         if not ok:
@@ -148,23 +191,57 @@ def reached(r, t: np.ndarray, n_ok: int, t_end: float) -> int:
     return n_ok
 
 
-def sensor_series(mbs, sensor, t_out: np.ndarray) -> np.ndarray:
-    """A sensor's stored values resampled on the output grid t_out (n,): (n, k)."""
+def stored(mbs, sensor) -> np.ndarray:
+    """A sensor's stored rows (m, 1 + k): time, then its k values."""
     d = np.asarray(mbs.GetSensorStoredData(sensor))
-    if d.ndim == 1:
-        d = d[None, :]
+    return d[None, :] if d.ndim == 1 else d
+
+
+def sensor_series(mbs, sensor, t_out: np.ndarray) -> np.ndarray:
+    """A sensor's stored values on the output grid t_out (n,): (n, k); the rows stored at t_out
+    when there are (others may lie between them), else resampled linearly."""
+    d = stored(mbs, sensor)
     t, v = d[:, 0], d[:, 1:]
-    if t.size == t_out.size and np.allclose(t, t_out, atol=1e-9):
-        return v
+    row = np.clip(np.searchsorted(t, t_out - 1e-9), 0, t.size - 1)
+    if np.all(np.abs(t[row] - t_out) <= 1e-9):
+        return v[row]
     return np.column_stack([np.interp(t_out, t, v[:, k]) for k in range(v.shape[1])])
 
 
 def completed(mbs, sensor, t_out: np.ndarray) -> int:
     """Number of output instants a (possibly failed) run reached."""
-    d = np.asarray(mbs.GetSensorStoredData(sensor))
+    d = stored(mbs, sensor)
     if d.size == 0:
         return 0
-    return int(np.searchsorted(t_out, np.atleast_2d(d)[-1, 0] + 1e-9))
+    return int(np.searchsorted(t_out, d[-1, 0] + 1e-9))
+
+
+# motion profiles written as Exudyn symbolic expressions (`motion_expr`); a table stays in Python
+SYMBOLIC = ("constant_rate", "harmonic", "spin_up")
+
+
+def motion_expr(prof: dict, t, q0: float) -> tuple:
+    """(q, qd) of a motion profile of a `SYMBOLIC` kind at the symbolic time t (exu.symbolic.Real):
+    `profiles.motion_at`'s operations, in its order, as Exudyn symbolic expressions."""
+    sym, kind = exu.symbolic, prof["type"]
+    if kind == "constant_rate":
+        return q0 + prof["rate"] * t, prof["rate"] + 0.0 * t
+    if kind == "harmonic":
+        a, w, ph = prof["amplitude"], 2.0 * np.pi * prof["frequency"], prof["phase"]
+        return q0 + prof["offset"] + a * sym.sin(w * t + ph), a * w * sym.cos(w * t + ph)
+    W, T = prof["W"], prof["T"]
+    k = 2.0 * np.pi / T
+    q = sym.IfThenElse(t >= T, q0 + W * (t - T / 2.0), q0 + (W / T) * (t * t / 2.0 + (sym.cos(k * t) - 1.0) / (k * k)))
+    return q, sym.IfThenElse(t >= T, W + 0.0 * t, (W / T) * (t - sym.sin(k * t) / k))
+
+
+def symbolic(mbs, function, name: str, item_type: str):
+    """The user function `function` (written for Exudyn's symbolic arguments) recorded once as an
+    expression Exudyn evaluates in C++ for the item type's user function `name`: no Python runs
+    when it is called. Kept alive as long as mbs (its `variables`)."""
+    f = CreateSymbolicUserFunction(mbs, function, name, itemTypeName=item_type)
+    mbs.variables.setdefault("symbolic user functions", []).append(f)
+    return f
 
 
 def angle_z(R: np.ndarray) -> np.ndarray:

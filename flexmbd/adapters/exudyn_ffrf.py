@@ -19,7 +19,8 @@ Joints (body frame = the FFRF reference node, which is the beam's root node):
     position (Exudyn's rigid super-element marker needs non-collinear nodes, a beam's are
     collinear), so spherical joints are exact, and revolute joints about z are exact in a planar
     case (the moments about x and y they would carry are zero there); other joints: not applicable.
-Prescribed joint motion: the generic joint's offset user function. Loads: `LoadForceVector` on
+Prescribed joint motion: the generic joint's offset user function, a symbolic one that Exudyn
+evaluates in C++ (a table profile: a Python function). Loads: `LoadForceVector` on
 the node's super-element marker; gravity: `LoadMassProportional`.
 
 The trajectory (`flexmbd.channels`) is measured from Exudyn's sensors: node positions of the
@@ -33,7 +34,9 @@ gravity g into the body frame, -m_p R^T (a_p - g); the point loads on the beam a
 with their profiles; and the force each child joint exerts on its node (a spherical joint's
 `Force`, global; a generic joint's `ForceLocal`, in its marker 0's frame; both on marker 0,
 the parent side). Accelerations and joint forces are read as means over the steps around each
-output instant (`record_steps`): sampled raw they carry a part alternating from step to step.
+output instant (`step_mean`): sampled raw they carry a part alternating from step to step.
+Exudyn stores every sensor at those steps (`write_around_outputs`), so no Python runs per step:
+the means are formed after the run.
 """
 
 from __future__ import annotations
@@ -301,26 +304,31 @@ def add_joint(mbs, items, case, fbs, j: cases.Joint):
     Rq, tq = joint_offset(j)
     driven = j.motion is not None
     m1 = body_marker_rigid(mbs, items, child, case, fbs, -Rq.T @ tq if driven else np.zeros(3), Rq.T @ A)
-    kw = motion_offset(j) if driven else {}
+    kw = motion_offset(mbs, j) if driven else {}
     axes = [1] * 6 if driven else CONSTRAINED[j.type]
     obj = mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[m0, m1], constrainedAxes=axes,
                                                visualization=eii.VObjectJointGeneric(show=False), **kw))
     return obj, R0
 
 
-def motion_offset(j: cases.Joint) -> dict:
+def motion_offset(mbs, j: cases.Joint) -> dict:
     """Offset user function of a generic joint driving a 1-DOF joint along its profile.
 
-    The child marker carries the q0 offset, so the joint offset is q(t) - q0 about (along) z."""
+    The child marker carries the q0 offset, so the joint offset is q(t) - q0 about (along) z. It
+    is a symbolic user function, evaluated by Exudyn itself (`xc.motion_expr`), except for a table
+    profile, which stays a Python function."""
     q0 = j.q0[0]
     k = 5 if j.type == "revolute" else 2
     prof = j.motion
+    motion = xc.motion_expr if prof["type"] in xc.SYMBOLIC else profiles.motion
 
     def offset(mbs, t, itemNumber, params):
         o = [0.0] * 6
-        o[k] = profiles.motion(prof, t, q0)[0] - q0
+        o[k] = motion(prof, t, q0)[0] - q0
         return o
-    return {"offsetUserFunction": offset}
+    if motion is profiles.motion:
+        return {"offsetUserFunction": offset}
+    return {"offsetUserFunction": xc.symbolic(mbs, offset, "offsetUserFunction", "ObjectJointGeneric")}
 
 
 def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> None:
@@ -442,43 +450,66 @@ def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
 
 
 def step_sensors(S: dict) -> list:
-    """The sensors of S read as step means (see `record_steps`): node accelerations and joint forces."""
+    """The sensors of S read as step means (`step_mean`): node accelerations and joint forces."""
     return [x for Sb in S.values() for key in ("a", "f") for x in Sb.get(key, {}).values()]
 
 
-def record_steps(mbs, sensors: list, dt: float, out_dt: float) -> dict:
-    """Install a post-step function that keeps the values of `sensors` at the steps next to and at
-    every output instant; returns the record {step index: {sensor: value (k,)}}, filled by the solve.
+def write_around_outputs(mbs, sim, dt: float, out_dt: float) -> bool:
+    """Have Exudyn store the sensors at the steps next to each output step as well as at it, for
+    the step means (`step_mean`); False (nothing changed) when the step does not divide output_dt.
 
-    Why: with index-3 constraints and no numerical damping, Exudyn's accelerations and joint
-    forces of a constrained body carry a part that alternates in sign from step to step (it
+    Why step means: with index-3 constraints and no numerical damping, Exudyn's accelerations and
+    joint forces of a constrained body carry a part that alternates in sign from step to step (it
     leaves the positions alone: the update uses a_n + a_n+1); sampled every output_dt / dt steps,
-    always at the same parity, it would not average out (docs/exudyn.md)."""
-    rec: dict = {}
-    if not sensors or dt > out_dt:
-        return rec
+    always at the same parity, it would not average out (docs/exudyn.md).
+
+    How: Exudyn writes all sensors on one schedule (`sim.solution.sensors.writePeriod`; the solver
+    keeps the time of its next write as `output.lastSensorsWritten`). Up to output_dt = 3 dt every
+    step is written. Beyond, a sensor user function moves that next write to the next step of the
+    pattern k e - 1, k e, k e + 1 (`next_write`, e = output_dt / dt, k >= 1); Exudyn calls it only
+    when it writes the sensors, three times per output step: no Python runs at the steps between.
+    It reaches the solver as `SolveDynamic` stores it (mbs.sys["dynamicSolver"]). The system must
+    be assembled after this call."""
+    if dt > out_dt:
+        return False
     every = int(round(out_dt / dt))
-
-    def post_step(mbs_, t):
-        i = int(round(t / dt))
-        if min(i % every, every - i % every) <= 1:
-            rec[i] = {x: np.asarray(mbs_.GetSensorValues(x), dtype=float) for x in sensors}
+    if every <= 3:
+        sim.solution.sensors.writePeriod = dt
         return True
-    mbs.SetPostStepUserFunction(post_step)
-    return rec
+
+    def schedule(mbs_, t, sensor_numbers, factors, configuration):
+        n = next_write(int(round(t / dt)), every)
+        mbs_.sys["dynamicSolver"].output.lastSensorsWritten = n * dt
+        return [n * dt]                                   # its value (not stored): the next write's time
+    mbs.AddSensor(eii.SensorUserFunction(sensorUserFunction=schedule, writeToFile=False, storeInternal=False))
+    return True
 
 
-def step_mean(v: np.ndarray, x, rec: dict, t: np.ndarray, dt: float) -> np.ndarray:
-    """(n, k) sensor x's sampled values v (n, k) at t (n,) replaced by their step means: at an
-    output step i, (v_i-1 + 2 v_i + v_i+1) / 4 (which cancels a part alternating from step to
-    step); at the last one (v_i-1 + v_i) / 2; at t = 0, Exudyn's consistent initial value."""
+def next_write(n: int, every: int) -> int:
+    """The step after step n at which the sensors are written: the steps k every - 1, k every and
+    k every + 1 around each output step k every (k >= 1)."""
+    m = n + 1
+    if m >= every - 1 and m % every in (every - 1, 0, 1):
+        return m
+    return (m // every + 1) * every - 1
+
+
+def step_mean(v: np.ndarray, d: np.ndarray, t: np.ndarray, dt: float) -> np.ndarray:
+    """(n, k) sensor values v (n, k) sampled at the output steps t (n,) replaced by their step
+    means, from the sensor's stored rows d (m, 1 + k) (`write_around_outputs`): at an output step
+    i, (v_i-1 + 2 v_i + v_i+1) / 4 (which cancels a part alternating from step to step); at the
+    last one (v_i-1 + v_i) / 2; at t = 0, Exudyn's consistent initial value."""
+    steps, rows = np.round(d[:, 0] / dt).astype(np.int64), d[:, 1:]
+    i = np.round(t / dt).astype(np.int64)
+
+    def row(s):
+        j = np.clip(np.searchsorted(steps, s), 0, steps.size - 1)
+        return j, steps[j] == s
+    (jm, hm), (j0, h0), (jp, hp) = row(i - 1), row(i), row(i + 1)
     out = v.copy()
-    for k, tk in enumerate(t):
-        i = int(round(tk / dt))
-        if i - 1 in rec and i + 1 in rec:
-            out[k] = 0.25 * rec[i - 1][x] + 0.5 * rec[i][x] + 0.25 * rec[i + 1][x]
-        elif i - 1 in rec and i in rec:
-            out[k] = 0.5 * (rec[i - 1][x] + rec[i][x])
+    mid, last = hm & h0 & hp, hm & h0 & ~hp
+    out[mid] = 0.25 * rows[jm[mid]] + 0.5 * rows[j0[mid]] + 0.25 * rows[jp[mid]]
+    out[last] = 0.5 * (rows[jm[last]] + rows[j0[last]])
     return out
 
 
@@ -599,7 +630,7 @@ def energy(case, fbs, X) -> np.ndarray:
 
 
 def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
-    """(SystemContainer, mbs, items by body name, sensors) of the case."""
+    """(SystemContainer, mbs, items by body name, sensors, joints) of the case, not yet assembled."""
     SC, mbs = xc.system()
     order = case.order
     states = initial_states(case, order, fbs)
@@ -616,7 +647,6 @@ def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
     joints = {jn: add_joint(mbs, items, case, fbs, j) for jn, j in case.joints.items()}
     add_loads(mbs, items, case, fbs, states, gravity_mode)
     S = add_sensors(mbs, items, case, fbs, joints)
-    mbs.Assemble()
     return SC, mbs, items, S, joints
 
 
@@ -648,12 +678,13 @@ def run(case, t_end, settings):
     t_start = time.perf_counter()
     fbs = flexbody.for_case(case)
     dt = step_size(case, opt)
+    sim = xc.simulation_settings(case, t_end, dt, opt)
     with xc.quiet():
         SC, mbs, items, S, joints = build(case, fbs, opt["rotary_inertia"], opt["gravity"])
-    sim = xc.simulation_settings(case, t_end, dt, opt)
+        means = bool(step_sensors(S)) and write_around_outputs(mbs, sim, dt, case.integrator.output_dt)
+        mbs.Assemble()
     setup_s = time.perf_counter() - t_start
 
-    rec = record_steps(mbs, step_sensors(S), dt, case.integrator.output_dt)
     status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"], f"{case.name} / exudyn-ffrf")
     t = xc.output_grid(case, t_end)
     recorded = {"dt": dt, **{k: opt[k] for k in ("solver", "spectral_radius", "newton_rtol", "adaptive",
@@ -668,9 +699,9 @@ def run(case, t_end, settings):
     if n == 0:
         return r
     X = read_sensors(mbs, S, t[:n])
-    if rec:
+    if means:
         for Xb, Sb in ((X[b], S[b]) for b in axial_bodies(case, fbs)):
             for key in ("a", "f"):
-                Xb[key] = {k: step_mean(Xb[key][k], x, rec, t[:n], dt) for k, x in Sb[key].items()}
+                Xb[key] = {k: step_mean(Xb[key][k], xc.stored(mbs, x), t[:n], dt) for k, x in Sb[key].items()}
     r.t, r.trajectory = t[:n], trajectory(case, fbs, X, t[:n], joints)
     return r
