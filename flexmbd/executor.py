@@ -100,14 +100,17 @@ def into(jobs: list, folder, keep: bool = False, where: Where = Where()) -> None
 
 def kept(folder, case, solver: str) -> bool:
     """True when `folder` holds a readable result of `solver` on `case` whose key is the one a run
-    would have now (`solvers.content_key`)."""
+    would have now (`solvers.content_key`); for a solver that cannot run the case here (no key),
+    one that says the same of the same case file (its status), so that nothing a page is drawn
+    from is rewritten (`report.build.page_key`)."""
     key = solvers.content_key(case, solver)
-    if key is None:
-        return False
     try:
-        return results.read(folder, case.name, solver).extra.get("key") == key
+        r = results.read(folder, case.name, solver)
     except InputError:
         return False
+    if key is None:
+        return r.case_sha256 == case.sha256 and str(r.status) == solvers.status_for(case, solver)
+    return r.extra.get("key") == key
 
 
 def execute(jobs: list, done, where: Where = Where(), skipped: int = 0, t0: float | None = None) -> None:

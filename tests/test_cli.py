@@ -120,8 +120,12 @@ def test_a_stored_result_with_the_runs_key_is_kept_and_any_change_runs_again(tmp
     csv.write_text(csv.read_text().replace("\n0.5,", "\n0.5000001,"))                # not its CSV any more
     cli.run_checked([(cases.load("cantilever_step", ["solvers.analytic.modes=8"]), "analytic")], out, keep=True)
     assert len(ran) == 5
-    cli.run_checked([(case, "mujoco")], out, keep=True)          # not applicable: nothing to keep, cheap
+    cli.run_checked([(case, "mujoco")], out, keep=True)          # not applicable: no key, kept by its status
     assert len(ran) == 6 and solvers.content_key(case, "mujoco") is None
+    na = results.folder(out) / case.name / "mujoco.json"
+    before = (na.stat().st_ino, na.read_bytes())
+    cli.run_checked([(case, "mujoco")], out, keep=True)
+    assert len(ran) == 6 and (na.stat().st_ino, na.read_bytes()) == before
 
 
 def test_a_case_s_content_hash_ignores_comments_and_follows_values(tmp_path):
