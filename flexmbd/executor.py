@@ -10,8 +10,8 @@ A worker loads the case from its file and overrides (`Task`) and runs `solvers.r
 comes back to this process, where `done` writes it. Workers write nothing, so a lost worker or a
 signal here leaves every finished result written and nothing half-written, and a command run
 again keeps what is stored (`cli.run_checked`). The same job gives the same result, bitwise,
-wherever it runs: the same code on the same input, one thread of linear algebra per worker, no
-state shared between runs. A job whose worker dies (killed, out of memory, a crash in native
+wherever it runs: the same code on the same input, one thread of linear algebra in every run
+(`solvers.run`), no state shared between runs. A job whose worker dies (killed, out of memory, a crash in native
 code) runs again once on a fresh worker; if that one dies too, the job is a failed result saying
 so. A result computed from another case content, solver version or flexmbd source than this
 process has (a cluster's workers at another version) is refused (`checked`: one line, exit 2).

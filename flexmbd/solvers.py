@@ -16,7 +16,10 @@ solver's exception becomes a result, and where, the same for every solver (plug-
 the channels are formed from the trajectory, the model's linear validity becomes a status, the
 divergence rule (`results.first_failure`) cuts a run (a failed run keeps the samples before its
 failure), and the deformed-shape snapshots (`channels.shapes`) of the samples kept go into the
-sidecar's `shapes`. A plug-in may instead fill a Result's `channels` itself (no trajectory: no
+sidecar's `shapes`. A run uses one thread of linear algebra (threadpoolctl): a multi-threaded
+BLAS sums in an order that depends on its thread count, and a result must be the same bytes in
+this process, on a pool's worker and on a cluster's (the full-order FE transient of
+cantilever_step moves by 7e-6 of its largest value between one and two OpenBLAS threads). A plug-in may instead fill a Result's `channels` itself (no trajectory: no
 validity, no snapshots).
 """
 
@@ -33,6 +36,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from flexmbd import cases, channels, results
 from flexmbd.errors import InputError
@@ -224,7 +228,8 @@ def run(case, name: str, t_end: float | None = None) -> Result:
     key = _key(case, name, mod, chosen)
     start = time.perf_counter()
     try:
-        r = reported(mod.run(case, t_end, chosen), name, case)
+        with threadpool_limits(limits=1):               # one BLAS thread: the same bytes on any machine
+            r = reported(mod.run(case, t_end, chosen), name, case)
     except Exception as e:                              # an external code's failure is a result
         where = traceback.extract_tb(e.__traceback__)[-1]
         r = Result(solver=name, case=case.name,

@@ -41,6 +41,17 @@ def test_the_pool_gives_the_results_of_a_run_in_this_process_bitwise(tmp_path):
     assert len(set(here)) == len(here)                  # the variants differ: the comparison can fail
 
 
+def test_a_run_that_leans_on_blas_gives_the_same_bytes_in_this_process_and_on_the_pool(tmp_path):
+    """The full-order FE transient (600 DOFs: eigenvectors, dense products) moves by 7e-6 of its
+    largest value between one and two OpenBLAS threads; every run uses one (solvers.run)."""
+    js = [(cases.load("cantilever_step", [f"duration={d}"]), "fe-linear") for d in (0.2, 0.3)]
+    got = {}
+    for name, where in (("here", executor.Where(workers=1)), ("pool", executor.Where(workers=2))):
+        executor.execute(js, lambda k, r: results.write(r, tmp_path / name / str(k)), where)
+        got[name] = [(tmp_path / name / str(k) / "cantilever_step" / "fe-linear.csv").read_bytes() for k in range(2)]
+    assert got["here"] == got["pool"]
+
+
 def test_a_dask_local_cluster_gives_the_pool_s_results_bitwise(tmp_path):
     pytest.importorskip("distributed")
     pool = stored(executor.Where(workers=2), tmp_path / "pool")
