@@ -17,7 +17,7 @@ report: $(STAMP)
 	$(BIN)/flexmbd report --out reports
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto --dist loadfile   # one test file per core at a time (pytest-xdist)
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
