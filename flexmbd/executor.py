@@ -137,11 +137,9 @@ def execute(jobs: list, done, where: Where = Where(), skipped: int = 0, t0: floa
     order = sorted(runnable, key=lambda k: -seconds[k])
     started = lambda m, k: job(n + m, total, label(*jobs[k]), time.perf_counter() - t0)
     small = where.workers is None and sum(seconds.values()) < POOL_ABOVE
-    if not order:
-        pass
-    elif where.scheduler or where.dask_local:
+    if order and (where.scheduler or where.dask_local):
         dask(jobs, order, done, started, where)
-    elif where.count() == 1 or len(order) == 1 or small:
+    elif where.count() == 1 or len(order) <= 1 or small:
         for m, k in enumerate(order, 1):
             started(m, k)
             with files.signals_exit():                  # nothing written while it runs

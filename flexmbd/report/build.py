@@ -86,11 +86,17 @@ def page_key(out: Path, case, names) -> str:
 def unchanged(out: Path, case, names) -> bool:
     """Whether the case's page in `out` was drawn from exactly the inputs it would be drawn from
     now (its record's key is `page_key`): a report that reuses pages keeps it."""
+    return _record(out, case, page_key(out, case, loading.jobs(case, names))) is not None
+
+
+def _record(out: Path, case, key: str) -> dict | None:
+    """The page record of `case` in `out` when it has `key` and its page is there, else None."""
+    old = Path(out) / case.name
     try:
-        rec = json.loads((Path(out) / case.name / RECORD).read_text())
+        rec = json.loads((old / RECORD).read_text())
     except (OSError, ValueError):
-        return False
-    return isinstance(rec, dict) and rec.get("key") == page_key(out, case, loading.jobs(case, names))
+        return None
+    return rec if isinstance(rec, dict) and rec.get("key") == key and (old / "index.html").is_file() else None
 
 
 def record(key: str, got: dict, said: list) -> str:
@@ -104,17 +110,16 @@ def reused(out: Path, stage: Path, case, key: str, warn) -> dict | None:
     """The page of `case` in `out`, copied into `stage`, when its record has `key` (its inputs are
     unchanged); its warnings said again (`warn`). None when it must be drawn (no page, no record,
     another key, a record that cannot be read)."""
-    old = Path(out) / case.name
+    rec = _record(out, case, key)
+    if rec is None:
+        return None
     try:
-        rec = json.loads((old / RECORD).read_text())
-        if rec.get("key") != key or not (old / "index.html").is_file():
-            return None
         runs = [accuracy.Outcome(o["case"], o["solver"], results.Status(*o["status"]), accuracy.Verdict(*o["verdict"]),
                                  o["worst"], o["wall_s"]) for o in rec["runs"]]
         got = {"accuracy": rec["accuracy"], "runs": runs}
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    shutil.copytree(old, stage / case.name)
+    shutil.copytree(Path(out) / case.name, stage / case.name)
     for line in rec.get("warnings", []):
         if warn:
             warn(line)
