@@ -485,6 +485,33 @@ def write_around_outputs(mbs, sim, dt: float, out_dt: float) -> bool:
     return True
 
 
+def watch_divergence(mbs, S: dict, fbs: dict) -> dict:
+    """Stop the solve at the first sensor write at which a node of a flexible body lies farther
+    from its body frame than (1 + DIVERGED_LENGTHS) beam lengths: its deflection then exceeds
+    DIVERGED_LENGTHS lengths (an undeformed node is within one length of the frame), which the
+    divergence rule cuts at anyway (`results.first_failure`), and a linear floating frame that
+    lost its stiffness would otherwise integrate its growing oscillation to the end. Exudyn calls
+    the watch only when it writes the sensors (once or three times per output step); it raises
+    the system's stop flag (`SetRenderEngineStopFlag`), which ends the solve after that step.
+    Returns {"body": the body whose node left, "t": when}, filled when it stops."""
+    seen = {}
+    watched = [(b, S[b]["p"], list(S[b]["r"].values()), (1.0 + results.DIVERGED_LENGTHS) * fb.length)
+               for b, fb in fbs.items() if S.get(b, {}).get("r")]
+
+    def watch(mbs_, t, sensor_numbers, factors, configuration):
+        for b, frame, nodes, far in watched:
+            p = np.asarray(mbs_.GetSensorValues(frame))
+            if any(not np.linalg.norm(np.asarray(mbs_.GetSensorValues(k)) - p) <= far for k in nodes):  # NaN too
+                if not seen:
+                    seen.update(body=b, t=float(t))
+                    mbs_.SetRenderEngineStopFlag(True)
+                break
+        return [0.0]
+    if watched:
+        mbs.AddSensor(eii.SensorUserFunction(sensorUserFunction=watch, writeToFile=False, storeInternal=False))
+    return seen
+
+
 def next_write(n: int, every: int) -> int:
     """The step after step n at which the sensors are written: the steps k every - 1, k every and
     k every + 1 around each output step k every (k >= 1)."""
@@ -682,6 +709,7 @@ def run(case, t_end, settings):
     with xc.quiet():
         SC, mbs, items, S, joints = build(case, fbs, opt["rotary_inertia"], opt["gravity"])
         means = bool(step_sensors(S)) and write_around_outputs(mbs, sim, dt, case.integrator.output_dt)
+        stopped = watch_divergence(mbs, S, fbs)
         mbs.Assemble()
     setup_s = time.perf_counter() - t_start
 
@@ -694,6 +722,10 @@ def run(case, t_end, settings):
     r = results.Result(solver="exudyn-ffrf", case=case.name, status=status, wall_s=wall_s, setup_s=setup_s,
                steps=steps, rhs_evals=newton, settings=recorded, solver_version=version(),
                extra={"newton_iterations": newton})
+    if stopped:
+        r.status = results.failed(f"diverged (a node of {stopped['body']} beyond "
+                                  f"{1 + results.DIVERGED_LENGTHS:g} beam lengths from its frame: stopped there)",
+                                  stopped["t"])
     first = next(iter(S.values()))["p"]
     n = xc.reached(r, t, xc.completed(mbs, first, t), t_end)
     if n == 0:
