@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: report test test-slow clean
+.PHONY: report test test-slow convergence clean
 
 $(STAMP): pyproject.toml examples/plugin_solver/pyproject.toml examples/plugin_solver/flexmbd_example_solver.py
 	$(PYTHON) -m venv $(VENV)
@@ -21,6 +21,17 @@ test: $(STAMP)
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
+
+# The convergence studies drawn on the case pages (cases/convergence/NAME.toml): each run into
+# reports/convergence/NAME (its runs kept by key: a rerun runs only what changed) and its table
+# stored as cases/convergence/NAME.parquet. STUDIES=NAME ... runs some of them.
+STUDIES ?= $(basename $(notdir $(wildcard cases/convergence/*.toml)))
+convergence: $(STAMP)
+	@for n in $(STUDIES); do \
+	  $(BIN)/flexmbd study --file cases/convergence/$$n.toml --out reports/convergence/$$n --allow-large || exit $$?; \
+	  cp reports/convergence/$$n/study.parquet cases/convergence/$$n.parquet.tmp && \
+	  mv cases/convergence/$$n.parquet.tmp cases/convergence/$$n.parquet || exit $$?; \
+	done
 
 clean:
 	rm -rf $(VENV) results reports/*.md reports/*.html reports/results

@@ -2,17 +2,26 @@
 `analytic`, on `cantilever_step`'s 2 s, with 300 ... 499 modes summed: a few tenths of a second
 each), run once one after another in this process, timing each run (`solvers.run`: the runs' own
 times), then on the local pool of `workers` processes, and on a Dask LocalCluster of as many
-workers. Run from the repository root, on an otherwise idle machine:
+workers. Run from the repository root, on an otherwise idle machine, several times (the figures
+move by a few percent from run to run on a shared machine):
 
     .venv/bin/python benchmarks/executor_overhead.py [workers] [points]
 
-It prints, for each executor, its wall time and its overhead: wall x workers / (sum of the runs'
-own times) - 1, which counts everything that is not a run (starting the workers, sending each
-case and result through a pipe, loading the case in the worker, writing the results) and any
-imbalance at the end. Its fixed part, starting the workers (about a second each: the interpreter
-and flexmbd's imports), is why the runs are a few tenths of a second and not a few milliseconds.
-The tests check that every executor gives the same results; how much they
-cost is measured here, not asserted there.
+For each executor it prints its wall time and two overheads, each wall x workers / (a sum of the
+runs' own times) - 1:
+
+- `scheduling`: against the runs' own times where each ran (`solvers.run` timed in its worker,
+  `executor.execute`'s `own`). It counts what keeps a worker from running a job: starting the
+  workers (the interpreter and flexmbd's imports, about a second each), the estimates and the
+  order, a job's trip through the pipe, and the imbalance at the end.
+- `against one process`: against the runs timed here one after another. It adds what sharing
+  the cores costs the runs: with as many workers as cores, the command's own process (receiving
+  and writing every result: a CSV of 2001 rows and its sidecar) and the workers' imports take
+  CPU time from the runs; `contention` is how much longer the runs took in the workers.
+
+The runs are a few tenths of a second and not a few milliseconds because a worker's start is a
+fixed cost of about a second. The tests check that every executor gives the same results; how
+much they cost is measured here, not asserted there.
 """
 
 import sys
@@ -37,22 +46,26 @@ def own_times(jobs: list) -> float:
     return total
 
 
-def wall(jobs: list, where: executor.Where) -> float:
+def wall(jobs: list, where: executor.Where) -> tuple[float, float]:
+    """The wall time of the jobs run where `where` says, each result written as a command writes
+    it, and the sum of the runs' own times where they ran."""
+    own = {}
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
-        executor.execute(jobs, lambda k, r: results.write(r, Path(out) / str(k)), where)
-        return time.perf_counter() - t0
+        executor.execute(jobs, lambda k, r: results.write(r, Path(out) / str(k)), where, own=own)
+        return time.perf_counter() - t0, sum(own.values())
 
 
 def main(workers: int = 2, points: int = 200) -> None:
     jobs = grid(points)
     solvers.run(*jobs[0])                               # imports and caches warm, as in a long study
-    own = own_times(jobs)
-    print(f"{points} runs of {jobs[0][1]}: sum of their own times {own:.2f} s ({own / points * 1e3:.1f} ms each)")
+    here = own_times(jobs)
+    print(f"{points} runs of {jobs[0][1]}: sum of their own times {here:.2f} s ({here / points * 1e3:.1f} ms each)")
     for name, where in (("local pool", executor.Where(workers=workers)),
                         ("Dask LocalCluster", executor.Where(dask_local=workers))):
-        w = wall(jobs, where)
-        print(f"{name:18s} {workers} workers: wall {w:.2f} s, overhead {w * workers / own - 1:+.1%}")
+        w, there = wall(jobs, where)
+        print(f"{name:18s} {workers} workers: wall {w:.2f} s, overhead: scheduling {w * workers / there - 1:+.1%}, "
+              f"against one process {w * workers / here - 1:+.1%} (contention {there / here - 1:+.1%})")
 
 
 if __name__ == "__main__":

@@ -190,12 +190,12 @@ def check_all(jobs: list, out: Path, allow_large: bool = False) -> None:
     cost.check_stored(stored_sidecars(out, [(c, []) for c in {c.name: c for c, _ in jobs}.values()]), allow_large)
 
 
-def run_checked(jobs: list, out: Path, keep: bool = False, where=None) -> None:
+def run_checked(jobs: list, out: Path, keep: bool = False, where=None, after=None) -> None:
     """Run jobs already checked (`check_all`) into out/results (`executor.into`: with `keep`, a
     stored result with the key of the run it would be is kept), where `where` says (executor.Where:
-    a local pool of one worker per core by default)."""
+    a local pool of one worker per core by default); `after(case, solver)` told as each is in place."""
     from flexmbd import executor, results
-    executor.into(jobs, lambda case: results.folder(out), keep, where or executor.Where())
+    executor.into(jobs, lambda case: results.folder(out), keep, where or executor.Where(), after)
 
 
 def stored_sidecars(out, pages) -> list:
@@ -257,7 +257,7 @@ def _jsonable(x):
 
 
 def cmd_report(args) -> int:
-    from flexmbd.report import build, loading, spectra
+    from flexmbd.report import build, history, loading
     out = Path(args.out)
     names = args.cases.split(",") if args.cases else cases.available()
     chosen = _solver_list(args.solvers, "--solvers")
@@ -273,14 +273,20 @@ def cmd_report(args) -> int:
         if ref:
             warn(f"{c.name}: its reference {ref} {'is read' if args.no_run else 'runs'} too "
                  f"(every comparison is against it)")
-    if not args.no_run:
-        run_checked(jobs, out, keep=not args.rerun, where=_where(args))
+    run = None if args.no_run else lambda after: run_checked(jobs, out, keep=not args.rerun, where=_where(args),
+                                                              after=after)
     reuse = not (args.no_run or args.rerun)                 # unchanged pages kept (--no-run, --rerun: all drawn)
-    spectra.prepare([c for c in loaded if not (reuse and build.unchanged(out, c, chosen))], warn)
-    t0 = time.perf_counter()
-    index, runs, acc = build.write(out, loaded, chosen, warn,
-                                   lambda k, n, label: job(k, n, label, time.perf_counter() - t0), reuse)
-    jobs_done(len(loaded) + 1, time.perf_counter() - t0)
+    files.make_dir(history.folder(out))                     # the index links the history page drawn below
+    t0 = []
+
+    def bar(k: int, n: int, label: str) -> None:           # the pages' bar, timed from its first line
+        t0.append(t0[0] if t0 else time.perf_counter())
+        job(k, n, label, time.perf_counter() - t0[0])
+    index, runs, acc = build.write(out, loaded, chosen, warn, bar, reuse, run)      # pages drawn as runs end
+    jobs_done(len(loaded) + 1, time.perf_counter() - t0[0])
+    if not args.no_run:                                     # stored results of other code are not this commit's
+        history.record(out, runs, acc)
+    history.page(out, warn)
     _show(args, "report", index, runs, acc)
     return _verdict(args, runs, acc)
 
@@ -331,13 +337,13 @@ def cmd_study(args) -> int:
     out = Path(args.out)
     if args.file:
         st = study.from_file(Path(args.file))
-        if args.cases or args.vary:
+        if args.cases or args.vary or args.reference_at:
             raise InputError(f"{args.file}: give the study in the file or on the command line, not both")
     else:
         if not args.cases or not args.vary:
             raise InputError("study: give CASE ... and --vary KEY=V1,V2,... (or --file STUDY.toml)")
         st = study.Study(tuple(args.cases), tuple(study.parse_vary(v) for v in args.vary),
-                         tuple(args.solvers.split(",")) if args.solvers else ())
+                         tuple(args.solvers.split(",")) if args.solvers else (), args.reference_at or "each")
     for name in st.solvers:
         solvers.check_name(name, "--solvers" if not args.file else f"{args.file}: study.solvers")
     points = study.loaded(st, _case)                    # every point, before any runs
@@ -347,12 +353,23 @@ def cmd_study(args) -> int:
     refs = {c.name: loading.added_reference(c, list(st.solvers)) for c, _ in points if st.solvers}
     for name, ref in refs.items():
         if ref:
-            warn(f"{name}: its reference {ref} runs at every point too (rms_vs_reference is against it)")
+            where = "once, on the case without the overrides" if st.reference == "base" else "at every point too"
+            warn(f"{name}: its reference {ref} runs {where} (rms_vs_reference is against it)")
     executor.into(jobs, lambda case: study.folder(out, case.overrides), not args.rerun, _where(args))
     df = study.write(st, out, points)
     print(f"{len(points)} points, {len(jobs)} runs, {len(df)} rows")
     print(f"table: {out / 'study.parquet'}")
     print(f"figures: {out / 'figures'}")
+    return OK
+
+
+def cmd_history(args) -> int:
+    from flexmbd.report import history
+    out = files.writable_dir(args.out, "--out")
+    if args.add:
+        n = history.add(out, args.add)
+        print(f"{n} record{'s' * (n != 1)} added to {history.folder(out)}")
+    print(f"history: {history.page(out)}")
     return OK
 
 
@@ -372,6 +389,9 @@ def cmd_bench(args) -> int:
     files.writable_dir(args.out, "--out")
     result = bench.run(quick=args.quick, with_work_precision=not args.no_work_precision, progress=show)
     bench.plots(result, Path(args.out))
+    if Path(args.out).name == "bench":                  # a report folder's OUT/bench: kept in OUT/history too
+        from flexmbd.report import history
+        history.keep_bench(Path(args.out).parent, result)
     if args.json:
         print(json.dumps(result, default=float))
         return 0
@@ -575,8 +595,11 @@ def parser() -> argparse.ArgumentParser:
                    help="a case key and its values, coarse to fine (repeatable: the grid is their product)")
     s.add_argument("--solvers", default=None, help=f"comma-separated solver names (default: each case's report "
                    f"solvers; the case's reference runs too)")
+    s.add_argument("--reference-at", default=None, choices=["each", "base"],
+                   help="where each case's reference solver runs: at every point (each, the default) or once on the "
+                   "case without the overrides (base: when the varied keys are a discretisation it does not read)")
     s.add_argument("--file", default=None, metavar="STUDY.toml", help="the study as a [study] table (cases, vary, "
-                   "solvers) instead of the arguments")
+                   "solvers, reference) instead of the arguments")
     s.add_argument("--out", default="reports/study", help="the study folder (its runs in OUT/points)")
     s.add_argument("--rerun", action="store_true", help="run every point again, also where a stored result has the "
                    "key of its run (kept otherwise)")
@@ -595,6 +618,14 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--no-work-precision", action="store_true", help="skip the (long) work-precision sweeps")
     s.add_argument("--out", default="reports/bench", help="folder of the plots and their page")
     s.set_defaults(func=cmd_bench)
+
+    s = sub.add_parser("history", help="the page of each solver's accuracy and time on each case across commits, "
+                       "and of the bench runs (docs/history.md)", parents=[debug])
+    s.add_argument("--out", default="reports", help="the report folder (records in OUT/history/MACHINE/COMMIT.json; "
+                   "the page OUT/history.html)")
+    s.add_argument("--add", action="append", metavar="DIR", help="first bring in the records of another report "
+                   "folder or its history folder, e.g. another machine's (repeatable)")
+    s.set_defaults(func=cmd_history)
 
     s = sub.add_parser("regress", help="compare fresh results with stored baselines (exit 1 if anything moved)",
                        parents=[debug, executors])

@@ -74,28 +74,45 @@ def compute(t: Task) -> Result:
     """A worker's job: the case loaded as the command loaded it, and the run (`solvers.run`),
     stamped with the worker's environment (`results.environment`: its machine, versions and
     date go into the sidecar, not those of the process that writes it)."""
-    r = solvers.run(cases.load(t.path, list(t.overrides)), t.solver)
+    return timed(t)[0]
+
+
+def timed(t: Task) -> tuple[Result, float]:
+    """`compute`, and the run's own time where it ran (s, `solvers.run` alone): what a worker
+    answers. The time travels beside the Result, not in it (a result is the same bytes wherever
+    it ran)."""
+    case = cases.load(t.path, list(t.overrides))
+    start = time.perf_counter()
+    r = solvers.run(case, t.solver)
+    seconds = time.perf_counter() - start
     r.extra = {**results.environment(), **r.extra}
-    return r
+    return r, seconds
 
 
 def label(case, solver: str) -> str:
     return f"{case.name} / {solver}" + (f" ({', '.join(case.overrides)})" if case.overrides else "")
 
 
-def into(jobs: list, folder, keep: bool = False, where: Where = Where()) -> None:
+def into(jobs: list, folder, keep: bool = False, where: Where = Where(), after=None) -> None:
     """Run the (case, solver) jobs and write each result into folder(case) (a results folder:
     FOLDER/CASE/SOLVER.{csv,json}) as it comes. With `keep`, a job whose stored result is readable
-    and has the key of the run it would make (`kept`) is not run: its result stays."""
+    and has the key of the run it would make (`kept`) is not run: its result stays. `after(case,
+    solver)`, when given, is told as each job's result is in place (kept or written)."""
     t0 = time.perf_counter()
     todo, n = [], 0
+    told = after or (lambda c, s: None)
     for c, s in jobs:
         if keep and kept(folder(c), c, s):
             n += 1
             job(n, len(jobs), f"{label(c, s)} (stored, unchanged)", time.perf_counter() - t0)
+            told(c, s)
         else:
             todo.append((c, s))
-    execute(todo, lambda k, r: results.write(r, folder(todo[k][0])), where, skipped=len(jobs) - len(todo), t0=t0)
+
+    def done(k: int, r: Result) -> None:
+        results.write(r, folder(todo[k][0]))
+        told(*todo[k])
+    execute(todo, done, where, skipped=len(jobs) - len(todo), t0=t0)
 
 
 def kept(folder, case, solver: str) -> bool:
@@ -113,41 +130,66 @@ def kept(folder, case, solver: str) -> bool:
     return r.extra.get("key") == key
 
 
-def execute(jobs: list, done, where: Where = Where(), skipped: int = 0, t0: float | None = None) -> None:
+def execute(jobs: list, done, where: Where = Where(), skipped: int = 0, t0: float | None = None,
+            own: dict | None = None) -> None:
     """Run the (case, solver) jobs where `where` says, calling done(k, result) in this process as
     each result comes (k: the job's index in `jobs`), with the k-of-n job bar on stderr (after
     `skipped` jobs already counted, from `t0`). A job its solver cannot run (unavailable, not
     applicable) is answered here at once; the others start longest first (`cost.stages`'
     estimates), so the last to finish are short. Without a count of workers, work estimated
-    under POOL_ABOVE seconds runs in this process (starting workers would cost more)."""
+    under POOL_ABOVE seconds runs in this process (starting workers would cost more); with one,
+    the pool's workers start before the estimates, which they take the time of. `own`, when
+    given, gets k -> the run's own time (s, `solvers.run` alone, where it ran)."""
     t0 = time.perf_counter() if t0 is None else t0
+    own = {} if own is None else own
     total, n = len(jobs) + skipped, skipped
     runnable = []
     for k, (case, solver) in enumerate(jobs):
         if solvers.status_for(case, solver):
             n += 1
             job(n, total, label(case, solver), time.perf_counter() - t0)
-            done(k, solvers.run(case, solver))
+            done(k, _run(jobs, k, own))
         else:
             runnable.append(k)
+    sure = (where.workers or 0) > 1 and len(runnable) > 1 and not (where.scheduler or where.dask_local)
+    workers = [Worker() for _ in range(min(where.count(), len(runnable)))] if sure else []
+    try:
+        order, seconds = _longest_first(jobs, runnable)
+        started = lambda m, k: job(n + m, total, label(*jobs[k]), time.perf_counter() - t0)
+        small = where.workers is None and sum(seconds.values()) < POOL_ABOVE
+        if order and (where.scheduler or where.dask_local):
+            dask(jobs, order, done, started, where, own)
+        elif where.count() == 1 or len(order) <= 1 or small:
+            for m, k in enumerate(order, 1):
+                started(m, k)
+                with files.signals_exit():              # nothing written while it runs
+                    r = _run(jobs, k, own)
+                done(k, r)
+        else:
+            workers = workers or [Worker() for _ in range(min(where.count(), len(order)))]
+            pool(jobs, order, done, started, workers, own)
+    finally:
+        for w in workers:
+            w.stop()
+    jobs_done(total, time.perf_counter() - t0)
+
+
+def _run(jobs: list, k: int, own: dict) -> Result:
+    """Job k run in this process; its own time into own[k]."""
+    start = time.perf_counter()
+    r = solvers.run(*jobs[k])
+    own[k] = time.perf_counter() - start
+    return r
+
+
+def _longest_first(jobs: list, runnable: list) -> tuple[list, dict]:
+    """The runnable jobs' indices, longest first, and k -> its estimated seconds (`cost.stages`;
+    while the kernel is not compiled, the first job of COMPILES also pays COMPILE_S)."""
     seconds = {k: _seconds(*jobs[k]) for k in runnable}
     first = next((k for k in runnable if jobs[k][1] in COMPILES), None)
     if first is not None and not jit.is_cached():       # its compile: the longest job of all
         seconds[first] += COMPILE_S
-    order = sorted(runnable, key=lambda k: -seconds[k])
-    started = lambda m, k: job(n + m, total, label(*jobs[k]), time.perf_counter() - t0)
-    small = where.workers is None and sum(seconds.values()) < POOL_ABOVE
-    if order and (where.scheduler or where.dask_local):
-        dask(jobs, order, done, started, where)
-    elif where.count() == 1 or len(order) <= 1 or small:
-        for m, k in enumerate(order, 1):
-            started(m, k)
-            with files.signals_exit():                  # nothing written while it runs
-                r = solvers.run(*jobs[k])
-            done(k, r)
-    else:
-        pool(jobs, order, done, started, min(where.count(), len(order)))
-    jobs_done(total, time.perf_counter() - t0)
+    return sorted(runnable, key=lambda k: -seconds[k]), seconds
 
 
 def _seconds(case, solver: str) -> float:
@@ -176,14 +218,16 @@ def lost(case, solver: str, why: str) -> Result:
 # the local pool
 
 
-def pool(jobs: list, order: list, done, started, n: int) -> None:
-    """The jobs on n worker processes of this machine, each fed one job at a time through a pipe.
-    While the kernel is not compiled, one job of COMPILES at a time runs (the others would compile
-    it again, side by side); the rest go on meanwhile. A worker that dies takes only its job with
-    it: the job goes back to the queue (TRIES in all) and a fresh worker replaces it. On any
-    exception here (a signal: Interrupted) every worker is killed before it is passed on."""
-    todo, tries, count = deque(order), {}, [0]
-    idle, busy = [], {}                                 # busy: worker -> the job k it runs
+def pool(jobs: list, order: list, done, started, workers: list, own: dict) -> None:
+    """The jobs on the worker processes `workers` (started: `Worker`), each fed one job at a time
+    through a pipe; a worker that answers is given its next job before its result is written (it
+    waits for no file). While the kernel is not compiled, one job of COMPILES at a time runs (the
+    others would compile it again, side by side); the rest go on meanwhile. A worker that dies
+    takes only its job with it: the job goes back to the queue (TRIES in all) and a fresh worker
+    replaces it. On any exception here (a signal: Interrupted) every worker is killed before it is
+    passed on. `own`: k -> the run's own time in its worker (s)."""
+    todo, tries, count, n = deque(order), {}, [0], len(workers)
+    idle, busy = list(workers), {}                      # busy: worker -> the job k it runs
 
     def next_job():
         """The first job of the queue that may start now, or None."""
@@ -193,25 +237,31 @@ def pool(jobs: list, order: list, done, started, n: int) -> None:
             todo.remove(k)
         return k
 
+    def feed():
+        """The next jobs that may start, to the idle workers, and to fresh ones up to n."""
+        while todo and (idle or len(busy) < n):
+            k = next_job()
+            if k is None:
+                return
+            w = idle.pop() if idle else Worker()
+            tries[k] = tries.get(k, 0) + 1
+            count[0] += 1
+            started(count[0], k)
+            w.send(task(*jobs[k]))
+            busy[w] = k
+
     try:
         while todo or busy:
-            while todo and (idle or len(busy) < n):
-                k = next_job()
-                if k is None:
-                    break
-                w = idle.pop() if idle else Worker()
-                tries[k] = tries.get(k, 0) + 1
-                count[0] += 1
-                started(count[0], k)
-                w.send(task(*jobs[k]))
-                busy[w] = k
+            feed()
             ready = connection.wait([x for w in busy for x in (w.conn, w.proc.sentinel)])
             for w in [w for w in busy if w.conn in ready or w.proc.sentinel in ready]:
                 k = busy.pop(w)
                 got = w.receive()
                 if got is not None:
-                    done(k, checked(*jobs[k], got))
                     idle.append(w)
+                    feed()                              # its next job first, then the writing
+                    r, own[k] = got
+                    done(k, checked(*jobs[k], r))
                     continue
                 why = w.death()
                 if tries[k] < TRIES:
@@ -239,9 +289,10 @@ class Worker:
     def send(self, t: Task) -> None:
         self.conn.send(t)
 
-    def receive(self) -> Result | None:
-        """The worker's answer, or None when it died before giving one. An internal error in the
-        worker is raised here (WorkerError, with its traceback)."""
+    def receive(self) -> tuple[Result, float] | None:
+        """The worker's answer (`timed`: the Result and the run's own time), or None when it died
+        before giving one. An internal error in the worker is raised here (WorkerError, with its
+        traceback)."""
         try:
             kind, value = self.conn.recv()
         except (EOFError, OSError):
@@ -282,12 +333,12 @@ class _threads_one:
 
 
 def serve(conn) -> None:
-    """A worker's life: take a Task, answer ("ok", Result) or ("error", traceback), until the pipe
+    """A worker's life: take a Task, answer ("ok", `timed`) or ("error", traceback), until the pipe
     closes. SIGINT is ignored (a Ctrl-C reaches the whole process group: the parent stops the
     workers); the worker dies with its parent; no progress bars of its own."""
     from flexmbd import progress
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _die_with_parent()
+    die_with_parent()
     progress.silence()
     while True:
         try:
@@ -295,13 +346,13 @@ def serve(conn) -> None:
         except (EOFError, OSError):
             return
         try:
-            answer = ("ok", compute(t))
+            answer = ("ok", timed(t))
         except Exception:                               # noqa: BLE001 - the parent raises it
             answer = ("error", traceback.format_exc())
         conn.send(answer)
 
 
-def _die_with_parent() -> None:
+def die_with_parent() -> None:
     """On Linux, SIGKILL when the parent process ends (a parent killed outright cannot stop its
     workers); elsewhere nothing (a worker then ends when it reads the closed pipe)."""
     try:
@@ -315,12 +366,12 @@ def _die_with_parent() -> None:
 # Dask
 
 
-def dask(jobs: list, order: list, done, started, where: Where) -> None:
+def dask(jobs: list, order: list, done, started, where: Where, own: dict) -> None:
     """The jobs on a Dask distributed cluster: the one at `where.scheduler`, or a LocalCluster of
     `where.dask_local` single-threaded worker processes on loopback, closed at the end. Dask
     runs a lost worker's jobs again (its `allowed-failures`); a job that kills its workers that
     often is a failed result. Every worker must have this flexmbd and the case files at the same
-    paths (docs/studies.md)."""
+    paths (docs/studies.md). `own`: k -> the run's own time in its worker (s)."""
     try:
         import dask as dask_
         from dask.distributed import Client, LocalCluster, as_completed
@@ -340,12 +391,13 @@ def dask(jobs: list, order: list, done, started, where: Where) -> None:
                 cluster.close()
             raise InputError(f"--scheduler {where.scheduler}: no Dask scheduler answers there ({e})") from None
     try:
-        futures = {client.submit(compute, task(*jobs[k]), pure=False): k for k in order}
+        futures = {client.submit(timed, task(*jobs[k]), pure=False): k for k in order}
         for n, fut in enumerate(as_completed(futures), 1):
             k = futures[fut]
             started(n, k)                               # the cluster says when a job starts: shown as it ends
             try:
-                r = checked(*jobs[k], fut.result())
+                r, own[k] = fut.result()
+                r = checked(*jobs[k], r)
             except KilledWorker as e:
                 r = lost(*jobs[k], str(e).splitlines()[0])
             done(k, r)

@@ -82,18 +82,25 @@ def make_dir(path) -> Path:
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _stretches = []         # the stretches in force, innermost last: [mode, the signals that came]
+_live = []              # what `_made` made and has not yet removed (a signal's exit removes it)
 
 
 def _on_signal(signum, frame):
     """The one handler of SIGINT and SIGTERM. Outside any stretch a signal raises Interrupted at
     the next safe point; within one, what its mode says: "held", noted and acted on when the
-    stretch ends; "exit", the process is left at once with its one line and exit status;
+    stretch ends; "exit", the process is left at once with its one line and exit status (what
+    `_made` made for an enclosing block, a report's staging folder, removed first);
     "kept", noted and raised (see `signals_kept`)."""
     if not _stretches:
         raise Interrupted(signum)
     mode, got = _stretches[-1]
     if mode == "exit":
         os.write(2, f"flexmbd: interrupted ({signal.Signals(signum).name})\n".encode())
+        for p in list(_live):               # a staging folder or temporary of an enclosing block
+            try:
+                _remove(p)
+            except OSError:
+                pass
         os._exit(128 + signum)
     got.append(signum)
     if mode == "kept":
@@ -274,9 +281,12 @@ def _made(make):
     try:
         with signals_held():
             made = make()
+            _live.append(made)
         yield made
     finally:
         discard(made)
+        if made in _live:
+            _live.remove(made)
 
 
 @contextmanager

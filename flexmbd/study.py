@@ -44,10 +44,18 @@ LABEL = {"rms_vs_reference": "RMS difference from the reference", "rms_vs_finest
 @dataclass(frozen=True)
 class Study:
     """What a study runs: case names or paths, the varied keys with their values (override text, in
-    the order given: coarse to fine) and the solvers (empty: each case's report solvers)."""
+    the order given: coarse to fine), the solvers (empty: each case's report solvers), and where
+    the case's reference solver runs (REFERENCE_AT)."""
     cases: tuple
     vary: tuple                                     # ((dotted key, (value text, ...)), ...)
     solvers: tuple = field(default=())
+    reference: str = "each"                         # a key of REFERENCE_AT
+
+
+# where the reference solver runs -> what that means (docs/studies.md)
+REFERENCE_AT = {"each": "at every point, with the point's overrides (the varied keys may change the physics)",
+                "base": "once, on the case without the study's overrides (the varied keys are a discretisation "
+                        "the reference does not read, e.g. flexmbd's mode count against exudyn-beam)"}
 
 
 def parse_vary(item: str, where: str = "--vary") -> tuple:
@@ -70,8 +78,9 @@ def parse_vary(item: str, where: str = "--vary") -> tuple:
             continue
         cur += ch
     values.append(cur.strip())
-    if not sep or not key.strip() or not all(values):
-        raise InputError(f"{where} {item!r}: expected KEY=VALUE1,VALUE2,... (e.g. bodies.beam.modes.count=4,8,12)")
+    if not sep or not all(part.strip() for part in key.split("+")) or not all(values):
+        raise InputError(f"{where} {item!r}: expected KEY=VALUE1,VALUE2,... or KEY1+KEY2=VALUE1,... "
+                         "(e.g. bodies.beam.modes.count=4,8,12)")
     return key.strip(), tuple(values)
 
 
@@ -89,9 +98,9 @@ def from_file(path: Path) -> Study:
     st = doc.get("study")
     if not isinstance(st, dict):
         raise InputError(f"{where}: study: expected a [study] table (cases, vary, solvers)")
-    unknown = set(st) - {"cases", "vary", "solvers"}
+    unknown = set(st) - {"cases", "vary", "solvers", "reference"}
     if unknown:
-        raise InputError(f"{where}: study.{sorted(unknown)[0]}: unknown key (expected cases, vary, solvers)")
+        raise InputError(f"{where}: study.{sorted(unknown)[0]}: unknown key (expected cases, vary, solvers, reference)")
     names = st.get("cases")
     if not (isinstance(names, list) and names and all(isinstance(c, str) for c in names)):
         raise InputError(f"{where}: study.cases: expected a list of case names or paths")
@@ -105,7 +114,10 @@ def from_file(path: Path) -> Study:
     for key, values in flat.items():
         if not (isinstance(values, list) and values):
             raise InputError(f"{where}: study.vary.{key}: expected a list of values")
-    return Study(tuple(names), tuple((k, tuple(_toml(v) for v in vs)) for k, vs in flat.items()), tuple(chosen))
+    at = st.get("reference", "each")
+    if at not in REFERENCE_AT:
+        raise InputError(f"{where}: study.reference: expected one of {', '.join(map(repr, REFERENCE_AT))}")
+    return Study(tuple(names), tuple((k, tuple(_toml(v) for v in vs)) for k, vs in flat.items()), tuple(chosen), at)
 
 
 def _dotted(table: dict, prefix: str = ""):
@@ -131,9 +143,17 @@ def _toml(v) -> str:
 
 def grid(st: Study) -> list[tuple[str, ...]]:
     """Every point of the study as its overrides ('KEY=VALUE', ...), the last key varying fastest;
-    the finest point (every key at its last value) last."""
+    the finest point (every key at its last value) last. A varied key 'K1+K2' sets K1 and K2 to
+    the same value (e.g. the mode count of two beams)."""
     keys = [k for k, _ in st.vary]
-    return [tuple(f"{k}={v}" for k, v in zip(keys, combo)) for combo in product(*(vs for _, vs in st.vary))]
+    return [tuple(f"{part}={v}" for k, v in zip(keys, combo) for part in k.split("+"))
+            for combo in product(*(vs for _, vs in st.vary))]
+
+
+def values(st: Study, overrides) -> dict:
+    """The varied keys' values (TOML values) at the point of `overrides` (one of `grid`'s)."""
+    given = dict(o.partition("=")[::2] for o in overrides)
+    return {k: _value(given[k.split("+")[0]]) for k, _ in st.vary}
 
 
 def point_id(overrides) -> str:
@@ -150,14 +170,33 @@ def loaded(st: Study, load) -> list:
     """Every (case, its solvers) of the study at every point, loaded and checked (`load(name,
     overrides)`, which raises InputError naming the file and key) before anything runs: one bad
     point stops the study. A case's solvers are the study's (or its report solvers) with its
-    reference (`loading.jobs`)."""
+    reference (`loading.jobs`). With `st.reference == "base"`, a case's reference runs once, on
+    the case without overrides (its entry, first of the case's, has `case.overrides == ()`), and
+    not at the points unless the study lists it; InputError when a varied key is one of the
+    reference's own settings (`solvers.REF.*`)."""
     chosen = list(st.solvers) or list(solvers.NAMES)
     out = []
     for name in st.cases:
-        for over in grid(st):
-            case = load(name, over)
-            out.append((case, loading.jobs(case, chosen)))
+        points = [load(name, over) for over in grid(st)]
+        ref = points[0].report.reference
+        if st.reference == "base" and ref:
+            own = next((k for k, _ in st.vary if k.startswith(f"solvers.{ref}.")), None)
+            if own:
+                raise InputError(f"study.reference = \"base\": {own} is a setting of {name}'s reference {ref}, "
+                                 "which then must run at every point (reference = \"each\")")
+            names = loading.jobs(points[0], chosen)
+            if ref in names:
+                out.append((load(name, ()), [ref]))
+                names = [s for s in names if s != ref or s in st.solvers]
+            out += [(case, names) for case in points]
+        else:
+            out += [(case, loading.jobs(case, chosen)) for case in points]
     return out
+
+
+def reference_once(points: list, name: str):
+    """The reference's entry of case `name` in `loaded`'s list when it runs once (no overrides), or None."""
+    return next(((c, n) for c, n in points if c.name == name and not c.overrides), None)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -168,27 +207,33 @@ def table(st: Study, out: Path, points: list) -> pd.DataFrame:
     """The tidy table of a study run into `out`: one row per point, solver, channel and metric
     (METRICS), with the varied keys' values (as their TOML values), the run's status, solver
     version, the run's key and flexmbd's version; sorted, no times (see the module docstring).
-    `points`: `loaded`'s list."""
+    A reference run once (`reference_once`) has its rows too, with the varied keys empty (its
+    max_abs, mean and final). `points`: `loaded`'s list."""
     keys = [k for k, _ in st.vary]
     rows = []
     by_case = {}
     for case, names in points:
-        by_case.setdefault(case.name, []).append((case, names))
+        if case.overrides:                                  # the grid's points (not a reference run once)
+            by_case.setdefault(case.name, []).append((case, names))
     for name, entries in by_case.items():
         finest_case, finest_names = entries[-1]
         finest = {s: _read(out, finest_case, s) for s in finest_names}
+        once = reference_once(points, name)
+        if once:                                            # the reference run once: its own values, key columns empty
+            entries = [once] + entries
         for case, names in entries:
             got = {s: _read(out, case, s) for s in names}
-            values = dict(zip(keys, (_value(o.partition("=")[2]) for o in case.overrides)))
+            varied = values(st, case.overrides) if case.overrides else {k: None for k in keys}
             ref = case.report.reference
+            ref_r = got[ref] if ref in got else (_read(out, once[0], ref) if once else None)
             for s, r in got.items():
+                here = finest.get(s) if case.overrides else None
                 for ch in case.channels:
-                    base = {"case": case.name, "point": point_id(case.overrides), **values, "solver": s,
+                    base = {"case": case.name, "point": point_id(case.overrides), **varied, "solver": s,
                             "channel": ch, "tolerance": case.report.tolerances.get(ch, np.nan),
                             "status": str(r.status), "solver_version": r.solver_version,
                             "key": r.extra.get("key", ""), "flexmbd": __version__}
-                    for metric, v in _metrics(case, ch, r, got.get(ref) if s != ref else None,
-                                              finest.get(s)).items():
+                    for metric, v in _metrics(case, ch, r, ref_r if s != ref else None, here).items():
                         rows.append({**base, "metric": metric, "reference": ref if metric == "rms_vs_reference" else
                                      ("finest point" if metric == "rms_vs_finest" else ""), "value": v})
     df = pd.DataFrame(rows)
@@ -286,18 +331,21 @@ def figures(st: Study, df: pd.DataFrame, where: Path) -> list:
                 sel = sel[sel["value"].astype(float) > 0]          # finite: on a log scale (the finest point: 0)
                 if sel.empty:
                     continue
-                names.append(figs.save(_figure(sel, case, key, metric), where / f"{case}__{key}__{metric}.png"))
+                names.append(figs.save(figure(sel, case, key, metric), where / f"{case}__{key}__{metric}.png"))
     return names
 
 
-def _figure(sel: pd.DataFrame, case: str, key: str, metric: str):
+def figure(sel: pd.DataFrame, case: str, key: str, metric: str):
+    """One metric of the rows `sel` against `key`: a panel per channel, a curve per solver, the
+    channel's tolerance dashed (log scales)."""
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import NullFormatter, NullLocator
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
 
     from flexmbd.report import figures as figs
     chans = list(dict.fromkeys(sel["channel"]))
-    fig, axes = plt.subplots(1, len(chans), figsize=(max(3.6 * len(chans), 5.0), 3.6), squeeze=False,
-                             layout="constrained")
+    width = max(3.2 * len(chans), 5.0)
+    fig, axes = plt.subplots(1, len(chans), figsize=(width, 3.6), squeeze=False)
+    fig.subplots_adjust(left=0.55 / width + 0.04, right=0.98, bottom=0.2, top=0.83, wspace=0.38)   # fixed: quick
     numeric = pd.api.types.is_numeric_dtype(sel[key]) and not pd.api.types.is_bool_dtype(sel[key])
     for ax, ch in zip(axes[0], chans):
         part = sel[sel["channel"] == ch]
@@ -310,14 +358,18 @@ def _figure(sel: pd.DataFrame, case: str, key: str, metric: str):
         if np.isfinite(tol):
             ax.axhline(tol, ls="--", lw=0.8, color="k", label="tolerance")
         ax.set_yscale("log")
-        ax.yaxis.set_minor_formatter(NullFormatter())
+        lo, hi = ax.get_ylim()
+        if np.log10(hi / lo) < 1.5:                                     # labels within a decade or so too
+            ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.yaxis.set_minor_locator(NullLocator())
         if numeric and (part[key] > 0).all():
             ax.set_xscale("log")
         ax.xaxis.set_minor_locator(NullLocator())
         ax.set_xticks(order if numeric else range(len(order)), [f"{v:g}" if numeric else str(v) for v in order])
         ax.set_title(ch, fontsize=10)
         ax.set_xlabel(key)
-        ax.grid(alpha=0.3, which="both")
+        ax.grid(alpha=0.3)
     axes[0][0].set_ylabel(LABEL[metric], fontsize=9)
     figs.legend(axes[0][-1], fontsize=8)
     fig.suptitle(f"{case}: {metric} against {key}", fontsize=10)

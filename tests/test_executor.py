@@ -13,10 +13,12 @@ import sys
 import time
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 import flexmbd
 from flexmbd import cases, executor, results
+from flexmbd.cli import main
 from flexmbd.errors import InputError
 
 ROOT = Path(flexmbd.__file__).resolve().parent.parent
@@ -56,6 +58,37 @@ def test_a_dask_local_cluster_gives_the_pool_s_results_bitwise(tmp_path):
     pytest.importorskip("distributed")
     pool = stored(executor.Where(workers=2), tmp_path / "pool")
     assert stored(executor.Where(dask_local=2), tmp_path / "dask") == pool
+
+
+# 3 x 3 points of the pendulum, 0.05 s each: the mode count (flexmbd's and exudyn-ffrf's modal
+# bases) x exudyn-ffrf's step; flexmbd is the reference, so the two solvers are all that run
+PENDULUM = ["pendulum", "--vary", "bodies.beam.modes.count=4,8,12", "--vary", "solvers.exudyn-ffrf.dt=2e-4,1e-4,5e-5",
+            "--vary", 'report.reference="flexmbd"', "--vary", "duration=0.05", "--solvers", "flexmbd,exudyn-ffrf"]
+
+
+def test_a_pendulum_study_gives_the_same_table_bitwise_on_the_pool_and_on_a_dask_cluster(tmp_path):
+    """The grid on a pool of 2 workers, then on a LocalCluster of 2 started here on loopback (its
+    workers' environment is this process's: one BLAS thread only because every run asks for it)."""
+    pytest.importorskip("distributed")
+    from dask.distributed import LocalCluster
+    assert main(["study", *PENDULUM, "--out", str(tmp_path / "pool"), "--workers", "2"]) == 0
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as cluster:
+        assert main(["study", *PENDULUM, "--out", str(tmp_path / "dask"), "--scheduler", cluster.scheduler_address]) == 0
+    pool, dask = (pd.read_parquet(tmp_path / name / "study.parquet") for name in ("pool", "dask"))
+    assert pool.equals(dask)
+    assert all(column_bytes(pool[c]) == column_bytes(dask[c]) for c in pool.columns)   # the table holds no times
+    ok = pool[pool["status"] == "ok"]
+    assert len(ok) == len(pool) == 9 * 2 * 4 * 5                    # points x solvers x channels x metrics
+    final = ok[(ok["metric"] == "final") & (ok["channel"] == "tip_deflection")]
+    assert final.groupby("solver")["value"].nunique().to_dict() == {"exudyn-ffrf": 9, "flexmbd": 3}
+
+
+def column_bytes(col: pd.Series) -> bytes:
+    """A column's values as bytes: a number column's doubles, any other its values' text."""
+    if pd.api.types.is_float_dtype(col) or pd.api.types.is_integer_dtype(col):
+        return col.to_numpy().tobytes()
+    return "\0".join(map(str, col)).encode()
 
 
 def test_done_is_told_each_job_once_with_its_index(tmp_path):
@@ -165,7 +198,7 @@ def test_an_interrupted_study_resumes_where_it_stopped(tmp_path):
     out = tmp_path / "study"
     p = study(out)
     try:
-        until(p, lambda line: " 3/8 " in line)                         # a first job has finished
+        until(p, lambda line: " 4/8 " in line)     # a first result is written (a worker's next job starts first)
         victims = workers_of(p.pid)
         p.send_signal(signal.SIGTERM)
         err = p.stderr.read()

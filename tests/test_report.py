@@ -41,7 +41,7 @@ def test_every_referenced_file_exists(report):
 
 def test_page_has_every_section(report):
     page = (report / "cantilever_step" / "index.html").read_text()
-    for title in ("Deflection", "Stress", "FFT spectra", "Timing", "Accuracy", "Provenance"):
+    for title in ("Deflection", "Stress", "FFT spectra", "Timing", "Accuracy", "Convergence", "Provenance"):
         assert f"<h2>{title}" in page
     assert "fe-linear" in page and "analytic" in page
 

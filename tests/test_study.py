@@ -21,7 +21,7 @@ def test_vary_splits_on_commas_outside_brackets_and_quotes():
     assert study.parse_vary("a.b=1,2.5,3") == ("a.b", ("1", "2.5", "3"))
     assert study.parse_vary("gravity=[0,-9.81,0],[0,0,0]") == ("gravity", ("[0,-9.81,0]", "[0,0,0]"))
     assert study.parse_vary('s="x,y",z') == ("s", ('"x,y"', "z"))
-    for bad in ("a.b", "=1,2", "a.b=1,,2", "a.b="):
+    for bad in ("a.b", "=1,2", "a.b=1,,2", "a.b=", "a.b+=1"):
         with pytest.raises(InputError, match="expected KEY=VALUE1,VALUE2"):
             study.parse_vary(bad)
 
@@ -30,6 +30,10 @@ def test_the_grid_varies_the_last_key_fastest_and_ends_at_the_finest_point():
     st = study.Study(("c",), (("a", ("1", "2")), ("b", ("x", "y"))))
     assert study.grid(st) == [("a=1", "b=x"), ("a=1", "b=y"), ("a=2", "b=x"), ("a=2", "b=y")]
     assert len({study.point_id(p) for p in study.grid(st)}) == 4
+    tied = study.Study(("c",), (("x.n+y.n", ("4", "8")),))
+    assert study.grid(tied) == [("x.n=4", "y.n=4"), ("x.n=8", "y.n=8")]
+    assert study.values(tied, ("x.n=8", "y.n=8")) == {"x.n+y.n": 8}
+    assert study.parse_vary("x.n+y.n=4,8") == ("x.n+y.n", ("4", "8"))
 
 
 def test_a_study_file_gives_the_study_of_the_arguments(tmp_path):
@@ -104,3 +108,23 @@ def test_the_study_options_are_one_line_when_missing_or_doubled(tmp_path, capsys
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and says in err[0], err
     assert not Path(tmp_path / "o").exists()
+
+
+def test_a_reference_at_the_base_runs_once_and_grades_every_point(tmp_path, capsys):
+    out = tmp_path / "st"
+    argv = ["study", "cantilever_step", "--vary", "solvers.analytic.modes=2,8", "--solvers", "analytic",
+            "--reference-at", "base", "--out", str(out), "--workers", "1"]
+    assert main(argv) == 0
+    assert "runs once, on the case without the overrides" in capsys.readouterr().err
+    assert sorted(p.parent.name + "/" + p.name for p in (out / "points").rglob("*.json")) == sorted(
+        [f"cantilever_step/analytic.json"] * 2 + ["cantilever_step/fe-linear.json"])
+    df = pd.read_parquet(out / "study.parquet")
+    # 2 points of analytic and the reference once (its key column empty) x 2 channels x 5 metrics
+    assert set(df.solver) == {"analytic", "fe-linear"} and len(df) == 3 * 2 * len(study.METRICS)
+    assert df[df.solver == "fe-linear"]["solvers.analytic.modes"].isna().all()
+    ref = df[(df.metric == "rms_vs_reference") & (df.solver == "analytic")]
+    assert (ref["reference"] == "fe-linear").all() and np.isfinite(ref["value"]).all()
+    assert main(["study", "cantilever_step", "--vary", "solvers.fe-linear.dt=1e-4,5e-5", "--solvers", "analytic",
+                 "--reference-at", "base", "--out", str(tmp_path / "bad")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "solvers.fe-linear.dt" in err[0] and not (tmp_path / "bad").exists()

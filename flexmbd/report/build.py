@@ -21,10 +21,13 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
+import signal
+import traceback
+from multiprocessing import get_context
 from pathlib import Path
 
 from flexmbd import files, results, solvers
-from flexmbd.report import accuracy, loading, pages, tables
+from flexmbd.report import accuracy, convergence, loading, pages, spectra, tables
 
 RECORD = "page.json"        # in OUT/CASE/: the page's key and what it gave the index
 
@@ -37,27 +40,47 @@ def case_page(out: Path, case, names, warn=None) -> dict:
         return pages.write_case(out, stage, case, names, warn, indexed)
 
 
-def write(out: Path, chosen_cases, names, warn=None, progress=None, reuse: bool = False) -> tuple[Path, list, list]:
+def write(out: Path, chosen_cases, names, warn=None, progress=None, reuse: bool = False,
+          run=None) -> tuple[Path, list, list]:
     """Every case page, the index and the reviewer tables, as one generation (built in a staging
     folder and swapped in at the end: `files.generation`); (the index path, every run's
     accuracy.Outcome, the accuracy rows). `progress(k, n, label)` is told before each page. With
-    `reuse`, a case page whose inputs are unchanged is copied, not drawn again (`page_key`)."""
+    `reuse`, a case page whose inputs are unchanged is copied, not drawn again (`page_key`).
+
+    With `run`, the solvers run first: run(after) runs every job of the pages, telling after(case,
+    solver) as each result is in place, and a case's page is drawn as soon as its last job is,
+    by a process of its own (`Drawer`) while the other jobs still run. What the pages need that
+    may take long (`spectra.prepare`) is done here for the pages drawn after the runs."""
     out = Path(out)
     with files.generation(out) as stage:
-        all_acc, runs = _write(out, stage, chosen_cases, names, warn, progress, reuse)
+        drawn = drawn_while(run, out, stage, chosen_cases, names, reuse) if run else {}
+        spectra.prepare([c for c in chosen_cases if c.name not in drawn and not (reuse and unchanged(out, c, names))],
+                        warn)
+        all_acc, runs = _write(out, stage, chosen_cases, names, warn, progress, reuse, drawn)
     return out / "index.html", runs, all_acc
 
 
-def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None, reuse: bool = False) -> tuple[list, list]:
-    """Every case page, the reviewer tables and the index into `stage`: (accuracy rows, runs)."""
+def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None, reuse: bool = False,
+           drawn=None) -> tuple[list, list]:
+    """Every case page, the reviewer tables and the index into `stage`: (accuracy rows, runs).
+    `drawn`: case name -> (what its page gave, its warnings) of the pages already in `stage`."""
     all_acc, runs = [], []
+    drawn = drawn or {}
     for k, case in enumerate(chosen_cases, 1):
         shown = loading.jobs(case, names)
         key = page_key(out, case, shown)
-        got = reused(out, stage, case, key, warn) if reuse else None
+        got = reused(out, stage, case, key, warn) if reuse and case.name not in drawn else None
         if progress:
-            progress(k, len(chosen_cases) + 1, f"page {case.name}" + (" (unchanged, kept)" if got else ""))
-        if got is None:
+            progress(k, len(chosen_cases) + 1, f"page {case.name}" + (" (unchanged, kept)" if got else
+                                                                       " (drawn while the runs went on)"
+                                                                       if case.name in drawn else ""))
+        if got is None and case.name in drawn:
+            got, said = drawn[case.name]
+            for line in said:
+                if warn:
+                    warn(line)
+            files.atomic_write(stage / case.name / RECORD, record(key, got, said))
+        elif got is None:
             said = []
             got = pages.write_case(out, stage, case, shown, lambda line: said.append(line) or (warn and warn(line)))
             files.atomic_write(stage / case.name / RECORD, record(key, got, said))
@@ -70,12 +93,103 @@ def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None, reu
     return all_acc, runs
 
 
+def drawn_while(run, out: Path, stage: Path, chosen_cases, names, reuse: bool) -> dict:
+    """run(after) (the jobs of the pages), with each case's page drawn into `stage` by a `Drawer`
+    as soon as after(case, solver) has been told of its last job (a page that `reuse` keeps is
+    not drawn). Returns case name -> (what its page gave, its warnings) of the pages drawn."""
+    left = {c.name: set(loading.jobs(c, names)) for c in chosen_cases}
+    drawer = []
+
+    def after(case, solver: str) -> None:
+        todo = left.get(case.name)
+        if todo is None or solver not in todo:
+            return
+        todo.discard(solver)
+        if todo or (reuse and unchanged(out, case, names)):
+            return
+        if not drawer:
+            drawer.append(Drawer(out, stage, True))            # the report writes its index
+        drawer[0].send(case, loading.jobs(case, names))
+
+    try:
+        run(after)
+        return drawer[0].collect() if drawer else {}
+    finally:
+        for d in drawer:
+            d.stop()
+
+
+class Drawer:
+    """A process (spawned, SIGINT ignored, dying with its parent) that draws case pages into a
+    report's staging folder (`pages.write_case`) while this process waits for runs. A page it
+    could not give (the process died) is drawn by the caller instead; an internal error in it is
+    raised here with its traceback."""
+
+    def __init__(self, out: Path, stage: Path, indexed: bool):
+        ctx = get_context("spawn")
+        self.conn, theirs = ctx.Pipe()
+        self.proc = ctx.Process(target=_draw, args=(theirs, str(out), str(stage), indexed), daemon=True)
+        self.proc.start()
+        theirs.close()
+        self.sent = []
+
+    def send(self, case, names) -> None:
+        self.conn.send((str(case.path.resolve()), tuple(case.overrides), list(names)))
+        self.sent.append(case.name)
+
+    def collect(self) -> dict:
+        """Case name -> (what its page gave, its warnings), for each page sent that was drawn."""
+        got = {}
+        for name in self.sent:
+            try:
+                kind, value = self.conn.recv()
+            except (EOFError, OSError):
+                break
+            if kind == "error":
+                err = RuntimeError(f"{value.strip().splitlines()[-1]} (drawing the page of {name})")
+                err.add_note(f"The drawing process's traceback:\n{value}")
+                raise err
+            got[name] = value
+        return got
+
+    def stop(self) -> None:
+        if self.proc.is_alive():
+            self.proc.kill()
+        self.proc.join()
+        self.conn.close()
+
+
+def _draw(conn, out: str, stage: str, indexed: bool) -> None:
+    """The Drawer's life: take (case file, overrides, solver names), draw the page, answer ("ok",
+    (what it gave, its warnings)) or ("error", traceback), until the pipe closes."""
+    from flexmbd import cases, executor, progress
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    executor.die_with_parent()
+    progress.silence()
+    while True:
+        try:
+            path, overrides, names = conn.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            said = []
+            got = pages.write_case(Path(out), Path(stage), cases.load(path, list(overrides)), names, said.append,
+                                   indexed)
+            answer = ("ok", (got, said))
+        except Exception:                               # noqa: BLE001 - the parent raises it
+            answer = ("error", traceback.format_exc())
+        conn.send(answer)
+
+
 def page_key(out: Path, case, names) -> str:
     """SHA-256 (hex) of everything a case page in a report (with an index) is drawn from: the case's
     text and content, the solvers it shows (`names` and those imported), the bytes of their stored
-    sidecars and CSVs, and flexmbd's source (`solvers.source_sha256`)."""
+    sidecars and CSVs, its convergence studies' files (`convergence.files`), and flexmbd's source
+    (`solvers.source_sha256`)."""
     h = hashlib.sha256(json.dumps({"case": [case.sha256, case.content_sha256], "flexmbd": solvers.source_sha256(),
                                    "names": list(names)}).encode())
+    for f in convergence.files(case):                       # the stored convergence studies drawn on it
+        h.update(f"\0{f.name}\0".encode() + hashlib.sha256(f.read_bytes()).digest())
     for s in loading.page_solvers(out, case, names):
         for f in (results.folder(out) / case.name / f"{s}.json", results.folder(out) / case.name / f"{s}.csv"):
             h.update(f"\0{f.name}\0".encode())

@@ -15,7 +15,7 @@ import numpy as np
 
 from flexmbd import metrics, results, solvers
 from flexmbd.files import atomic_write
-from flexmbd.report import accuracy, figures, loading, shapes, spectra, tables
+from flexmbd.report import accuracy, convergence, figures, loading, shapes, spectra, tables
 
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
@@ -205,6 +205,11 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
                      ("\n\n".join(" ".join(par.split()) for par in notes.split("\n\n")) + "\n\n" if notes else "")
                      + tables.markdown(head, rows)))
 
+    # convergence: each solver against its discretisation, from the case's stored studies
+    conv = convergence.section(case, d, warn)
+    if conv:
+        sections.append(("Convergence", *conv))
+
     # provenance
     head = ["solver", "version", "case sha256", "git commit", "date", "machine", "Python, numba", "overrides / source",
             "settings"]
@@ -307,7 +312,9 @@ def write_index(out: Path, stage: Path, runs: list, warn=None) -> None:
             f"<p>{html.escape(intro)}"
             + ", ".join(f"<a href='{f}'>{f}</a>" for f in pages) + "."
             + (" Benchmarks: <a href='bench/index.html'>bench</a>." if (out / "bench" / "index.html").exists() else "")
+            + (" Across commits: <a href='history.html'>history</a>." if (out / "history").is_dir() else "")
             + "</p>" + tables.html_table(head, links_html, raw_cols=(0,)) + bench_html + "</body></html>")
     atomic_write(stage / "index.html", page + "\n")
     atomic_write(stage / "index.md", "# flexmbd report\n\n**" + line + "**\n\n" + intro + ", ".join(f"[{f}]({f})" for f in pages)
-                 + ".\n\n" + tables.markdown(head, links_md) + ("\n" + bench_md if bench_md else ""))
+                 + "." + (" Across commits: [history](history.md)." if (out / "history").is_dir() else "")
+                 + "\n\n" + tables.markdown(head, links_md) + ("\n" + bench_md if bench_md else ""))
