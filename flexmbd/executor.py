@@ -23,10 +23,13 @@ import dataclasses
 import logging
 import os
 import signal
+import sys
 import time
 import traceback
 from collections import deque
 from multiprocessing import connection, get_context
+
+from threadpoolctl import threadpool_limits
 
 from flexmbd import cases, files, jit, results, solvers
 from flexmbd.errors import InputError
@@ -38,6 +41,7 @@ TRIES = 2               # runs of a job whose worker died, before it is a failed
 POOL_ABOVE = 5.0        # s of estimated work (`cost.stages`) from which the default pool starts workers
 COMPILES = ("flexmbd",)  # solvers whose first run on a machine compiles the kernel (`jit.is_cached`)
 COMPILE_S = 80.0        # s, about what that compile takes on this project's reference machine
+START = "fork" if sys.platform.startswith("linux") else "spawn"   # how a local worker starts (`Worker`)
 
 
 class WorkerError(RuntimeError):
@@ -275,15 +279,25 @@ def pool(jobs: list, order: list, done, started, workers: list, own: dict) -> No
 
 
 class Worker:
-    """One worker process (spawned: a fresh interpreter, nothing inherited but the environment) and
-    the pipe it takes Tasks from and answers through."""
+    """One worker process and the pipe it takes Tasks from and answers through. On Linux it is
+    forked from this process, which has flexmbd imported already: it is ready at once, where a
+    spawned one (a fresh interpreter, elsewhere) spends about a second importing. It is forked
+    with SIGINT and SIGTERM blocked, so that none meets the handlers it inherits (files: a
+    signal's exit would remove this process's staging folders); `serve` sets its own and unblocks
+    them. Nothing it inherits changes a result: it holds one thread of linear algebra from its
+    start, as a spawned one does (`serve`), the reductions it may find computed are computed with
+    one thread wherever they are (`flexbody`), and it reads flexmbd's source itself (its key)."""
 
     def __init__(self):
-        ctx = get_context("spawn")
+        ctx = get_context(START)
         self.conn, theirs = ctx.Pipe()
-        with _threads_one():
-            self.proc = ctx.Process(target=serve, args=(theirs,), daemon=True)
-            self.proc.start()
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, files.SIGNALS)
+        try:
+            with _threads_one():
+                self.proc = ctx.Process(target=serve, args=(theirs,), daemon=True)
+                self.proc.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         theirs.close()
 
     def send(self, t: Task) -> None:
@@ -318,7 +332,8 @@ class Worker:
 
 class _threads_one:
     """The environment a worker starts with: one thread of linear algebra and of numba (the
-    workers share the cores, and a result must not depend on a thread count)."""
+    workers share the cores, and a result must not depend on a thread count) for what it loads
+    itself (a forked worker's libraries loaded here are held to one thread by `solvers.run`)."""
 
     def __enter__(self):
         self.old = {k: os.environ.get(k) for k in THREADS}
@@ -338,6 +353,11 @@ def serve(conn) -> None:
     workers); the worker dies with its parent; no progress bars of its own."""
     from flexmbd import progress
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    files.forget_live()                                 # the parent's staging folders are not its own
+    solvers.source_sha256.cache_clear()                 # its own reading: a source edited meanwhile shows
+    threadpool_limits(limits=1)                         # a forked worker's BLAS started with the parent's
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, files.SIGNALS)
     die_with_parent()
     progress.silence()
     while True:

@@ -272,6 +272,13 @@ def _is_folder(path) -> bool:
     return Path(path).is_dir() and not Path(path).is_symlink()
 
 
+def forget_live() -> None:
+    """In a process forked from one with staging folders or temporaries open: they are its
+    parent's, which removes them; a signal's exit here leaves them alone."""
+    _live.clear()
+    _stretches.clear()
+
+
 @contextmanager
 def _made(make):
     """What `make()` creates (a temporary file or folder: its path) for the block, removed when

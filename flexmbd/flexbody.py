@@ -46,6 +46,7 @@ import functools
 from dataclasses import dataclass, fields
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from flexmbd.fe import assembly, element, modes, section, stress
 from flexmbd.files import atomic_write
@@ -264,7 +265,11 @@ def undeformed(name: str, beam) -> FlexBody:
 
 @functools.lru_cache(maxsize=64)
 def _reduced(beam, points: tuple) -> FlexBody:
-    fb = build(beam, points)
+    """`build` with one thread of linear algebra: its last bits do not depend on the process that
+    first asks (a command's own, with every core, or a worker's), so a worker forked from one
+    that holds it (`executor.Worker`) has the bits it would have computed itself."""
+    with threadpool_limits(limits=1):
+        fb = build(beam, points)
     for f in fields(fb):
         a = getattr(fb, f.name)
         if isinstance(a, np.ndarray):

@@ -133,15 +133,16 @@ def study(out: Path, *extra) -> subprocess.Popen:
 
 
 def workers_of(pid: int) -> list[int]:
-    """The worker processes of process pid (its children running multiprocessing's spawn)."""
-    out = []
+    """The worker processes of process pid: its children forked from it (its own command line) or
+    started by multiprocessing's spawn."""
+    out, own = [], Path(f"/proc/{pid}/cmdline").read_bytes()
     for d in Path("/proc").iterdir():
         try:
             stat = (d / "stat").read_text()
             cmd = (d / "cmdline").read_bytes()
         except (OSError, ValueError):
             continue
-        if int(stat.rpartition(")")[2].split()[1]) == pid and b"spawn_main" in cmd:
+        if int(stat.rpartition(")")[2].split()[1]) == pid and (cmd == own or b"spawn_main" in cmd):
             out.append(int(d.name))
     return out
 

@@ -51,7 +51,7 @@ def applies(case) -> str:
 
 def clamped_free_roots(n: int) -> np.ndarray:
     """First n roots b_n L of 1 + cos(z) cosh(z) = 0 (1.8751, 4.6941, 7.8548, ...)."""
-    f = lambda z: np.cos(z) + 1.0 / np.cosh(z)
+    f = lambda z: np.cos(z) + 2.0 * np.exp(-z) / (1.0 + np.exp(-2.0 * z))    # 1/cosh(z), no overflow
     mids = (np.arange(1, n + 1) - 0.5) * np.pi
     return np.array([brentq(f, max(z - 0.6, 0.1), z + 0.6, xtol=1e-15) for z in mids])
 
