@@ -332,7 +332,8 @@ def cmd_regress(args) -> int:
 
 
 def cmd_study(args) -> int:
-    from flexmbd import executor, study
+    from flexmbd import executor
+    from flexmbd.report import study
     from flexmbd.report import loading
     out = Path(args.out)
     if args.file:

@@ -8,7 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flexmbd import cases, solvers, study
+from flexmbd import cases, solvers
+from flexmbd.report import study
 from flexmbd.cases.validate import CASES_DIR
 from flexmbd.report import convergence, tables
 

@@ -22,7 +22,7 @@ LAYERS = {
     "kernel": 4, "integrate": 4,
     "channels": 5, "solver": 5, "adapters": 5, "solvers": 5, "linearize": 5, "cost": 5, "external": 5,
     "executor": 5,
-    "report": 6, "study": 6, "bench": 6, "cli": 6, "completion": 6, "__main__": 6, "__init__": 6,
+    "report": 6, "bench": 6, "cli": 6, "completion": 6, "__main__": 6, "__init__": 6,
 }
 
 

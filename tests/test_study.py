@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flexmbd import study
+from flexmbd.report import study
 from flexmbd.cli import main
 from flexmbd.errors import InputError
 

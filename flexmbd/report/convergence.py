@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import solvers, study
+from flexmbd import solvers
+from flexmbd.report import study
 from flexmbd.errors import InputError
 from flexmbd.report import figures, tables
 

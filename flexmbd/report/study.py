@@ -62,7 +62,7 @@ def parse_vary(item: str, where: str = "--vary") -> tuple:
     """'KEY=v1,v2,...' as (KEY, (v1, v2, ...)); a comma inside brackets or quotes stays in its
     value (`gravity=[0,-9.81,0],[0,0,0]`). InputError naming the item when it is not that form."""
     key, sep, text = item.partition("=")
-    values, depth, quote, cur = [], 0, "", ""
+    items, depth, quote, cur = [], 0, "", ""
     for ch in text:
         if quote:
             quote = "" if ch == quote else quote
@@ -73,15 +73,15 @@ def parse_vary(item: str, where: str = "--vary") -> tuple:
         elif ch in "]}":
             depth -= 1
         elif ch == "," and depth == 0:
-            values.append(cur.strip())
+            items.append(cur.strip())
             cur = ""
             continue
         cur += ch
-    values.append(cur.strip())
-    if not sep or not all(part.strip() for part in key.split("+")) or not all(values):
+    items.append(cur.strip())
+    if not sep or not all(part.strip() for part in key.split("+")) or not all(items):
         raise InputError(f"{where} {item!r}: expected KEY=VALUE1,VALUE2,... or KEY1+KEY2=VALUE1,... "
                          "(e.g. bodies.beam.modes.count=4,8,12)")
-    return key.strip(), tuple(values)
+    return key.strip(), tuple(items)
 
 
 def from_file(path: Path) -> Study:
@@ -111,8 +111,8 @@ def from_file(path: Path) -> Study:
     if not (isinstance(vary, dict) and vary):
         raise InputError(f"{where}: study.vary: expected a table of dotted keys, each a list of values")
     flat = dict(_dotted(vary))
-    for key, values in flat.items():
-        if not (isinstance(values, list) and values):
+    for key, vs in flat.items():
+        if not (isinstance(vs, list) and vs):
             raise InputError(f"{where}: study.vary.{key}: expected a list of values")
     at = st.get("reference", "each")
     if at not in REFERENCE_AT:
