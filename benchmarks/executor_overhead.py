@@ -12,7 +12,8 @@ runs' own times) - 1:
 
 - `scheduling`: against the runs' own times where each ran (`solvers.run` timed in its worker,
   `executor.execute`'s `own`). It counts what keeps a worker from running a job: starting the
-  workers (the interpreter and flexmbd's imports, about a second each), the estimates and the
+  workers (forked on Linux: at once; spawned or on Dask: the interpreter and flexmbd's imports,
+  about a second each), the estimates and the
   order, a job's trip through the pipe, and the imbalance at the end.
 - `against one process`: against the runs timed here one after another. It adds what sharing
   the cores costs the runs: with as many workers as cores, the command's own process (receiving
