@@ -333,7 +333,7 @@ class Worker:
 class _threads_one:
     """The environment a worker starts with: one thread of linear algebra and of numba (the
     workers share the cores, and a result must not depend on a thread count) for what it loads
-    itself (a forked worker's libraries loaded here are held to one thread by `solvers.run`)."""
+    itself (a forked worker's libraries, loaded here first, are held to one thread by `serve`)."""
 
     def __enter__(self):
         self.old = {k: os.environ.get(k) for k in THREADS}

@@ -273,8 +273,9 @@ def _is_folder(path) -> bool:
 
 
 def forget_live() -> None:
-    """In a process forked from one with staging folders or temporaries open: they are its
-    parent's, which removes them; a signal's exit here leaves them alone."""
+    """In a process forked from one with staging folders or temporaries open, or inside a held
+    or kept stretch: they are its parent's, which removes them and ends its stretches; a
+    signal's exit here leaves them alone."""
     _live.clear()
     _stretches.clear()
 
