@@ -50,7 +50,12 @@ def cache_dir() -> Path:
     return base / "flexmbd" / f"numba-{numba.__version__}-{source_hash()}"
 
 
-numba.config.CACHE_DIR = str(cache_dir())
+# numba reads its settings again from the environment whenever a NUMBA_ variable differs from what
+# it read last (a worker started with NUMBA_NUM_THREADS=1: executor.py); a CACHE_DIR set only on
+# numba.config would then fall back to caching next to the sources, where an edit to a callee is
+# never noticed. Set in the environment, it holds through every reload (and for child processes).
+os.environ["NUMBA_CACHE_DIR"] = str(cache_dir())
+numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
 
 # NUMBA_DISABLE_JIT=1: every compiled function runs as plain Python on numpy arrays (the same
 # algorithm, for reading and stepping through in a debugger; far slower, for small models)
