@@ -35,6 +35,7 @@ from flexmbd import cases, files, jit, results, solvers
 from flexmbd.errors import InputError
 from flexmbd.progress import job, jobs_done
 from flexmbd.results import Result
+from flexmbd.version import __version__
 
 THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 TRIES = 2               # runs of a job whose worker died, before it is a failed result
@@ -386,6 +387,30 @@ def die_with_parent() -> None:
 # Dask
 
 
+def identity() -> tuple[str, str]:
+    """(flexmbd's version, the SHA-256 of its source: `solvers.source_sha256`) of this process."""
+    return __version__, solvers.source_sha256()
+
+
+def same_flexmbd(client, flag: str) -> None:
+    """Refuse (InputError, one line naming `flag`) a Dask cluster whose workers cannot run this
+    flexmbd's jobs: a worker without flexmbd or with another version fails to take the call
+    (`identity` is not there, or not the same), a worker with other source answers another
+    digest. Checked before any job is sent; workers that join later are held by `checked`."""
+    mine = identity()
+    try:
+        theirs = client.run(identity)
+    except Exception as e:                              # the worker could not even take the call
+        what = (str(e).strip().splitlines() or [""])[0]
+        raise InputError(f"{flag}: a Dask worker cannot run this flexmbd's jobs ({type(e).__name__}: {what}); "
+                         f"every worker needs flexmbd {mine[0]} from this source (docs/studies.md)") from None
+    for address, got in sorted(theirs.items()):
+        if tuple(got) != mine:
+            raise InputError(f"{flag}: the Dask worker at {address} has flexmbd {got[0]} with source "
+                             f"{str(got[1])[:12]}, this command {mine[0]} with source {mine[1][:12]}: every "
+                             f"worker needs the same flexmbd (docs/studies.md)")
+
+
 def dask(jobs: list, order: list, done, started, where: Where, own: dict) -> None:
     """The jobs on a Dask distributed cluster: the one at `where.scheduler`, or a LocalCluster of
     `where.dask_local` single-threaded worker processes on loopback, closed at the end. Dask
@@ -411,6 +436,7 @@ def dask(jobs: list, order: list, done, started, where: Where, own: dict) -> Non
                 cluster.close()
             raise InputError(f"--scheduler {where.scheduler}: no Dask scheduler answers there ({e})") from None
     try:
+        same_flexmbd(client, f"--scheduler {where.scheduler}" if where.scheduler else "--dask-local")
         futures = {client.submit(timed, task(*jobs[k]), pure=False): k for k in order}
         for n, fut in enumerate(as_completed(futures), 1):
             k = futures[fut]

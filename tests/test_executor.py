@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import time
+import types
 from pathlib import Path
 
 import pandas as pd
@@ -106,6 +107,31 @@ def test_a_result_of_another_flexmbd_is_refused():
     r.extra["key"] = "0" * 64                           # as a worker at another version would give it
     with pytest.raises(InputError, match="another flexmbd"):
         executor.checked(case, solver, r)
+
+
+def test_a_dask_cluster_of_another_flexmbd_is_refused_before_any_job(monkeypatch):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        executor.same_flexmbd(client, "--dask-local")   # the same source: accepted
+        with monkeypatch.context() as m:
+            m.setattr(executor.solvers, "source_sha256", lambda: "f" * 64)      # this side edited
+            with pytest.raises(InputError, match=r"^--dask-local: the Dask worker at tcp://127.0.0.1:\d+ has "
+                                                 r"flexmbd \S+ with source \w{12}, this command .* with source ffffffffffff"):
+                executor.same_flexmbd(client, "--dask-local")
+        # a worker whose flexmbd has no such function (an older version): a module only this process has
+        elsewhere = types.ModuleType("flexmbd_only_here")
+        real = executor.identity
+
+        def identity():
+            return real()
+        identity.__module__, identity.__qualname__ = elsewhere.__name__, "identity"
+        elsewhere.identity = identity
+        monkeypatch.setitem(sys.modules, elsewhere.__name__, elsewhere)
+        monkeypatch.setattr(executor, "identity", identity)
+        with pytest.raises(InputError, match=r"^--scheduler tcp://x:1: a Dask worker cannot run this flexmbd's "
+                                             r"jobs \(\w+: .*\); every worker needs flexmbd"):
+            executor.same_flexmbd(client, "--scheduler tcp://x:1")
 
 
 def test_a_job_whose_worker_died_twice_is_a_failed_result_saying_so():

@@ -478,3 +478,35 @@ def test_a_case_s_notes_are_on_its_page_above_the_accuracy_table(tmp_path):
     assert accuracy < page.index("<p>The reference is converged. &lt;b&gt;Why&lt;/b&gt;:</p><p>A second paragraph.</p>")
     md = (tmp_path / "cantilever_step" / "index.md").read_text()
     assert "The reference is converged. <b>Why</b>:\n\nA second paragraph." in md.split("## Accuracy")[1]
+
+
+def test_pages_drawn_side_by_side_are_the_pages_drawn_one_after_another(report, tmp_path, monkeypatch):
+    """Two cases whose runs end at once: the second page goes to a second Drawer while the first is
+    busy (one per core at most, build.DRAWERS), and each page is the one a single Drawer draws."""
+    from flexmbd.report import build, loading
+    out = tmp_path / "out"
+    shutil.copytree(report / "results", out / "results")
+    copy = tmp_path / "cantilever_copy.toml"
+    copy.write_text(cases.find("cantilever_step").read_text())
+    shutil.copytree(out / "results" / "cantilever_step", out / "results" / "cantilever_copy")
+    both = [cases.load("cantilever_step"), cases.load(str(copy))]
+    names = FAST.split(",")
+    pids = []
+    send = build.Drawer.send
+    monkeypatch.setattr(build.Drawer, "send", lambda self, case, shown: pids.append(self.proc.pid) or send(self, case, shown))
+
+    def run(after):                                     # every job already stored: told at once
+        for c in both:
+            for s in loading.jobs(c, names):
+                after(c, s)
+
+    pages = {}
+    for drawers in (1, 2):
+        monkeypatch.setattr(build, "DRAWERS", drawers)
+        stage = tmp_path / f"stage{drawers}"
+        pids.clear()
+        got = build.drawn_while(run, out, stage, both, names, reuse=False)
+        assert sorted(got) == ["cantilever_copy", "cantilever_step"]
+        assert len(set(pids)) == drawers, pids
+        pages[drawers] = {c.name: (stage / c.name / "index.md").read_text() for c in both}
+    assert pages[1] == pages[2]

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import shutil
 import signal
 import traceback
@@ -30,6 +31,7 @@ from flexmbd import files, results, solvers
 from flexmbd.report import accuracy, convergence, loading, pages, spectra, tables
 
 RECORD = "page.json"        # in OUT/CASE/: the page's key and what it gave the index
+DRAWERS = os.cpu_count() or 1   # processes drawing pages during a report's runs, at most
 
 
 def case_page(out: Path, case, names, warn=None) -> dict:
@@ -96,9 +98,12 @@ def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None, reu
 def drawn_while(run, out: Path, stage: Path, chosen_cases, names, reuse: bool) -> dict:
     """run(after) (the jobs of the pages), with each case's page drawn into `stage` by a `Drawer`
     as soon as after(case, solver) has been told of its last job (a page that `reuse` keeps is
-    not drawn). Returns case name -> (what its page gave, its warnings) of the pages drawn."""
+    not drawn). A page goes to the Drawer with the fewest pages in hand; another Drawer starts
+    while every one is busy, up to one per core (`DRAWERS`), so that the pages left when the runs
+    end are drawn side by side. Returns case name -> (what its page gave, its warnings) of the
+    pages drawn."""
     left = {c.name: set(loading.jobs(c, names)) for c in chosen_cases}
-    drawer = []
+    drawers, most = [], min(DRAWERS, len(chosen_cases))
 
     def after(case, solver: str) -> None:
         todo = left.get(case.name)
@@ -107,15 +112,18 @@ def drawn_while(run, out: Path, stage: Path, chosen_cases, names, reuse: bool) -
         todo.discard(solver)
         if todo or (reuse and unchanged(out, case, names)):
             return
-        if not drawer:
-            drawer.append(Drawer(out, stage, True))            # the report writes its index
-        drawer[0].send(case, loading.jobs(case, names))
+        if len(drawers) < most and all(d.pending() for d in drawers):
+            drawers.append(Drawer(out, stage, True))            # the report writes its index
+        min(drawers, key=Drawer.pending).send(case, loading.jobs(case, names))
 
     try:
         run(after)
-        return drawer[0].collect() if drawer else {}
+        got = {}
+        for d in drawers:
+            got.update(d.collect())
+        return got
     finally:
-        for d in drawer:
+        for d in drawers:
             d.stop()
 
 
@@ -131,20 +139,36 @@ class Drawer:
         self.proc = ctx.Process(target=_draw, args=(theirs, str(out), str(stage), indexed), daemon=True)
         self.proc.start()
         theirs.close()
-        self.sent = []
+        self.sent, self.answers, self.dead = [], [], False
 
     def send(self, case, names) -> None:
         self.conn.send((str(case.path.resolve()), tuple(case.overrides), list(names)))
         self.sent.append(case.name)
 
+    def _take(self, wait: bool) -> bool:
+        """Receive one answer (waiting for it when `wait`); False when none came."""
+        try:
+            if self.dead or not (wait or self.conn.poll()):
+                return False
+            self.answers.append(self.conn.recv())
+            return True
+        except (EOFError, OSError):
+            self.dead = True
+            return False
+
+    def pending(self) -> int:
+        """The pages sent and not yet answered (taking the answers already in); a Drawer that died
+        counts as never free."""
+        while len(self.answers) < len(self.sent) and self._take(False):
+            pass
+        return len(self.sent) - len(self.answers) + (len(self.sent) + 1) * self.dead
+
     def collect(self) -> dict:
         """Case name -> (what its page gave, its warnings), for each page sent that was drawn."""
+        while len(self.answers) < len(self.sent) and self._take(True):
+            pass
         got = {}
-        for name in self.sent:
-            try:
-                kind, value = self.conn.recv()
-            except (EOFError, OSError):
-                break
+        for name, (kind, value) in zip(self.sent, self.answers):
             if kind == "error":
                 err = RuntimeError(f"{value.strip().splitlines()[-1]} (drawing the page of {name})")
                 err.add_note(f"The drawing process's traceback:\n{value}")
