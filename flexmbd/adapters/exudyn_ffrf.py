@@ -63,6 +63,7 @@ SETTINGS = {
     "gravity": (("nodal", "mass-proportional"), "nodal"),   # see add_loads
 }
 
+INDEX2 = ("fox-goodwin", "trapezoidal-index2")   # the schemes with velocity-level (index-2) constraints
 NODE_TYPE = exu.NodeType.RotationEulerParameters
 CONSTRAINED = {"fixed": [1, 1, 1, 1, 1, 1], "revolute": [1, 1, 1, 1, 1, 0],
                "prismatic": [1, 1, 0, 1, 1, 1], "spherical": [1, 1, 1, 0, 0, 0]}
@@ -702,6 +703,13 @@ def options(settings) -> dict:
 
 def run(case, t_end, settings):
     opt = options(settings)
+    driven = [jn for jn, j in case.joints.items() if j.motion is not None]
+    if opt["solver"] in INDEX2 and driven:
+        return results.Result(solver="exudyn-ffrf", case=case.name, solver_version=version(), settings=dict(opt),
+                              status=results.failed(f"{opt['solver']} holds its constraints at velocity level, where "
+                                                    f"Exudyn's generic joint takes no prescribed rate (its "
+                                                    f"offsetUserFunction_t is not implemented there): joint "
+                                                    f"{driven[0]!r} would stand still; use generalized-alpha", 0.0))
     t_start = time.perf_counter()
     fbs = flexbody.for_case(case)
     dt = step_size(case, opt)
