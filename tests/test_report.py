@@ -236,6 +236,14 @@ def test_baselines_carry_provenance():
         assert {"source", "solver", "settings", "date", "units", "columns"} <= keys, (c, s)
 
 
+def test_a_baseline_written_from_a_stored_result_carries_that_run_s_date_and_commit(tmp_path):
+    case = cases.load("cantilever_step")
+    r = solvers.run(case, "analytic", 0.01)
+    r.extra.update(date="2000-01-02T03:04:05+00:00", git_commit="abc1234", python="3.0.1")   # as read back
+    text = regress.write(tmp_path, case, r).read_text()
+    assert "# date: 2000-01-02T03:04:05+00:00; git commit: abc1234; python 3.0.1\n" in text
+
+
 def test_a_failing_solver_does_not_stop_the_report(tmp_path, monkeypatch):
     from flexmbd.adapters import analytic
 
