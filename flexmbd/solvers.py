@@ -166,6 +166,9 @@ def _precondition(case, name: str) -> results.Status | None:
     mod, why = load(name)
     if why:
         return results.unavailable(why.removeprefix("unavailable: "))
+    if case.loops and not getattr(mod, "LOOPS", False):    # a solver models closed loops only when it says so
+        return results.not_applicable(f"closed kinematic loops are not modelled (joint {next(iter(case.loops))!r} "
+                                      f"closes one)")
     try:
         why = mod.applies(case)
     except Exception as e:                              # noqa: BLE001 - a plug-in's failure is its status

@@ -35,6 +35,29 @@ child = "tip"
 at = 1.5
 """
 
+# the pendulum's beam closed into a loop: a rigid link from its tip back to ground (the joint
+# `back` closes it; the cases below spoil the declaration)
+LOOP = PENDULUM + """
+[bodies.link]
+type = "rigid"
+mass = 0.5
+inertia = [1e-3, 1e-3, 1e-3, 0.0, 0.0, 0.0]
+
+[joints.tip_pin]
+type = "revolute"
+parent = "beam"
+child = "link"
+at = 1.5
+
+[joints.back]
+type = "revolute"
+parent = "ground"
+child = "link"
+at = [1.5, 1.0, 0.0]
+child_at = [0.0, 1.0, 0.0]
+loop = true
+"""
+
 # the pendulum driven through a motion table q.csv written beside it
 DRIVEN = PENDULUM.replace("qd0 = 0.0", 'qd0 = 0.0\nmotion = { type = "table", file = "q.csv" }')
 GOOD_TABLE = "t,q\n0,0\n0.5,0.1\n1,0.2\n1.5,0.3\n2,0.4\n"
@@ -159,6 +182,26 @@ BAD = [
     ("joint-q0-nan", P, None, ["joints.pivot.q0=nan"], "flexmbd", ["joints.pivot.q0", "finite"]),
     ("solver-table-not-a-table", C, None, ["solvers.analytic=3"], "analytic", ["solvers.analytic", "table"]),
     ("gravity-two-numbers", P, None, ["gravity=[0, -9.81]"], "flexmbd", ["gravity", "3 numbers"]),
+    # closed loops
+    ("loop-undeclared", LOOP.replace("loop = true\n", ""), None, [], "flexmbd",
+     ["joints.back.child", "body 'link' already has joint 'tip_pin'", "closes a kinematic loop", "loop = true"]),
+    ("loop-on-no-body", LOOP, None, ['joints.back.child="lnk"'], "flexmbd",
+     ["joints.back.child", "no body 'lnk'", "did you mean 'link'"]),
+    ("loop-parent-no-body", LOOP, None, ['joints.back.parent="grund"'], "flexmbd",
+     ["joints.back.parent", "no body 'grund'"]),
+    ("loop-with-q0", LOOP, None, ["joints.back.q0=0.1"], "flexmbd",
+     ["joints.back.q0", "no coordinates of its own"]),
+    ("loop-driven", LOOP, None, ['joints.back.motion={type="constant_rate", rate=1.0}'], "flexmbd",
+     ["joints.back.motion", "no coordinates of its own"]),
+    ("loop-to-itself", LOOP, None, ['joints.back.parent="link"'], "flexmbd", ["joints.back.child", "two different bodies"]),
+    ("loop-child-at-beyond-beam", LOOP, None, ['joints.back.child="beam"', "joints.back.child_at=2.0"], "flexmbd",
+     ["joints.back.child_at", "beyond the beam's length"]),
+    ("child-at-on-a-tree-joint", LOOP, None, ["joints.tip_pin.child_at=[0.0, 0.0, 0.0]"], "flexmbd",
+     ["joints.tip_pin.child_at", "only a loop joint"]),
+    ("loop-joint-angle", LOOP, None, ['channels.joint_angle.joint="back"'], "flexmbd",
+     ["channels.joint_angle.joint", "closes a loop", "tree joint"]),
+    ("loop-the-only-joint", LOOP.replace('child = "link"\nat = 1.5', 'child = "link"\nat = 1.5\nloop = true'), None,
+     [], "flexmbd", ["bodies.link", "no joint connects this body", "a loop joint does not"]),
     # deformed-shape snapshots
     ("snapshot-beyond-duration", C, None, ["report.snapshots=[0.5, 2.5]"], "analytic",
      ["report.snapshots", "instant 2.5 s lies outside the run [0, 2] s"]),
@@ -188,6 +231,23 @@ def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, capsys, text, ta
         (tmp_path / "q.csv").write_bytes(table if isinstance(table, bytes) else table.encode())
     argv = ["run", str(p), "--solver", solver] + [x for s in sets for x in ("--set", s)]
     _refused(*_in_process(tmp_path, capsys, argv), words)
+
+
+def test_a_declared_loop_loads_and_every_solver_says_it_does_not_model_it(tmp_path):
+    """The loop joint is out of the tree (no coordinates) and in `case.loops`, placed on both
+    bodies; no built-in solver models loops yet, each says so (not a wrong result)."""
+    p = tmp_path / "loop.toml"
+    p.write_text(LOOP)
+    case = cases.load(str(p))
+    assert list(case.loops) == ["back"] and "back" not in case.joints
+    back = case.loops["back"]
+    assert back.loop and back.offset == (1.5, 1.0, 0.0) and back.child_offset == (0.0, 1.0, 0.0)
+    assert (back.nq, back.nv, back.q0) == (0, 0, ())
+    assert case.nv == cases.load("pendulum").nv + 1                  # the link's pin only
+    for name in solvers.BUILT_IN:
+        assert solvers.status_for(case, name) in (
+            "not applicable: closed kinematic loops are not modelled (joint 'back' closes one)",
+            "unavailable: No module named 'exudyn'"), name
 
 
 def test_case_path_is_a_directory(tmp_path, capsys):

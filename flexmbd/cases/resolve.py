@@ -4,7 +4,9 @@ validated case data (`validate`) as typed, read-only values.
     materials   name -> Material (E, nu, rho; G)
     bodies      name -> Beam (material, section, modes, ...) or Rigid (mass, com, inertia), file order
     joints      name -> Joint: parent and child, where it sits (a snapped Point on a beam parent, an
-                offset in the parent frame), triad, unit axis, q0, qd0, motion, nq, nv
+                offset in the parent frame), triad, unit axis, q0, qd0, motion, nq, nv: the tree
+    loops       name -> Joint: the cut joints (`loop = true`) that close kinematic loops, also
+                placed on their child (child_point, child_offset); no coordinates of their own
     loads       name -> Load: the body, the snapped Point on a beam, the offset, force, frame, profile
     channels    name -> Channel: kind, body or joint, the snapped Point on a beam, component, fibre
     tree        Link per body in tree order (parents first): index, kind, parent index, joint
@@ -137,6 +139,9 @@ class Joint:
     motion: MappingProxyType | None     # prescribed motion profile (`profiles`)
     nq: int             # coordinates: revolute, prismatic 1; spherical 4 (quaternion); free 7
     nv: int             # velocities: 1, 1, 3, 6
+    loop: bool = False  # a cut joint closing a loop: no coordinates (nq, nv count what it leaves free)
+    child_point: Point | None = None    # a loop joint on a beam child: the position along it and its node
+    child_offset: tuple = (0.0, 0.0, 0.0)   # (3,) a loop joint: where it sits in the child frame, m
 
     @property
     def node(self) -> int:
@@ -230,6 +235,7 @@ class Resolved:
     whole: MappingProxyType         # segment -> (its beam, the segment's root position along it, m);
                                     # held by the case and by its `split`
     split: Resolved | None = field(default=None, repr=False, compare=False)     # None: this one
+    loops: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))   # name -> Joint: the cut joints
 
     @property
     def modelled(self) -> Resolved:
@@ -276,7 +282,7 @@ class Resolved:
 
 def tree_order(data: dict) -> list:
     """Body names so that every parent comes before its children (file order kept otherwise)."""
-    parent_of = {j["child"]: j["parent"] for j in data["joints"].values()}
+    parent_of = {j["child"]: j["parent"] for j in data["joints"].values() if not j["loop"]}
     order, placed = [], {"ground"}
     while len(order) < len(parent_of):
         for name in data["bodies"]:
@@ -317,17 +323,22 @@ def resolve(data: dict, split: bool = True) -> Resolved:
     bodies = {n: _body(n, b, materials) for n, b in data["bodies"].items()}
     order = tree_order(data)
     index = {"ground": 0, **{name: k + 1 for k, name in enumerate(order)}}
-    joint_of = {j["child"]: name for name, j in data["joints"].items()}
-    joints = {}
+    joint_of = {j["child"]: name for name, j in data["joints"].items() if not j["loop"]}
+    joints, loops = {}, {}
     for jn, j in data["joints"].items():
         point, offset = _where(bodies, j["parent"], j["at"])
-        jq, jv = JOINT_COORDS[j["type"]]
+        jq, jv = (0, 0) if j["loop"] else JOINT_COORDS[j["type"]]
         norm = math.hypot(*j["axis"])
-        joints[jn] = Joint(name=jn, type=j["type"], parent=j["parent"], child=j["child"],
-                           parent_index=index[j["parent"]], child_index=index[j["child"]], point=point, offset=offset,
-                           rpy=tuple(j["rpy"]), triad=tuple(tuple(float(x) for x in row) for row in rotation_rpy(j["rpy"])),
-                           axis=tuple(float(a / norm) if norm > 0 else 0.0 for a in j["axis"]),
-                           q0=tuple(j["q0"]), qd0=tuple(j["qd0"]), motion=frozen(j["motion"]), nq=jq, nv=jv)
+        cut = {}
+        if j["loop"]:
+            child_point, child_offset = _where(bodies, j["child"], j["child_at"])
+            cut = {"loop": True, "child_point": child_point, "child_offset": child_offset}
+        (loops if j["loop"] else joints)[jn] = Joint(
+            name=jn, type=j["type"], parent=j["parent"], child=j["child"], parent_index=index[j["parent"]],
+            child_index=index[j["child"]], point=point, offset=offset, rpy=tuple(j["rpy"]),
+            triad=tuple(tuple(float(x) for x in row) for row in rotation_rpy(j["rpy"])),
+            axis=tuple(float(a / norm) if norm > 0 else 0.0 for a in j["axis"]),
+            q0=tuple(j["q0"]), qd0=tuple(j["qd0"]), motion=frozen(j["motion"]), nq=jq, nv=jv, **cut)
     tree, nq, nv = [], 0, 0
     for name in order:
         b, j = bodies[name], joints[joint_of[name]]
@@ -362,7 +373,8 @@ def resolve(data: dict, split: bool = True) -> Resolved:
         solvers=frozen(data["solvers"]), tree=tuple(tree), nq=nq, nv=nv,
         segments=MappingProxyType(segments), whole=MappingProxyType(whole),
         split=None if expanded is data else dataclasses.replace(resolve(expanded, split=False),
-                                                                whole=MappingProxyType(whole)))
+                                                                whole=MappingProxyType(whole)),
+        loops=MappingProxyType(loops))
 
 
 def is_fixed_base(case) -> bool:

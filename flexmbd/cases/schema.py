@@ -83,6 +83,8 @@ JOINT = {
     "q0": ("floats", None),
     "qd0": ("floats", None),
     "motion": (PROFILE, None),          # prescribed motion (1-DOF joints)
+    "loop": ("bool", False),            # a cut joint: closes a kinematic loop (its child has a tree joint)
+    "child_at": ("point", None),        # a loop joint: where it sits on its child (as `at` on the parent)
 }
 
 LOAD_PROFILE = {

@@ -260,7 +260,8 @@ def _check_references(d: dict, where: str) -> None:
         else:
             _check_rigid(b, where, k)
 
-    # every body has exactly one joint to its parent, and the joints form a tree rooted at ground
+    # every body has exactly one tree joint to its parent, and the tree joints form a tree rooted
+    # at ground; a joint declared `loop = true` closes a loop between two bodies already on it
     children = {}
     for name, j in joints.items():
         k = f"joints.{name}"
@@ -270,15 +271,30 @@ def _check_references(d: dict, where: str) -> None:
                 _fail(where, f"{k}.{side}", f"no body {ref!r}{hint(ref, list(bodies) + ['ground'])}")
         if j["child"] == "ground":
             _fail(where, f"{k}.child", "ground cannot be a child")
-        if j["child"] in children:
-            _fail(where, f"{k}.child", f"body {j['child']!r} already has joint {children[j['child']]!r}")
-        children[j["child"]] = name
         _check_attachment(j, bodies, where, k)
+        if j["loop"]:
+            _check_loop(j, bodies, where, k)
+            continue
+        if j["child"] in children:
+            _fail(where, f"{k}.child", f"body {j['child']!r} already has joint {children[j['child']]!r}: a second "
+                  f"joint on a body closes a kinematic loop, declared with loop = true on the joint that closes it "
+                  f"(cases/README.md, Loops)")
+        if j["child_at"] is not None:
+            _fail(where, f"{k}.child_at", "only a loop joint (loop = true) sits at a point of its child; a tree "
+                  "joint's child hangs at its own frame")
+        children[j["child"]] = name
         _check_joint_values(j, where, k)
     for name in bodies:
         if name not in children:
-            _fail(where, f"bodies.{name}", "no joint connects this body (add a joint with child = it)")
-    _check_tree(joints, where)
+            _fail(where, f"bodies.{name}", "no joint connects this body (add a joint with child = it; a loop joint "
+                  "does not connect a body to the tree)")
+    _check_tree({n: j for n, j in joints.items() if not j["loop"]}, where)
+    for name, j in joints.items():
+        if j["loop"]:
+            for side in ("parent", "child"):
+                if d["bodies"].get(j[side], {}).get("segments", 1) > 1:
+                    _fail(where, f"joints.{name}.{side}", f"body {j[side]!r} is split into segments, which a loop "
+                          f"joint cannot reach yet")
 
     for name, ld in d["loads"].items():
         k = f"loads.{name}"
@@ -449,6 +465,22 @@ def _check_attachment(j, bodies, where, k):
 
 
 
+def _check_loop(j, bodies, where, k):
+    """A loop joint: two different bodies, its point on the child (`child_at`, defaulting to the
+    child's frame origin), no coordinates of its own (they follow from the tree), not driven."""
+    if j["parent"] == j["child"]:
+        _fail(where, f"{k}.child", "a loop joint joins two different bodies")
+    child = bodies[j["child"]]
+    if j["child_at"] is None:
+        j["child_at"] = 0.0 if child["type"] == "beam" else [0.0, 0.0, 0.0]
+    _check_point(j["child_at"], child, where, f"{k}.child_at")
+    for key in ("q0", "qd0", "motion"):
+        if j[key] is not None:
+            _fail(where, f"{k}.{key}", "a loop joint has no coordinates of its own: they follow from the tree joints "
+                  "(give the initial values there)")
+    j["q0"], j["qd0"] = [], []
+
+
 def _check_joint_values(j, where, k):
     n = JOINT_DOFS[j["type"]]
     for key in ("q0", "qd0"):
@@ -561,5 +593,8 @@ def _check_channel(name, c, bodies, joints, where):
             _fail(where, f"{k}.joint", f"a {c['kind']} channel needs a joint")
         if j not in joints:
             _fail(where, f"{k}.joint", f"no joint {j!r}{hint(j, joints)}")
+        if c["kind"] == "joint_angle" and joints[j]["loop"]:
+            _fail(where, f"{k}.joint", f"{j!r} closes a loop and has no coordinate of its own: measure the angle at "
+                  f"a tree joint")
         if c["kind"] == "joint_angle" and joints[j]["type"] != "revolute":
             _fail(where, f"{k}.joint", f"joint_angle needs a revolute joint, {j!r} is {joints[j]['type']}")
