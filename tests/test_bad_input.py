@@ -196,6 +196,8 @@ BAD = [
     ("loop-to-itself", LOOP, None, ['joints.back.parent="link"'], "flexmbd", ["joints.back.child", "two different bodies"]),
     ("loop-child-at-beyond-beam", LOOP, None, ['joints.back.child="beam"', "joints.back.child_at=2.0"], "flexmbd",
      ["joints.back.child_at", "beyond the beam's length"]),
+    ("loop-on-a-split-beam", LOOP, None, ['joints.back.child="beam"', "joints.back.child_at=1.0", "bodies.beam.segments=2"],
+     "flexmbd", ["joints.back.child", "split into segments"]),
     ("child-at-on-a-tree-joint", LOOP, None, ["joints.tip_pin.child_at=[0.0, 0.0, 0.0]"], "flexmbd",
      ["joints.tip_pin.child_at", "only a loop joint"]),
     ("loop-joint-angle", LOOP, None, ['channels.joint_angle.joint="back"'], "flexmbd",

@@ -289,12 +289,6 @@ def _check_references(d: dict, where: str) -> None:
             _fail(where, f"bodies.{name}", "no joint connects this body (add a joint with child = it; a loop joint "
                   "does not connect a body to the tree)")
     _check_tree({n: j for n, j in joints.items() if not j["loop"]}, where)
-    for name, j in joints.items():
-        if j["loop"]:
-            for side in ("parent", "child"):
-                if d["bodies"].get(j[side], {}).get("segments", 1) > 1:
-                    _fail(where, f"joints.{name}.{side}", f"body {j[side]!r} is split into segments, which a loop "
-                          f"joint cannot reach yet")
 
     for name, ld in d["loads"].items():
         k = f"loads.{name}"
@@ -466,10 +460,14 @@ def _check_attachment(j, bodies, where, k):
 
 
 def _check_loop(j, bodies, where, k):
-    """A loop joint: two different bodies, its point on the child (`child_at`, defaulting to the
-    child's frame origin), no coordinates of its own (they follow from the tree), not driven."""
+    """A loop joint: two different bodies, neither split into segments, its point on the child
+    (`child_at`, defaulting to the child's frame origin), no coordinates of its own (they follow
+    from the tree), not driven."""
     if j["parent"] == j["child"]:
         _fail(where, f"{k}.child", "a loop joint joins two different bodies")
+    for side in ("parent", "child"):
+        if bodies.get(j[side], {}).get("segments", 1) > 1:
+            _fail(where, f"{k}.{side}", f"body {j[side]!r} is split into segments, which a loop joint cannot reach yet")
     child = bodies[j["child"]]
     if j["child_at"] is None:
         j["child_at"] = 0.0 if child["type"] == "beam" else [0.0, 0.0, 0.0]

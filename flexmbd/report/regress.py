@@ -40,7 +40,7 @@ def write(base: Path, case, r: Result) -> Path:
     """Store a result as the baseline of (case, solver), with its provenance header: the date,
     commit and Python of the run itself when the result carries them (a stored or a worker's
     result), else this process's."""
-    env = {**results.environment(), **{k: r.extra[k] for k in ("date", "git_commit", "python") if k in r.extra}}
+    env = {**results.environment(), **r.extra}           # the rule of `results.sidecar`
     units = "; ".join(["t s"] + [f"{c} {UNITS[case.channels[c].kind]}" for c in r.channels])
     how = (f"flexmbd import {case.name} --solver {r.solver} {r.extra['imported']['file']}" if "imported" in r.extra
            else f"flexmbd run {case.name} --solver {r.solver}")
