@@ -158,9 +158,10 @@ def external_forces(model, data, q):
 
 
 @njit(inline="always")
-def body_forces(model, data, q, v):
+def body_forces(model, data, q, v, tau):
     """MA_i, pA_i <- each body's own inertia M_i(eta) and its velocity-product, elastic and external
-    (data.F) forces (the leading 6+nm_i block; the rest of the padded row is never read)."""
+    (data.F, and tau's modal entries: generalized forces on the modal coordinates) forces (the
+    leading 6+nm_i block; the rest of the padded row is never read)."""
     for i in range(1, model.parent.size):
         a, nm = model.body_madr[i], model.body_nm[i]
         MA, pA = data.MA[i, :6 + nm, :6 + nm], data.pA[i, :6 + nm]
@@ -175,6 +176,8 @@ def body_forces(model, data, q, v):
             mv_add_into(model.flex_C[i, :nm, :nm], eta_d, pA[6:])
         for r in range(6 + nm):
             pA[r] -= data.F[i, r]
+        for r in range(nm):
+            pA[6 + r] -= tau[a + r]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -303,13 +306,13 @@ def aba(model, data, q, v, tau):
     """Generalized accelerations (nv,) — joint and modal — by the articulated-body algorithm:
     data.qdd itself (copy it to keep it).
 
-    tau (nv,): joint forces (modal entries ignored). Set by `prescribed` first: data.scale (nl,),
+    tau (nv,): generalized forces, joint and modal (a prescribed joint's entries are ignored). Set by `prescribed` first: data.scale (nl,),
     the point loads' profile factors, and data.qdd_p (nv,), the accelerations of the joints with
     jnt_prescribed set.
     """
     forward_kinematics(model, data, q, v)
     external_forces(model, data, q)
-    body_forces(model, data, q, v)
+    body_forces(model, data, q, v, tau)
     articulated_inertias(model, data, tau)
     accelerations(model, data)
     return data.qdd

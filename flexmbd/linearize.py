@@ -6,7 +6,10 @@ frequency, not at the clamped-free one of its modes (docs/formulation.md §10).
 
 Coordinates: the free ones, in v's order (`dynamics.free_velocities`); prescribed joints follow
 their profile at the linearization time. A state perturbation dq is taken along the joints'
-velocity map, q + h qdot(q, e_i), so quaternion joints need no special case."""
+velocity map, q + h qdot(q, e_i), so quaternion joints need no special case. A tree closed by cut
+joints (`constraints.Loops`) is linearized on its independent coordinates: the dependent ones
+(`Loops.partition`) follow every perturbed state by the loops' closure, at position and velocity
+level, and the accelerations are the constrained ones."""
 
 from __future__ import annotations
 
@@ -15,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import optimize
 
-from flexmbd import dynamics, flexbody, joints
+from flexmbd import constraints, dynamics, flexbody, joints
 from flexmbd.build import from_case
 from flexmbd.errors import InputError
 from flexmbd.kernel.entry import forward_dynamics
@@ -37,6 +40,30 @@ def model_of(case) -> Model:
     return from_case(case.modelled, flexbody.for_case(case.modelled))
 
 
+def loops_of(case, model: Model) -> constraints.Loops | None:
+    """The case's cut joints on its Model (None without loops)."""
+    return constraints.Loops(model, case.modelled) if case.loops else None
+
+
+def coordinates(model: Model, loops: constraints.Loops | None) -> np.ndarray:
+    """Indices into v of the coordinates linearized on: the free ones less a loop's dependent ones."""
+    free = dynamics.free_velocities(model)
+    return free if loops is None else np.setdiff1d(free, loops.dep)
+
+
+def accelerations(model: Model, loops: constraints.Loops | None, t: float):
+    """qdd(q, v) (nv,) at time t: the tree's forward dynamics, or with loops the constrained
+    accelerations at the state closed on its dependent coordinates."""
+    data = make_data(model)
+    if loops is None:
+        return lambda q, v: forward_dynamics(model, data, q, v, t=t)
+
+    def qdd(q, v):
+        q, v = loops.close(t, q, v)
+        return loops.rates(t, q, v)[0][model.nq:]
+    return qdd
+
+
 def perturbed(model: Model, q, i: int, h: float) -> np.ndarray:
     """q moved by h along velocity coordinate i (q + h qdot(q, e_i))."""
     e = np.zeros(model.nv)
@@ -44,14 +71,14 @@ def perturbed(model: Model, q, i: int, h: float) -> np.ndarray:
     return q + h * joints.qdot(model.arrays, q, e, np.zeros(model.nq))
 
 
-def state_matrix(model: Model, q, v, t: float = 0.0, bar=None) -> np.ndarray:
-    """A (2n, 2n) of d/dt [dq; dv] = A [dq; dv] over the n free coordinates, by central differences
-    of forward dynamics: A = [[0, I], [d qdd/dq, d qdd/dv]]. `bar` (progress.Progress over the n
-    coordinates), when given, is told each coordinate done."""
-    free, data = dynamics.free_velocities(model), make_data(model)
+def state_matrix(model: Model, q, v, t: float = 0.0, bar=None, loops: constraints.Loops | None = None) -> np.ndarray:
+    """A (2n, 2n) of d/dt [dq; dv] = A [dq; dv] over the n free (with loops: independent)
+    coordinates, by central differences of forward dynamics: A = [[0, I], [d qdd/dq, d qdd/dv]].
+    `bar` (progress.Progress over the n coordinates), when given, is told each coordinate done."""
+    free, acc = coordinates(model, loops), accelerations(model, loops, t)
 
     def qdd(q, v):
-        return forward_dynamics(model, data, q, v, t=t)[free]
+        return acc(q, v)[free]
 
     n = free.size
     Jq = np.empty((n, n))
@@ -104,14 +131,15 @@ def coordinate_names(model: Model) -> list:
 ROUNDOFF = 1e-10    # relative error of the central differences (step 1e-6: roundoff eps / h)
 
 
-def system_modes(model: Model, q, v, t: float = 0.0, bar=None) -> list:
+def system_modes(model: Model, q, v, t: float = 0.0, bar=None, loops: constraints.Loops | None = None) -> list:
     """The oscillating eigenvalues of the linearized system (one per conjugate pair, ascending
     frequency) with damping and label. Non-oscillating roots (rigid-body modes, overdamped or
     unstable ones) are left out, and so are roots within sqrt(ROUNDOFF max|A|) of zero: a rigid
     mode without stiffness is a double zero root, which an error e in A moves by sqrt(e). `bar`:
-    the progress of the state matrix (`state_matrix`)."""
-    free = dynamics.free_velocities(model)
-    A = state_matrix(model, q, v, t, bar)
+    the progress of the state matrix (`state_matrix`); `loops`: the case's cut joints, whose
+    dependent coordinates `q`, `v` must already satisfy (`constraints.Loops.close`)."""
+    free = coordinates(model, loops)
+    A = state_matrix(model, q, v, t, bar, loops)
     lam, vec = np.linalg.eig(A)
     zero = np.sqrt(ROUNDOFF * np.abs(A).max(initial=0.0))       # how far the differences move a double zero root
     n = free.size
@@ -135,24 +163,38 @@ def for_case(case, about: str = "initial", progress: bool = False) -> list:
     with `progress`, a bar on stderr over the coordinates of the state matrix (4 evaluations
     each: `cost.system`) when they take more than a couple of seconds."""
     model = model_of(case)
+    loops = loops_of(case, model)
     q, v = model.q0.copy(), model.v0.copy()
     if about == "equilibrium":
+        if loops:
+            raise InputError("modes --system --about equilibrium: not for a closed loop; use --about initial")
         q, v = equilibrium(model, q), np.zeros(model.nv)
-    bar = Progress(dynamics.free_velocities(model).size, f"{case.name} / linearizing", unit="coordinates") \
+    if loops:
+        q, v = closed(case, loops, 0.0, q, v)
+    bar = Progress(coordinates(model, loops).size, f"{case.name} / linearizing", unit="coordinates") \
         if progress else None
     try:
-        return system_modes(model, q, v, 0.0, bar)
+        return system_modes(model, q, v, 0.0, bar, loops)
     finally:
         if bar:
             bar.close()
 
 
-def frozen_joints(model: Model, recorded) -> bool:
+def closed(case, loops: constraints.Loops, t: float, q, v):
+    """(q, v) closed on the loops' dependent coordinates; an InputError when they cannot close."""
+    try:
+        return loops.close(t, q, v)
+    except constraints.NotClosed as e:
+        raise InputError(f"{case.path}: joints.{e.args[0]}: the loop cannot close (residual {e.args[1]:.3g})") from None
+
+
+def frozen_joints(model: Model, recorded, loops: constraints.Loops | None = None) -> bool:
     """Whether the joint coordinates `recorded` (names) fix the configuration of every free joint
-    (each free joint moves one coordinate and is recorded) and something moves: a free joint or a
-    prescribed one."""
+    (each free joint moves one coordinate and is recorded; with loops, each independent one) and
+    something moves: a free joint or a prescribed one."""
     moving = [i for i in range(1, model.nb + 1) if model.jnt_nv[i]]
-    free = [i for i in moving if not model.jnt_prescribed[i]]
+    dep = set() if loops is None else set(loops.dep.tolist())
+    free = [i for i in moving if not model.jnt_prescribed[i] and model.jnt_vadr[i] not in dep]
     return bool(moving) and all(model.jnt_nv[i] == 1 and model.jnt_names[i] in recorded for i in free)
 
 
@@ -166,7 +208,10 @@ def along(case, t, coords: dict, instants, model: Model | None = None) -> list:
     InputError when `coords` do not fix every free joint (`frozen_joints`). `model`: the case's
     (`model_of`), when the caller has it."""
     model = model_of(case) if model is None else model
-    if not frozen_joints(model, coords):
+    loops = loops_of(case, model)
+    if loops:
+        closed(case, loops, 0.0, model.q0, model.v0)
+    if not frozen_joints(model, coords, loops):
         raise InputError(f"{case.path}: the recorded joint coordinates ({', '.join(coords) or 'none'}) do not fix "
                          f"every free joint (each must be a one-coordinate joint with a joint_angle channel)")
     t = np.asarray(t, dtype=float)
@@ -179,5 +224,7 @@ def along(case, t, coords: dict, instants, model: Model | None = None) -> list:
             name = model.jnt_names[i]
             if name in coords and model.jnt_nv[i] == 1 and not model.jnt_prescribed[i]:
                 q[model.jnt_qadr[i]], v[model.jnt_vadr[i]] = coords[name][k], rates[name][k]
-        out.append((float(t[k]), system_modes(model, q, v, float(t[k]))))
+        if loops:
+            q, v = closed(case, loops, float(t[k]), q, v)
+        out.append((float(t[k]), system_modes(model, q, v, float(t[k]), loops=loops)))
     return out

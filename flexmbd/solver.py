@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd import channels, dynamics, flexbody, integrate, jit, results
+from flexmbd import channels, constraints, dynamics, flexbody, integrate, jit, results
 from flexmbd.build import from_case
 from flexmbd.kernel import entry
 from flexmbd.model import Model, make_data
@@ -19,6 +19,7 @@ from flexmbd.results import Result
 from flexmbd.version import __version__
 
 SETTINGS = {}           # the case's [integrator] table holds this solver's settings
+LOOPS = True            # cut joints: constraints.Loops
 
 
 def version() -> str:
@@ -40,14 +41,20 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
               "(about a minute; cached afterwards)", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
     ig = case.integrator
-    integrate.warm_up(model, ig.method if ig.method in ("dopri5", "fox-goodwin") else "")
+    loops = constraints.Loops(model, case.modelled) if case.loops else None
+    integrate.warm_up(model, ig.method if ig.method in ("dopri5", "fox-goodwin") and not loops else "")
     compile_s = time.perf_counter() - t0
 
-    sim = integrate.simulate(model, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
-                             max_step=ig.max_step, dt=ig.dt, output_dt=ig.output_dt,
-                             progress=progress, label=f"{case.name} / flexmbd")
+    label = f"{case.name} / flexmbd"
+    if loops:
+        sim = integrate.simulate_loops(loops, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
+                                       max_step=ig.max_step, output_dt=ig.output_dt, progress=progress, label=label)
+    else:
+        sim = integrate.simulate(model, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
+                                 max_step=ig.max_step, dt=ig.dt, output_dt=ig.output_dt,
+                                 progress=progress, label=label)
     E = energies(model, sim.q, sim.v)
-    traj = trajectory(case, model, sim.t, sim.q, sim.v, E)
+    traj = trajectory(case, model, sim.t, sim.q, sim.v, E, loops)
     status = sim.status
     if not status.ok and status.why in integrate.NON_FINITE:
         status = stiffening_limit(case, model, sim, traj) or status
@@ -109,17 +116,63 @@ class Evaluated(NamedTuple):
     qdd: np.ndarray     # (n, nv) joint and modal accelerations
 
 
-def evaluate(model: Model, t, Q, V) -> Evaluated:
-    """One forward-dynamics evaluation at every state, keeping what the channels need."""
-    data, tau = make_data(model), np.zeros(model.nv)
-    rows = []
+class Cut(NamedTuple):
+    """The cut joints at state k of a run (`cut_forces`)."""
+
+    tau: np.ndarray         # (nv,) the constraint forces G^T lam, generalized
+    wrenches: list          # `constraints.Loops.wrenches`: per cut (name, f, n, x), world
+    reactions: dict         # `constraints.Loops.reactions`: per cut (6,) [moment; force], child frame
+
+
+def cut_forces(loops: constraints.Loops, t, Q, V) -> list:
+    """[Cut] at every state: the multipliers of the constrained evaluation, as forces."""
+    out = []
     for tk, q, v in zip(t, Q, V):
-        entry.forward(model, data, float(tk), np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float),
-                      tau)
+        _, lam, G, frames = loops.rates(float(tk), q, v)
+        out.append(Cut(tau=G.T @ lam, wrenches=loops.wrenches(lam, frames), reactions=loops.reactions(lam, frames)))
+    return out
+
+
+def evaluate(model: Model, t, Q, V, loops: constraints.Loops | None = None, cuts: list | None = None) -> Evaluated:
+    """One forward-dynamics evaluation at every state, keeping what the channels need. With cut
+    joints (`loops`, and their `cut_forces` if known): evaluated under the constraint forces as
+    generalized forces, which gives the constrained accelerations; the joint forces f then carry
+    those forces as if the tree joints transmitted them, and are corrected to the physical ones
+    (`cut_wrenches`)."""
+    data, tau = make_data(model), np.zeros(model.nv)
+    if loops and cuts is None:
+        cuts = cut_forces(loops, t, Q, V)
+    rows = []
+    for k, (tk, q, v) in enumerate(zip(t, Q, V)):
+        q, v = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float)
+        if loops:
+            tau = np.ascontiguousarray(cuts[k].tau)
+        entry.forward(model, data, float(tk), q, v, tau)
         rows.append([data.f.copy(), data.v.copy(), data.a.copy(), data.Xup.copy(), data.X0.copy(),
                      data.scale.copy(), data.qdd.copy()])
-    return Evaluated(*(np.array([r[k] for r in rows]).reshape((len(t),) + x.shape)
-                       for k, x in enumerate([data.f, data.v, data.a, data.Xup, data.X0, data.scale, data.qdd])))
+    ev = Evaluated(*(np.array([r[k] for r in rows]).reshape((len(t),) + x.shape)
+                     for k, x in enumerate([data.f, data.v, data.a, data.Xup, data.X0, data.scale, data.qdd])))
+    if loops:
+        ev = ev._replace(f=ev.f - cut_wrenches(model, loops, ev, [c.wrenches for c in cuts]))
+    return ev
+
+
+def cut_wrenches(model: Model, loops: constraints.Loops, ev: Evaluated, cuts: list) -> np.ndarray:
+    """(n, nb+1, 6): per body k, the cut joints' forces on the bodies of its subtree, as a spatial
+    force [moment; force] in k's frame: what a tree joint's force computed with the constraint
+    forces as generalized forces exceeds the physical one by (the subtree's momentum balance)."""
+    n, nb = len(ev.f), model.nb
+    out = np.zeros((n, nb + 1, 6))
+    for k in range(n):
+        Xf = np.swapaxes(np.linalg.inv(ev.X0[k]), 1, 2)                # world -> body, force vectors
+        for c, (_, f, m, x) in zip(loops.cuts, cuts[k]):
+            for body, sign in ((c.C.body, 1.0), (c.P.body, -1.0)):
+                W = sign * np.concatenate([m + np.cross(x, f), f])     # about the world origin
+                i = body
+                while i > 0:
+                    out[k, i] += Xf[i] @ W
+                    i = model.parent[i]
+    return out
 
 
 def reactions(model: Model, t, Q, V) -> np.ndarray:
@@ -127,7 +180,7 @@ def reactions(model: Model, t, Q, V) -> np.ndarray:
     return evaluate(model, t, Q, V).f
 
 
-def node_forces(model: Model, ev: Evaluated, i: int, Q, V) -> np.ndarray:
+def node_forces(model: Model, ev: Evaluated, i: int, Q, V, cut_loads=()) -> np.ndarray:
     """(n, N, 3) net force on each node of flexible body i, body frame (`channels.node_forces`):
     from the node accelerations relative to free fall (ev.a carries gravity as a base
     acceleration), the point loads on the body and the forces its child joints exert on it.
@@ -149,15 +202,16 @@ def node_forces(model: Model, ev: Evaluated, i: int, Q, V) -> np.ndarray:
         if model.load_global[k]:
             f = np.einsum("nij,nj->ni", ev.X0[:, i, :3, :3], f)
         loads.append((fb.node_at(model.load_point[k, 0]), f))
+    loads.extend(cut_loads)
     joints = [(model.jnt_node[c], -np.einsum("nji,nj->ni", ev.Xup[:, c, :3, :3], ev.f[:, c, 3:]))  # parent -> child
               for c in np.flatnonzero(model.parent == i)]
     return channels.node_forces(fb.m, acc, loads, joints)
 
 
-def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
+def trajectory(case, model: Model, t, Q, V, E=None, loops: constraints.Loops | None = None) -> channels.Trajectory:
     """The channels' view of states Q (n, nq), V (n, nv) at t (n,) of the Model of
-    `case.modelled`; E: `energies` if known. A beam split into segments is reported whole
-    (`joined`)."""
+    `case.modelled`; E: `energies` if known; loops: the case's cut joints on the model. A beam
+    split into segments is reported whole (`joined`)."""
     seg = case.modelled
     traj = channels.Trajectory(t=t)
     for jname in channels.joints_needed(case):
@@ -169,19 +223,36 @@ def trajectory(case, model: Model, t, Q, V, E=None) -> channels.Trajectory:
     asked = [c.joint for c in case.channels.values() if c.kind in ("reaction_force", "reaction_moment")]
     rules = {name: channels.axial_rule(seg.bodies[name].stiffening, bool(seg.stress_sections(name)), fb)
              for name, fb in model.bodies.items()}
-    ev = evaluate(model, t, Q, V) if asked or any(map(any, rules.values())) or case.segments else None
-    traj.reactions = {j: ev.f[:, model.index(seg.joints[j].child)] for j in asked}
+    need = asked or any(map(any, rules.values())) or case.segments
+    cuts = cut_forces(loops, t, Q, V) if loops and need else None
+    ev = evaluate(model, t, Q, V, loops, cuts) if need else None
+    traj.reactions = {j: ev.f[:, model.index(seg.joints[j].child)] for j in asked if j in seg.joints}
+    traj.reactions.update({j: np.array([c.reactions[j] for c in cuts]).reshape(len(t), 6)
+                           for j in asked if j in case.loops})
     for name, fb in model.bodies.items():
         i = model.index(name)
         eta = Q[:, model.body_madr[i]:model.body_madr[i] + model.body_nm[i]]
         points, x0 = channels.modal_points(fb, channels.points_needed(seg, name), eta)
         body = seg.bodies[name]
-        F = node_forces(model, ev, i, Q, V) if any(rules[name]) else None
+        F = node_forces(model, ev, i, Q, V, cut_loads(loops, cuts, ev, i)) if any(rules[name]) else None
         traj.beams[name] = channels.modal_beam(fb, eta, body.material, body.geometry,
                                                points, x0, channels.modal_root(fb, eta), F, rules[name])
     for beam, parts in case.segments.items():
         traj.beams[beam] = joined(case, model, ev, Q, beam, [traj.beams.pop(p) for p in parts])
     return traj
+
+
+def cut_loads(loops: constraints.Loops | None, cuts: list | None, ev: Evaluated, i: int) -> list:
+    """[(node, (n, 3) force in body i's frame)]: the cut joints' forces (`cut_forces`) on the nodes
+    of flexible body i (their moments are not node forces and are left out, as a joint's are)."""
+    if not loops:
+        return []
+    sides = [(k, c.C.x0, 1.0) for k, c in enumerate(loops.cuts) if c.C.body == i and c.C.Phi is not None] + \
+            [(k, c.P.x0, -1.0) for k, c in enumerate(loops.cuts) if c.P.body == i and c.P.Phi is not None]
+    fb = loops.model.bodies[loops.model.names[i]]
+    W = np.array([[f for _, f, _, _ in c.wrenches] for c in cuts]).reshape(len(cuts), len(loops.cuts), 3)  # world
+    E = ev.X0[:, i, :3, :3]                                                 # world -> body i
+    return [(fb.node_at(x0[0]), sign * np.einsum("nij,nj->ni", E, W[:, k])) for k, x0, sign in sides]
 
 
 def joined(case, model: Model, ev: Evaluated, Q, beam: str, parts: list) -> channels.Beam:

@@ -93,3 +93,19 @@ def test_frozen_linearization_of_a_driven_hub_follows_its_profile():
     steady = linearize.for_case(cases.load("rotating_cantilever", ["joints.hub.motion.rate=6.0"]))
     assert [m.freq_hz for m in spun[0][1]][:3] == pytest.approx([0.0403, 0.2525, 0.6044], rel=1e-3)
     assert [m.freq_hz for m in spun[1][1]] == pytest.approx([m.freq_hz for m in steady], rel=1e-6)
+
+
+def test_a_closed_loop_is_linearized_on_its_independent_coordinates():
+    """The slider-crank at rest (crank held at angle 0): the rod, pinned at both ends in its plane
+    by the crank pin (the cut joint) and the slider's pin, vibrates in-plane at the pinned-pinned
+    Euler-Bernoulli frequency pi / (2 L^2) sqrt(EI / rho A) = 131.5 Hz (within 0.5 %: the 30-element
+    mesh and shear-free section); the loop's dependent coordinates (the slide, the rod's angle, an
+    out-of-plane modal coordinate) follow by closure, so the slide adds no spurious mode."""
+    case = cases.load("slider_crank", ["joints.crank_pivot.motion.rate=0.0"])
+    rod = case.bodies["rod"]
+    EI, rhoA = rod.material.E * rod.geometry.Iz, rod.material.rho * rod.geometry.A
+    f1 = np.pi / (2 * rod.length ** 2) * np.sqrt(EI / rhoA)
+    modes = linearize.for_case(case)
+    inplane = [m for m in modes if "xy" in m.label]
+    assert inplane[0].freq_hz == pytest.approx(f1, rel=0.005)
+    assert all("joint" not in m.label for m in modes)

@@ -2,35 +2,58 @@
 elements (`ObjectBeamGeometricallyExact2D`, Simo-Reissner: axial, shear and bending strains of
 the large-rotation kinematics), full nonlinear FE in the role LS-Dyna plays in the paper.
 
-Every beam: `elements` equal elements (setting, default 64) on `NodeRigidBody2D` nodes
+Every flexible beam: `elements` equal elements (setting, default 64) on `NodeRigidBody2D` nodes
 (x, y, rotation), E A, k G A (k = 5/6 rectangle, 9/10 circle), E I of the bending plane x-y,
-rho A per length, rho I cross-section rotary inertia. Its body frame starts where the case's
-tree puts it (joint q0 included), undeformed and at rest.
+rho A per length, rho I cross-section rotary inertia. A rigid body, and a beam declared rigid, is
+one `ObjectRigidBody2D` on a `NodeRigidBody2D` at its centre of mass: mass, com and the inertia
+Izz about the com as the case gives them (a rigid body) or as `common.beam_inertia` computes them
+(a beam declared rigid; setting `beam_mass`: "lumped", the default, is flexmbd's beam declared
+rigid, "prism" the rigid peers' default). Every body frame starts where the case's tree puts it,
+undeformed, moving rigidly with the joint rates.
 
-Joints (planar only): a revolute joint about z is `ObjectJointRevolute2D` (a pin: the two node
-positions coincide) between ground and the root node or between a node of the parent beam (the
-node of this mesh nearest to `at`, `mesh_node`) and the child's root node; a fixed joint to
-ground clamps the root node's three coordinates. A revolute joint to ground with prescribed
-motion (the hub of a spin-up or slewing beam) is the same pin plus a `CoordinateConstraint` that
-holds the root node's rotation on the profile: its offset user functions are `profiles.motion`
-(angle and rate), so the root is clamped to a hub turning exactly as flexmbd's joint does; written
-as Exudyn symbolic user functions (`exudyn_common.motion_expr`), Exudyn evaluates them in C++
-(a table profile stays a Python function). The
-beam starts undeformed on the profile's q(0), every node moving with the rigid rotation at its
-rate qd(0). Point loads are `LoadForceVector` on their node of this mesh (a body-frame load
-turns with the root node); gravity is `LoadMassProportional` on every element.
+Joints (planar only), each between the two points it joins: on ground or a rigid body the point
+where the joint sits (a `MarkerBodyPosition`), on a flexible beam the node of this mesh nearest
+to it (`mesh_node`; a child's root node). A revolute joint about z is `ObjectJointRevolute2D` (a
+pin: the two positions coincide); a fixed joint to ground adds a `CoordinateConstraint` that
+clamps the child node's rotation; a prismatic joint in the plane is `ObjectJointPrismatic2D`
+(rotations equal, the child's origin on the axis line). A revolute joint to ground with
+prescribed motion (the hub of a spin-up or slewing beam, a driven crank) is the same pin plus a
+`CoordinateConstraint` that holds the child node's rotation on the profile: its offset user
+functions are `profiles.motion` (angle and rate), so the child turns exactly as flexmbd's joint
+does; written as Exudyn symbolic user functions (`exudyn_common.motion_expr`), Exudyn evaluates
+them in C++ (a table profile stays a Python function). Point loads are `LoadForceVector` on their
+node of this mesh (a body-frame load turns with the root node); gravity is `LoadMassProportional`
+on every element and m g at every rigid body's com.
+
+Closed loops (`LOOPS`): a cut joint (revolute) is one more `ObjectJointRevolute2D` between its
+two points (on a beam, its node, following the node's elastic motion). The mechanism starts
+closed: the tree joints' coordinates are the case's (a driven joint's from its profile), except
+two per loop (`dependent`: the loop's last two joints in file order that are neither driven nor
+fixed), which Newton's method on the closure of the undeformed bodies fixes, and their rates,
+which the closure's velocity equations fix (`close_loops`); every body starts undeformed, moving
+with that rigid-body velocity field.
 
 The trajectory (`flexmbd.channels`) from Exudyn's nodes and elements (docs/formulation.md §7):
   deflection   clamped-root body: node displacement in the root node's frame (the cross-section
                frame: it differs from the tangent by the shear angle, ~1e-6 rad here) minus the
                undeformed offset; hinged-hinged body: signed distance from the chord through the
-               end nodes, in the chord frame;
-  joint_angle  child body frame angle (root node rotation, or chord angle for a hinged-hinged
-               body) minus the input triad's (ground: 0; a beam: the rotation of its node);
+               end nodes, in the chord frame; zero on a rigid body;
+  joint_angle  revolute: child body frame angle (root node rotation, or chord angle for a
+               hinged-hinged body, or the rigid body's rotation) minus the input triad's (ground:
+               0; a beam: the rotation of its node; a rigid body: its rotation); prismatic: the
+               child's origin along the axis from the joint's point, m;
   stress_vm    from eps and kappa taken at the element centres (where the constant-strain
                element is most accurate) and interpolated linearly to the stress section;
-  energy       Exudyn's kinetic and strain energies of the elements plus -g . (rho A l (r1 + r2) / 2).
-Time integration: Exudyn's implicit solver, fixed step.
+  energy       Exudyn's kinetic and strain energies of the elements plus -g . (rho A l (r1 + r2) / 2);
+               a rigid body's m v^2 / 2 + J w^2 / 2 - m g . r_com;
+  reaction_*   of a revolute or fixed joint: the force its pin exerts on the child (minus
+               Exudyn's joint force, which acts on the parent's marker) in the child's body frame
+               (a cut joint's: the frame at its child point, the node's on a beam); the moment about
+               z, minus the force of the rotation constraint of a fixed or driven joint (the drive
+               torque), else 0. A prismatic joint's are not reported (Exudyn's reports none).
+The largest closure mismatch of the cut joints over the run is `extra["loop_closure_m"]`.
+Time integration: Exudyn's implicit solver, fixed steps of exactly dt up to the last output
+instant (`exudyn_common.reach`).
 """
 
 from __future__ import annotations
@@ -39,21 +62,26 @@ import time
 
 import numpy as np
 
-from flexmbd import cases, channels, flexbody, profiles
+from flexmbd import cases, channels, flexbody, profiles, results
+from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
 
 SETTINGS = {
-    "elements": ("int+", 64),                # per beam
+    "elements": ("int+", 64),                # per flexible beam
     "dt": ("float+", 1e-4),                  # s, fixed step (rounded to divide output_dt)
     "solver": (tuple(xc.IMPLICIT), "generalized-alpha"),
     "spectral_radius": ("float0+", 0.9),
     "newton_rtol": ("float+", 1e-5),
     "newton_atol": ("float+", None),         # absolute residual tolerance; None: newton_rtol / 100
     "adaptive": ("bool", False),
+    "beam_mass": (common.BEAM_MASS, "lumped"),   # a beam declared rigid (`common.beam_inertia`)
 }
 
+LOOPS = True                                 # closes kinematic loops (cut joints: `close_loops`)
+
 OV = exu.OutputVariableType
+CLOSURE_TOL = 1e-12                          # m: the initial loop closure's Newton tolerance
 
 
 def version() -> str:
@@ -65,23 +93,39 @@ def applies(case) -> str:
     if why:
         return f"planar beam model only (3-D beams are not built yet): {why}"
     for name, b in case.bodies.items():
-        if b.type != "beam" or b.rigid:
-            return f"body {name!r}: only flexible beams are modelled (no rigid bodies)"
-        if b.damping_ratio > 0:
+        if flexible(b) and b.damping_ratio > 0:
             return f"body {name!r}: modal damping has no counterpart in the beam elements"
     for jn, j in case.joints.items():
-        if j.type not in ("revolute", "fixed"):
-            return f"joint {jn!r}: only revolute (pin) and fixed joints"
+        if j.type not in ("revolute", "fixed", "prismatic"):
+            return f"joint {jn!r}: only revolute (pin), prismatic and fixed joints"
         if j.type == "fixed" and j.parent != "ground":
             return f"joint {jn!r}: fixed joints only to ground"
         if j.motion is not None and (j.type != "revolute" or j.parent != "ground"):
             return f"joint {jn!r}: prescribed motion only on a revolute joint to ground"
-        if j.motion is None and any(abs(x) > 0 for x in j.qd0):
-            return f"joint {jn!r}: the beams start at rest"
+    for jn, j in case.loops.items():
+        if j.type != "revolute":
+            return f"loop joint {jn!r}: only revolute (pin) loop joints"
+        if any(abs(x) > 0 for x in (*j.axis[:2], *j.rpy, j.offset[2], j.child_offset[2])):
+            return f"loop joint {jn!r}: not a pin about z in the x-y plane"
+        if len(free_joints(case, j)) < 2:
+            return f"loop joint {jn!r}: its loop has fewer than two joints that are not driven or fixed"
+    for ln, ld in case.loads.items():
+        if not flexible(case.bodies[ld.body]):
+            return f"load {ln!r}: point loads only on flexible beams"
     for cname, c in case.channels.items():
-        if c.component == "z":
+        if out_of_plane(c):
             return f"channel {cname!r}: out-of-plane component in a planar model"
     return ""
+
+
+def out_of_plane(c: cases.Channel) -> bool:
+    """A channel component the planar model has not: a moment about x or y, any other z."""
+    return c.component != "z" if c.kind == "reaction_moment" else c.component == "z"
+
+
+def flexible(body) -> bool:
+    """A beam not declared rigid: a chain of beam elements here (else one rigid body)."""
+    return body.type == "beam" and not body.rigid
 
 
 def section_constants(body: cases.Beam) -> dict:
@@ -95,47 +139,155 @@ def section_constants(body: cases.Beam) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------
-# building
-
-
-def initial_frames(case, n_el: dict) -> dict:
-    """Planar (angle, origin (2,)) of every body frame at t = 0; a child sits on the parent's
-    node nearest to the joint (`mesh_node`, on this adapter's mesh of n_el elements)."""
-    out = {"ground": (0.0, np.zeros(2))}
-    for name in case.order:
-        j = case.joint_of(name)
-        a, p = out[j.parent]
-        if j.point is None:                               # on ground
-            off = np.asarray(j.offset[:2], dtype=float)
-        else:
-            pb, n = case.bodies[j.parent], n_el[j.parent]
-            off = np.array([mesh_node(pb, n, j.point.x) * pb.length / n, 0.0])
-        c, s = np.cos(a), np.sin(a)
-        out[name] = (a + j.rpy[2] + start(j)[0], p + np.array([c * off[0] - s * off[1], s * off[0] + c * off[1]]))
-    return out
+# the initial state: the tree at the case's coordinates, its loops closed
 
 
 def start(j: cases.Joint) -> tuple:
-    """(q, qd) of a joint at t = 0: its profile's for prescribed motion, else (q0, 0); (0, 0) fixed."""
-    if j.type != "revolute":
+    """(q, qd) of a tree joint at t = 0 as the case gives it: its profile's for prescribed motion,
+    else (q0, qd0); (0, 0) for a fixed joint."""
+    if j.type == "fixed":
         return 0.0, 0.0
     q0 = float(j.q0[0])
     if j.motion is None:
-        return q0, 0.0
+        return q0, float(j.qd0[0])
     q, qd, _ = profiles.motion(j.motion, 0.0, q0)
     return q, qd
 
 
-def initial_rates(case, frames: dict) -> dict:
-    """Planar (angular rate, origin velocity (2,)) of every body frame at t = 0: the bodies move
-    rigidly with the prescribed joint rates qd(0) (zero on a joint that is not driven)."""
+def site(case, n_el: dict, body: str, point, offset) -> tuple[int, np.ndarray]:
+    """(node, local (2,)): where a joint sits on `body` in this model. On a flexible beam the
+    node of this mesh nearest to point.x (the root node when point is None) and its undeformed
+    position (x_k, 0) in the body frame, m; on ground or a rigid body -1 and offset[:2]."""
+    b = case.bodies.get(body)
+    if b is None or not flexible(b):
+        return -1, np.asarray(offset[:2], dtype=float)
+    k = mesh_node(b, n_el[body], point.x) if point is not None else 0
+    return k, np.array([k * b.length / n_el[body], 0.0])
+
+
+def parent_site(case, n_el: dict, j: cases.Joint) -> tuple[int, np.ndarray]:
+    return site(case, n_el, j.parent, j.point, j.offset)
+
+
+def child_site(case, n_el: dict, j: cases.Joint) -> tuple[int, np.ndarray]:
+    """A tree joint's child side is the child frame's origin; a cut joint's `child_at`."""
+    return site(case, n_el, j.child, j.child_point, j.child_offset)
+
+
+def pose(case, n_el: dict, q: dict) -> dict:
+    """Planar (angle, origin (2,)) of every body frame, undeformed, at the tree joints'
+    coordinates q (joint name -> rad or m)."""
+    out = {"ground": (0.0, np.zeros(2))}
+    for name in case.order:
+        j = case.joint_of(name)
+        a, p = out[j.parent]
+        R = rot2(a)[:2, :2]
+        origin, angle = p + R @ parent_site(case, n_el, j)[1], a + j.rpy[2]
+        if j.type == "prismatic":
+            origin = origin + q[j.name] * (R @ np.asarray(j.axis[:2]))
+        elif j.type == "revolute":
+            angle = angle + q[j.name]
+        out[name] = (angle, origin)
+    return out
+
+
+def twist(case, frames: dict, qd: dict) -> dict:
+    """Planar (angular rate, origin velocity (2,)) of every body frame moving rigidly with the
+    tree joints' rates qd (joint name -> rad/s or m/s) at the poses `frames`."""
     out = {"ground": (0.0, np.zeros(2))}
     for name in case.order:
         j = case.joint_of(name)
         w, v = out[j.parent]
-        r = frames[name][1] - frames[j.parent][1]
-        out[name] = (w + start(j)[1], v + w * np.array([-r[1], r[0]]))
+        v = v + w * perp(frames[name][1] - frames[j.parent][1])
+        if j.type == "prismatic":
+            v = v + qd[j.name] * (rot2(frames[j.parent][0])[:2, :2] @ np.asarray(j.axis[:2]))
+        elif j.type == "revolute":
+            w = w + qd[j.name]
+        out[name] = (w, v)
     return out
+
+
+def perp(r) -> np.ndarray:
+    """z x r of planar vectors r (..., 2)."""
+    r = np.asarray(r, dtype=float)
+    return np.stack([-r[..., 1], r[..., 0]], axis=-1)
+
+
+def mismatch(case, n_el: dict, frames: dict, rates: dict | None = None) -> np.ndarray:
+    """(2 m,) parent side minus child side of the m cut joints' points, global, m (undeformed
+    bodies at `frames`); with `rates`, of their velocities, m/s."""
+    out = []
+    for j in case.loops.values():
+        ends = []
+        for body, local in ((j.parent, parent_site(case, n_el, j)[1]), (j.child, child_site(case, n_el, j)[1])):
+            a, p = frames[body]
+            r = rot2(a)[:2, :2] @ local
+            ends.append(p + r if rates is None else rates[body][1] + rates[body][0] * perp(r))
+        out.append(ends[0] - ends[1])
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def path(case, body: str) -> list:
+    """The tree joints from `body` down to ground."""
+    out = []
+    while body != "ground":
+        j = case.joint_of(body)
+        out.append(j.name)
+        body = j.parent
+    return out
+
+
+def free_joints(case, cut: cases.Joint) -> list:
+    """The joints of the loop a cut joint closes (the tree path from its parent to its child)
+    that are neither driven nor fixed, in file order."""
+    loop = set(path(case, cut.parent)) ^ set(path(case, cut.child))
+    return [jn for jn, j in case.joints.items() if jn in loop and j.motion is None and j.type != "fixed"]
+
+
+def dependent(case) -> list:
+    """The tree joints whose coordinates the loops' closure fixes: per cut joint (two closure
+    equations in the plane) the last two of its loop's free joints (`free_joints`) that an
+    earlier loop has not taken. The others, the first joints of each loop and the driven ones,
+    keep the case's values."""
+    out = []
+    for cut in case.loops.values():
+        out += [jn for jn in free_joints(case, cut) if jn not in out][-2:]
+    return out
+
+
+def close_loops(case, n_el: dict) -> tuple[dict, dict]:
+    """(q, qd): the tree joints' coordinates and rates at t = 0 (joint name -> value) with every
+    loop closed: the case's (`start`), the `dependent` ones from Newton's method on the position
+    closure (`mismatch` within CLOSURE_TOL) and from its velocity equations. Its Jacobian is
+    exact: the closure's velocity per unit rate of each dependent joint. ValueError when the loops
+    do not close from the case's starting guess."""
+    q = {jn: start(j)[0] for jn, j in case.joints.items()}
+    qd = {jn: start(j)[1] for jn, j in case.joints.items()}
+    dep = dependent(case)
+    if not dep:
+        return q, qd
+    unit = {jn: {k: float(k == jn) for k in case.joints} for jn in dep}     # a unit rate of one joint
+
+    def jacobian(frames):
+        return np.column_stack([mismatch(case, n_el, frames, twist(case, frames, unit[jn])) for jn in dep])
+    for _ in range(50):
+        frames = pose(case, n_el, q)
+        r = mismatch(case, n_el, frames)
+        if np.abs(r).max() <= CLOSURE_TOL:
+            break
+        for jn, d in zip(dep, np.linalg.lstsq(jacobian(frames), -r, rcond=None)[0]):
+            q[jn] += d
+    else:
+        raise ValueError(f"the loops do not close from the case's q0 (Newton on the closure of joints {dep}: "
+                         f"mismatch {np.abs(r).max():.3g} m)")
+    qd.update({jn: 0.0 for jn in dep})
+    r = mismatch(case, n_el, frames, twist(case, frames, qd))
+    qd.update(zip(dep, np.linalg.lstsq(jacobian(frames), -r, rcond=None)[0]))
+    return q, qd
+
+
+# ---------------------------------------------------------------------------------------------
+# building
 
 
 def mesh_node(body: cases.Beam, n: int, x: float) -> int:
@@ -162,29 +314,71 @@ def add_beam(mbs, body: cases.Beam, n: int, angle: float, origin, w: float = 0.0
         crossSectionInertia=k["crossSectionInertia"], bendingStiffness=k["bendingStiffness"],
         axialStiffness=k["axialStiffness"], shearStiffness=k["shearStiffness"],
         visualization=eii.VObjectBeamGeometricallyExact2D(show=False))) for i in range(n)]
-    return {"nodes": nodes, "elems": elems, "l": l, "k": k}
+    return {"kind": "beam", "nodes": nodes, "elems": elems, "l": l, "k": k, "angle0": angle}
 
 
-def add_joint(mbs, case, beams: dict, ground, j: cases.Joint) -> None:
-    """Pin (revolute about z) or clamp (fixed to ground) at the child's root node; a driven
-    revolute joint to ground clamps the root rotation to its profile."""
-    child = beams[j.child]
-    m1 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=child["nodes"][0]))
-    if j.parent == "ground":
-        m0 = mbs.AddMarker(eii.MarkerBodyPosition(bodyNumber=ground, localPosition=list(j.offset)))
-    else:
-        par = beams[j.parent]
-        node = mesh_node(case.bodies[j.parent], len(par["elems"]), j.point.x)
-        m0 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=par["nodes"][node]))
-    mbs.AddObject(eii.ObjectJointRevolute2D(markerNumbers=[m0, m1],
-                                            visualization=eii.VObjectJointRevolute2D(show=False)))
-    if j.type == "fixed" or j.motion is not None:     # lock (or drive) the root rotation
-        ng = mbs.AddNode(eii.NodePointGround(visualization=eii.VNodePointGround(show=False)))
-        mg = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=ng, coordinate=0))
-        mr = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=child["nodes"][0], coordinate=2))
-        kw = hub_offset(mbs, j) if j.motion is not None else {}
-        mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[mg, mr], **kw,
-                                               visualization=eii.VCoordinateConstraint(show=False)))
+def add_rigid(mbs, body, beam_mass: str, angle: float, origin, w: float = 0.0, v=(0.0, 0.0)) -> dict:
+    """A rigid body (or a beam declared rigid, `common.beam_inertia`) whose frame is at (angle,
+    origin (2,)) moving with angular rate w and origin velocity v (2,): its node at the com
+    (mass, com (2,) body frame, inertia J about the com)."""
+    m, com, Ic = common.beam_inertia(body, beam_mass) if body.type == "beam" else common.rigid_body_inertia(body)
+    c = rot2(angle)[:2, :2] @ com[:2]
+    node = mbs.AddNode(eii.NodeRigidBody2D(referenceCoordinates=[*(origin + c), angle],
+                                           initialVelocities=[*(np.asarray(v) + w * perp(c)), w],
+                                           visualization=eii.VNodeRigidBody2D(show=False)))
+    obj = mbs.AddObject(eii.ObjectRigidBody2D(nodeNumber=node, mass=m, inertia=Ic[2, 2],
+                                              visualization=eii.VObjectRigidBody2D(show=False)))
+    return {"kind": "rigid", "node": node, "obj": obj, "mass": m, "com": com[:2], "J": Ic[2, 2], "angle0": angle}
+
+
+def beams(parts: dict) -> dict:
+    """The flexible beams of the model's parts."""
+    return {name: p for name, p in parts.items() if p["kind"] == "beam"}
+
+
+def mesh(parts: dict) -> dict:
+    """Elements per flexible beam."""
+    return {name: len(p["elems"]) for name, p in beams(parts).items()}
+
+
+def root_node(part: dict):
+    """The node whose rotation is the body frame's: a beam's root node, a rigid body's node."""
+    return part["nodes"][0] if part["kind"] == "beam" else part["node"]
+
+
+def marker(mbs, parts: dict, body: str, where: tuple, rigid: bool = False):
+    """A position (or, `rigid`, position and orientation) marker where a joint sits on `body`
+    (`site`: node, local (2,)): a beam's node, else the point on ground or the rigid body."""
+    p, (node, local) = parts[body], where
+    if p["kind"] == "beam":
+        kind = eii.MarkerNodeRigid if rigid else eii.MarkerNodePosition
+        return mbs.AddMarker(kind(nodeNumber=p["nodes"][node]))
+    kind = eii.MarkerBodyRigid if rigid else eii.MarkerBodyPosition
+    return mbs.AddMarker(kind(bodyNumber=p["obj"], localPosition=[*(local - p["com"]), 0.0]))
+
+
+def add_joint(mbs, case, parts: dict, j: cases.Joint) -> tuple:
+    """The joint between its parent's and its child's sites (`parent_site`, `child_site`): a pin
+    (revolute about z; a fixed joint to ground also clamps the child node's rotation, a driven one
+    holds it on its profile) or a prismatic joint along the axis. Returns its Exudyn objects
+    (pin or prismatic joint, rotation constraint or None)."""
+    n_el = mesh(parts)
+    sites = (j.parent, parent_site(case, n_el, j)), (j.child, child_site(case, n_el, j))
+    if j.type == "prismatic":
+        ax, ay = j.axis[:2]
+        return mbs.AddObject(eii.ObjectJointPrismatic2D(
+            markerNumbers=[marker(mbs, parts, b, s, rigid=True) for b, s in sites], axisMarker0=[ax, ay, 0.0],
+            normalMarker1=[-ay, ax, 0.0], visualization=eii.VObjectJointPrismatic2D(show=False))), None
+    pin = mbs.AddObject(eii.ObjectJointRevolute2D(markerNumbers=[marker(mbs, parts, b, s) for b, s in sites],
+                                                  visualization=eii.VObjectJointRevolute2D(show=False)))
+    if j.type != "fixed" and j.motion is None:
+        return pin, None
+    ng = mbs.AddNode(eii.NodePointGround(visualization=eii.VNodePointGround(show=False)))
+    mg = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=ng, coordinate=0))
+    mr = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=root_node(parts[j.child]), coordinate=2))
+    kw = hub_offset(mbs, j) if j.motion is not None else {}     # lock (or drive) the child's rotation
+    return pin, mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[mg, mr], **kw,
+                                                       visualization=eii.VCoordinateConstraint(show=False)))
 
 
 def hub_offset(mbs, j: cases.Joint) -> dict:
@@ -209,11 +403,11 @@ def hub_offset(mbs, j: cases.Joint) -> dict:
             for name, f in (("offsetUserFunction", offset), ("offsetUserFunction_t", offset_t))}
 
 
-def add_loads(mbs, case, beams: dict) -> None:
+def add_loads(mbs, case, parts: dict) -> None:
     """Point loads on their nodes of this mesh (`mesh_node`; body frame: turning with the root
-    node), gravity."""
+    node), gravity on every element and at every rigid body's com."""
     for ld in case.loads.values():
-        b = beams[ld.body]
+        b = parts[ld.body]
         node = b["nodes"][mesh_node(case.bodies[ld.body], len(b["elems"]), ld.point.x)]
         m = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node))
         f = np.asarray(ld.force, dtype=float)
@@ -231,11 +425,16 @@ def add_loads(mbs, case, beams: dict) -> None:
             return list(s * (rot2(a) @ f if body_frame else f))
         mbs.AddLoad(eii.LoadForceVector(markerNumber=m, loadVector=list(f), loadVectorUserFunction=force))
     g = np.asarray(case.gravity, dtype=float)
-    if np.any(g):
-        for b in beams.values():
-            for e in b["elems"]:
+    if not np.any(g):
+        return
+    for p in parts.values():
+        if p["kind"] == "beam":
+            for e in p["elems"]:
                 mm = mbs.AddMarker(eii.MarkerBodyMass(bodyNumber=e))
                 mbs.AddLoad(eii.LoadMassProportional(markerNumber=mm, loadVector=list(g)))
+        elif p["kind"] == "rigid":
+            mc = mbs.AddMarker(eii.MarkerBodyPosition(bodyNumber=p["obj"], localPosition=[0.0, 0.0, 0.0]))
+            mbs.AddLoad(eii.LoadForceVector(markerNumber=mc, loadVector=list(p["mass"] * g)))
 
 
 def rot2(a: float) -> np.ndarray:
@@ -244,9 +443,12 @@ def rot2(a: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def add_sensors(mbs, case, beams: dict) -> dict:
-    """Node positions and rotations of every beam; element curvature and strain near stress
-    points; element energies when the case asks for energy."""
+def add_sensors(mbs, case, parts: dict, joints: dict) -> dict:
+    """{"bodies": ..., "joints": ...}: node positions and rotations of every beam, element
+    curvature and strain near stress points, element energies when the case asks for energy; a
+    rigid body's node (com) position "p" and rotation "rot" (and velocities "v", "w" for the
+    energy); the pin's force "F" and the rotation constraint's torque "M" of every joint whose
+    reactions the channels use (`reactions_needed`; `joints`: name -> add_joint's objects)."""
     node = lambda n, ov: mbs.AddSensor(eii.SensorNode(nodeNumber=n, outputVariableType=ov, writeToFile=False,
                                                       storeInternal=True, visualization=eii.VSensorNode(show=False)))
     elem = lambda e, ov: mbs.AddSensor(eii.SensorBody(bodyNumber=e, localPosition=[0, 0, 0], outputVariableType=ov,
@@ -254,7 +456,14 @@ def add_sensors(mbs, case, beams: dict) -> dict:
                                                       visualization=eii.VSensorBody(show=False)))
     energy = channels.wants_energy(case)
     S = {}
-    for name, b in beams.items():
+    for name, b in parts.items():
+        if b["kind"] == "rigid":
+            S[name] = {"p": node(b["node"], OV.Position), "rot": node(b["node"], OV.Rotation)}
+            if energy:
+                S[name].update(v=node(b["node"], OV.Velocity), w=node(b["node"], OV.AngularVelocity))
+            continue
+        if b["kind"] != "beam":
+            continue
         S[name] = {"r": {k: node(n, OV.Position) for k, n in enumerate(b["nodes"])},
                    "rot": {k: node(n, OV.Rotation) for k, n in enumerate(b["nodes"])},
                    "kappa": {}, "eps": {}}
@@ -266,7 +475,13 @@ def add_sensors(mbs, case, beams: dict) -> dict:
         if energy:
             S[name]["T"] = {e: elem(eo, OV.KineticEnergy) for e, eo in enumerate(b["elems"])}
             S[name]["U"] = {e: elem(eo, OV.PotentialEnergy) for e, eo in enumerate(b["elems"])}
-    return S
+    force = lambda obj: mbs.AddSensor(eii.SensorObject(objectNumber=obj, outputVariableType=OV.Force, writeToFile=False,
+                                                       storeInternal=True, visualization=eii.VSensorObject(show=False)))
+    J = {}
+    for jn in reactions_needed(case):
+        pin, lock = joints[jn]
+        J[jn] = {"F": force(pin), **({"M": force(lock)} if lock is not None else {})}
+    return {"bodies": S, "joints": J}
 
 
 def stress_elements(b: dict, x: float) -> tuple:
@@ -280,16 +495,20 @@ def stress_elements(b: dict, x: float) -> tuple:
 # channels
 
 
-def trajectory(case, beams: dict, X: dict, t: np.ndarray) -> channels.Trajectory:
-    """The channels' view of the sensor data X: global node positions with the root node's
-    rotation (or the chord, hinged-hinged), strains interpolated to the stress sections."""
+def trajectory(case, parts: dict, X: dict, t: np.ndarray) -> channels.Trajectory:
+    """The channels' view of the sensor data X (`read`): global node positions with the root
+    node's rotation (or the chord, hinged-hinged), strains interpolated to the stress sections,
+    the joints' coordinates, the cut joints' reactions."""
     traj = channels.Trajectory(t=t)
+    XB = X["bodies"]
     for jname in channels.joints_needed(case):
-        traj.joints[jname] = joint_angle(case, beams, X, case.joints[jname])
+        traj.joints[jname] = joint_coordinate(case, parts, XB, case.joints[jname], t.size)
     if channels.wants_energy(case):
-        traj.energy = energy(case, beams, X)
-    for name, b in beams.items():
-        body, Xb = case.bodies[name], X[name]
+        traj.energy = energy(case, parts, XB, t.size)
+    for jname, XJ in X["joints"].items():
+        traj.reactions[jname] = reaction(case, parts, XB, jname, XJ)
+    for name, b in beams(parts).items():
+        body, Xb = case.bodies[name], XB[name]
         nodes = {x: mesh_node(body, len(b["elems"]), x) for x in channels.points_needed(case, name)}
         hinged = body.modes.boundary == "hinged-hinged"
         traj.beams[name] = channels.Beam(
@@ -301,6 +520,14 @@ def trajectory(case, beams: dict, X: dict, t: np.ndarray) -> channels.Trajectory
     return traj
 
 
+def reactions_needed(case) -> list:
+    """The joints (tree or cut) whose reactions the channels use, but for a prismatic joint's
+    (Exudyn's prismatic joint reports none): not reported."""
+    every = {**case.joints, **case.loops}
+    return list(dict.fromkeys(c.joint for c in case.channels.values()
+                              if c.kind in ("reaction_force", "reaction_moment") and every[c.joint].type != "prismatic"))
+
+
 def rot_z(a) -> np.ndarray:
     """(n, 3, 3) rotations about z by angles a (n,)."""
     c, s = np.cos(a), np.sin(a)
@@ -309,8 +536,11 @@ def rot_z(a) -> np.ndarray:
     return R
 
 
-def frame_angle(body: cases.Beam, Xb: dict) -> np.ndarray:
-    """Body frame angle (n,): chord angle (hinged-hinged modes) or root node rotation."""
+def frame_angle(body, Xb: dict) -> np.ndarray:
+    """Body frame angle (n,): a rigid body's rotation, a flexible beam's chord angle
+    (hinged-hinged modes) or root node rotation."""
+    if not flexible(body):
+        return Xb["rot"][:, -1]
     if body.modes.boundary == "hinged-hinged":
         last = max(Xb["r"])
         e = Xb["r"][last] - Xb["r"][0]
@@ -322,13 +552,70 @@ def node_angle(Xb: dict, k: int) -> np.ndarray:
     return Xb["rot"][k][:, -1]
 
 
-def joint_angle(case, beams, X, j: cases.Joint) -> np.ndarray:
-    """Child frame angle minus the input triad's angle (a beam's triad turns with its node)."""
-    child = frame_angle(case.bodies[j.child], X[j.child])
-    if j.parent == "ground":
-        return child - j.rpy[2]
-    p = mesh_node(case.bodies[j.parent], len(beams[j.parent]["elems"]), j.point.x)
-    return child - node_angle(X[j.parent], p) - j.rpy[2]
+def turn(a: np.ndarray, v) -> np.ndarray:
+    """(n, 2) planar vectors v ((2,) or (n, 2)) turned by angles a (n,)."""
+    v = np.broadcast_to(np.asarray(v, dtype=float), (a.size, 2))
+    c, s = np.cos(a), np.sin(a)
+    return np.column_stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]])
+
+
+def site_angle(parts: dict, XB: dict, body: str, where: tuple, n: int) -> np.ndarray:
+    """(n,) rotation of the frame where a joint sits (`site`: node, local): 0 on ground, a beam's
+    node rotation, a rigid body's rotation."""
+    kind = parts[body]["kind"]
+    if kind == "ground":
+        return np.zeros(n)
+    return XB[body]["rot"][where[0]][:, -1] if kind == "beam" else XB[body]["rot"][:, -1]
+
+
+def site_position(parts: dict, XB: dict, body: str, where: tuple, n: int) -> np.ndarray:
+    """(n, 2) global position of where a joint sits on `body` (`site`: node, local (2,)), m."""
+    p, (node, local) = parts[body], where
+    if p["kind"] == "ground":
+        return np.tile(local, (n, 1))
+    if p["kind"] == "beam":
+        return XB[body]["r"][node][:, :2]
+    return XB[body]["p"][:, :2] + turn(XB[body]["rot"][:, -1], local - p["com"])
+
+
+def joint_coordinate(case, parts: dict, XB: dict, j: cases.Joint, n: int) -> np.ndarray:
+    """(n,) a tree joint's coordinate: revolute, the child frame angle minus the input triad's
+    (rad); prismatic, the child origin's travel along the axis from the joint's point (m)."""
+    n_el = mesh(parts)
+    ps = parent_site(case, n_el, j)
+    a = site_angle(parts, XB, j.parent, ps, n)
+    if j.type == "prismatic":
+        d = site_position(parts, XB, j.child, child_site(case, n_el, j), n) - site_position(parts, XB, j.parent, ps, n)
+        return np.sum(d * turn(a, j.axis[:2]), axis=1)
+    return frame_angle(case.bodies[j.child], XB[j.child]) - a - j.rpy[2]
+
+
+def reaction(case, parts: dict, XB: dict, jname: str, XJ: dict) -> np.ndarray:
+    """(n, 6) [moment; force] a revolute or fixed joint exerts on its child, about the joint
+    point: minus Exudyn's pin force XJ["F"] (n, 3) (global; Exudyn's acts on the parent's
+    marker), in the child's body frame (a cut joint's: the frame at its child point, the node's
+    on a beam); the moment about z minus the rotation constraint's force XJ["M"] (n, 1) of a
+    fixed or driven joint, else 0 (a pin)."""
+    F = XJ["F"]
+    if jname in case.loops:
+        j = case.loops[jname]
+        a = site_angle(parts, XB, j.child, child_site(case, mesh(parts), j), len(F))
+    else:
+        j = case.joints[jname]
+        a = frame_angle(case.bodies[j.child], XB[j.child])
+    out = np.zeros((len(F), 6))
+    out[:, 3:5] = -turn(-a, F[:, :2])
+    if "M" in XJ:
+        out[:, 2] = -XJ["M"][:, 0]
+    return out
+
+
+def loop_closure(case, parts: dict, XB: dict, n: int) -> float:
+    """The largest distance between the two sides of a cut joint over the run, m (0 without loops)."""
+    n_el = mesh(parts)
+    gaps = [site_position(parts, XB, j.parent, parent_site(case, n_el, j), n)
+            - site_position(parts, XB, j.child, child_site(case, n_el, j), n) for j in case.loops.values()]
+    return max((float(np.linalg.norm(g, axis=1).max()) for g in gaps), default=0.0)
 
 
 def strains(x: float, b: dict, Xb: dict) -> np.ndarray:
@@ -341,13 +628,19 @@ def strains(x: float, b: dict, Xb: dict) -> np.ndarray:
     return np.column_stack([eps, zero, kap, zero])
 
 
-def energy(case, beams, X) -> dict:
-    """The energy parts (n,) J: the elements' kinetic and strain energies, and gravity's
-    -g . (rho A l (r1 + r2) / 2) over the elements."""
+def energy(case, parts: dict, XB: dict, n: int) -> dict:
+    """The energy parts (n,) J: the elements' kinetic and strain energies and gravity's
+    -g . (rho A l (r1 + r2) / 2) over the elements; a rigid body's m v^2 / 2 + J w^2 / 2 and
+    -m g . r_com."""
     g = np.asarray(case.gravity, dtype=float)[:2]
-    T = U = V = 0.0
-    for name, b in beams.items():
-        Xb = X[name]
+    T, U, V = np.zeros(n), np.zeros(n), np.zeros(n)
+    for name, b in parts.items():
+        if b["kind"] == "rigid":
+            Xb = XB[name]
+            T = T + 0.5 * b["mass"] * np.sum(Xb["v"][:, :2] ** 2, axis=1) + 0.5 * b["J"] * Xb["w"][:, -1] ** 2
+            V = V - b["mass"] * Xb["p"][:, :2] @ g
+    for name, b in beams(parts).items():
+        Xb = XB[name]
         mass = b["k"]["massPerLength"] * b["l"]
         for e in range(len(b["elems"])):
             T = T + Xb["T"][e][:, 0]
@@ -360,53 +653,73 @@ def energy(case, beams, X) -> dict:
 # the solver
 
 
-def build(case, n: int):
+def build(case, n: int, beam_mass: str = "lumped"):
+    """(SC, mbs, parts, S): every flexible beam of n elements, every rigid body, the joints and
+    loads, the sensors (`add_sensors`), assembled at the closed initial state (`close_loops`).
+    parts: body name (and "ground") -> its Exudyn items. ValueError when the loops do not close."""
     SC, mbs = xc.system()
-    ground = mbs.AddObject(eii.ObjectGround())
-    frames = initial_frames(case, {name: n for name in case.bodies})
-    rates = initial_rates(case, frames)
-    beams = {}
+    parts = {"ground": {"kind": "ground", "obj": mbs.AddObject(eii.ObjectGround()), "com": np.zeros(2)}}
+    n_el = {name: n for name, b in case.bodies.items() if flexible(b)}
+    q, qd = close_loops(case, n_el)
+    frames = pose(case, n_el, q)
+    rates = twist(case, frames, qd)
     for name, body in case.bodies.items():
-        a, p = frames[name]
-        beams[name] = add_beam(mbs, body, n, a, p, *rates[name])
-        beams[name]["angle0"] = a
-    for j in case.joints.values():
-        add_joint(mbs, case, beams, ground, j)
-    add_loads(mbs, case, beams)
-    S = add_sensors(mbs, case, beams)
+        (a, p), (w, v) = frames[name], rates[name]
+        parts[name] = add_beam(mbs, body, n, a, p, w, v) if flexible(body) else add_rigid(mbs, body, beam_mass, a, p, w, v)
+    joints = {jn: add_joint(mbs, case, parts, j) for jn, j in {**case.joints, **case.loops}.items()}
+    add_loads(mbs, case, parts)
+    S = add_sensors(mbs, case, parts, joints)
     mbs.Assemble()
-    return SC, mbs, beams, S
+    return SC, mbs, parts, S
+
+
+def read(mbs, S, t: np.ndarray):
+    """The sensors S (nested dicts of sensors) read on the output grid t: the same nesting of
+    (n, k) arrays (`xc.sensor_series`)."""
+    if isinstance(S, dict):
+        return {k: read(mbs, s, t) for k, s in S.items()}
+    return xc.sensor_series(mbs, S, t)
+
+
+def clock(S: dict):
+    """One sensor of the model, to tell how far a run went: the first body's position."""
+    Sb = next(iter(S["bodies"].values()))
+    return Sb["p"] if "p" in Sb else Sb["r"][0]
 
 
 def run(case, t_end, settings):
-    from flexmbd.results import Result
     opt = {k: settings.get(k, d) for k, (_, d) in SETTINGS.items()}
     t_start = time.perf_counter()
     out_dt = case.integrator.output_dt
     dt = out_dt / max(int(round(out_dt / opt["dt"])), 1) if opt["dt"] <= out_dt else opt["dt"]
-    with xc.quiet():
-        SC, mbs, beams, S = build(case, opt["elements"])
+    recorded = {"dt": dt, **opt, "element": "ObjectBeamGeometricallyExact2D", "node": "NodeRigidBody2D",
+                "shear_correction": "5/6 rectangle, 9/10 circle", "linear_solver": "EigenSparse"}
+    try:
+        with xc.quiet():
+            SC, mbs, parts, S = build(case, opt["elements"], opt["beam_mass"])
+    except ValueError as e:                          # the loops do not close
+        return results.Result(solver="exudyn-beam", case=case.name, status=results.failed(str(e), 0.0),
+                              settings=recorded, solver_version=version())
+    t = xc.output_grid(case, t_end)
     sim = xc.simulation_settings(case, t_end, dt, opt)
+    xc.reach(sim, t[-1], dt)
     if opt["newton_atol"] is not None:
         sim.timeIntegration.newton.absoluteTolerance = opt["newton_atol"]
     setup_s = time.perf_counter() - t_start
 
     status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"], f"{case.name} / exudyn-beam")
-    t = xc.output_grid(case, t_end)
-    recorded = {"dt": dt, **opt, "element": "ObjectBeamGeometricallyExact2D", "node": "NodeRigidBody2D",
-                "shear_correction": "5/6 rectangle, 9/10 circle", "linear_solver": "EigenSparse"}
-    r = Result(solver="exudyn-beam", case=case.name, status=status, wall_s=wall_s, setup_s=setup_s,
-               steps=steps, rhs_evals=newton, settings=recorded, solver_version=version(),
-               extra={"newton_iterations": newton,
-                      "dofs": int(sum(3 * len(b["nodes"]) for b in beams.values()))})
-    first = S[next(iter(S))]["r"][0]
-    n = xc.reached(r, t, xc.completed(mbs, first, t), t_end)
+    dofs = 3 * sum(len(p["nodes"]) if p["kind"] == "beam" else 1 for p in parts.values() if p["kind"] != "ground")
+    r = results.Result(solver="exudyn-beam", case=case.name, status=status, wall_s=wall_s, setup_s=setup_s,
+                       steps=steps, rhs_evals=newton, settings=recorded, solver_version=version(),
+                       extra={"newton_iterations": newton, "dofs": int(dofs)})
+    n = xc.reached(r, t, xc.completed(mbs, clock(S), t), t_end)
     if n == 0:
         return r
-    X = {name: {k: ({i: xc.sensor_series(mbs, s, t[:n]) for i, s in v.items()}) for k, v in Sb.items()}
-         for name, Sb in S.items()}
-    traj = trajectory(case, beams, X, t[:n])
+    X = read(mbs, S, t[:n])
+    traj = trajectory(case, parts, X, t[:n])
     r.t, r.trajectory = t[:n], traj
     if "kinetic" in traj.energy:                   # what an energy channel's differences are measured against
         r.extra["kinetic_max_J"] = float(np.max(traj.energy["kinetic"]))
+    if case.loops:
+        r.extra["loop_closure_m"] = loop_closure(case, parts, X["bodies"], n)
     return r

@@ -290,3 +290,12 @@ def is_planar(case) -> str:
 
 def output_grid(case, t_end: float) -> np.ndarray:
     return common.sample_times(case, t_end)
+
+
+def reach(sim, t_last: float, dt: float) -> None:
+    """Steps of exactly dt (s) up to the last output instant t_last (`output_grid`) or just past
+    it: Exudyn's step is endTime / numberOfSteps, so with endTime the case's duration and
+    duration / dt not whole (slider_crank's 4 pi / 150 s) it would be neither dt nor reach the
+    last output instant, which lies up to half an output interval past the duration."""
+    n = max(int(np.ceil(t_last / dt - 1e-9)), 1)
+    sim.timeIntegration.numberOfSteps, sim.timeIntegration.endTime = n, n * dt

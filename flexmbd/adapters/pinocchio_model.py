@@ -1,10 +1,11 @@
 """Pinocchio models: the `pinocchio` peer's, built from a case, and a flexmbd Model's, for tests.
 
-The peer's model (`rigid_model`, `initial_state`) is built from the case's rigid limit as a user
-of Pinocchio would build it, through Pinocchio's model API (`pin.Model.addJoint`,
-`appendBodyToJoint`, `pin.Inertia`, `pin.SE3`): the bodies, joints and loads of the case
-(`common.rigid_bodies`), never flexmbd's Model arrays, so an error in `build.from_case` shows up
-as a disagreement. The API rather than URDF text: URDF has no spherical joint and only one
+The peer's model (`rigid_model`, `initial_state`, and `loop_constraints` closing its loops) is
+built from the case's rigid limit as a user of Pinocchio would build it, through Pinocchio's model
+API (`pin.Model.addJoint`, `appendBodyToJoint`, `pin.Inertia`, `pin.SE3`,
+`pin.RigidConstraintModel`): the bodies, joints and loads of the case (`common.rigid_bodies`,
+`case.loops`), never flexmbd's Model arrays, so an error in `build.from_case` shows up as a
+disagreement. The API rather than URDF text: URDF has no spherical joint and only one
 floating base (the cases may hold several free joints, and spherical ones), and the API takes the
 numbers as floats, with no text round trip.
 
@@ -76,6 +77,30 @@ def initial_state(pm, bodies, frame) -> tuple[np.ndarray, np.ndarray]:
             q[iq:iq + 3], q[iq + 3:iq + 7] = b.q0[3:], quaternion(b.q0[:3])
             v[iv:iv + 3], v[iv + 3:iv + 6] = b.qd0[3:], b.qd0[:3]
     return q, v
+
+
+def loop_constraints(pm, frame, loops) -> list:
+    """Pinocchio's rigid constraints closing a case's cut joints (`case.loops`: name -> cases.Joint,
+    revolute, spherical or fixed), one `pin.RigidConstraintModel` each, named as the joint.
+
+    Side 1 (Pinocchio's joint1) is the child side: the child's body frame moved to
+    `child_offset`, unrotated; side 2 the parent side: the input triad at `offset` in the parent
+    frame, turned by `triad`. A fixed joint holds the two frames together (CONTACT_6D); a
+    spherical or revolute one their origins (CONTACT_3D), which closes a revolute joint only on a
+    loop whose hinges share its axis (the caller checks that). Reference frame LOCAL: the
+    constraint force (`RigidConstraintData.contact_force`) is the one side 2 exerts on side 1, at
+    its origin, in the child's body axes."""
+    out = []
+    for j in loops.values():
+        jid_c, Xc = frame[j.child]
+        jid_p, Xp = frame[j.parent]
+        child_side = Xc * pin.SE3(np.eye(3), np.asarray(j.child_offset, dtype=float))
+        parent_side = Xp * pin.SE3(np.array(j.triad, dtype=float), np.asarray(j.offset, dtype=float))
+        kind = pin.ContactType.CONTACT_6D if j.type == "fixed" else pin.ContactType.CONTACT_3D
+        c = pin.RigidConstraintModel(kind, pm, jid_c, child_side, jid_p, parent_side, pin.ReferenceFrame.LOCAL)
+        c.name = j.name
+        out.append(c)
+    return out
 
 
 def quaternion(rotvec) -> np.ndarray:

@@ -16,6 +16,7 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from flexmbd.cases import closure
 from flexmbd.cases.resolve import (Beam, Channel, Integrator, Joint, Link, Load, Material, Modes, Point, Report,
                                    Resolved, Rigid, Section, is_fixed_base, resolve, segment_name, segment_of)
 from flexmbd.cases.schema import JOINT_COORDS, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS, MAX_SNAPSHOTS
@@ -77,4 +78,6 @@ def load(name_or_path: str, overrides: list[str] | tuple = ()) -> Case:
         apply_override(raw, item, path)
     data = validate(raw, str(path))
     digest = hashlib.sha256((text + "\n".join(overrides)).encode()).hexdigest()[:16]
-    return Case(name=path.stem, path=path, data=data, sha256=digest, overrides=tuple(overrides))
+    case = Case(name=path.stem, path=path, data=data, sha256=digest, overrides=tuple(overrides))
+    closure.check(case, str(path))
+    return case

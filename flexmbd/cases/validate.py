@@ -594,5 +594,5 @@ def _check_channel(name, c, bodies, joints, where):
         if c["kind"] == "joint_angle" and joints[j]["loop"]:
             _fail(where, f"{k}.joint", f"{j!r} closes a loop and has no coordinate of its own: measure the angle at "
                   f"a tree joint")
-        if c["kind"] == "joint_angle" and joints[j]["type"] != "revolute":
-            _fail(where, f"{k}.joint", f"joint_angle needs a revolute joint, {j!r} is {joints[j]['type']}")
+        if c["kind"] == "joint_angle" and joints[j]["type"] not in ("revolute", "prismatic"):
+            _fail(where, f"{k}.joint", f"joint_angle needs a revolute or prismatic joint, {j!r} is {joints[j]['type']}")

@@ -26,7 +26,7 @@ SIGNATURE = types.void(types.intp, types.float64, _P, _P, _P, _P, types.intp, ty
 
 
 def evaluate(address, t, q_ptr, v_ptr, tau_ptr, out_ptr, nq, nv, want_qdot):
-    """For the Bound at `address`, at time t, state q (nq,), v (nv,) and joint forces tau (nv,):
+    """For the Bound at `address`, at time t, state q (nq,), v (nv,) and generalized forces tau (nv,):
     the accelerations into its data.qdd and, if want_qdot, [dq/dt; qdd] into out (nq+nv,)."""
     b = bound_at(address)
     model, data = b.model, b.data
@@ -68,6 +68,11 @@ def _forward_at(fn, address, t, q, v, tau):
     call_entry(fn, address, t, q, v, tau, q, 0)
 
 
+@njit
+def _rates_at(fn, address, t, q, v, tau, out):
+    call_entry(fn, address, t, q, v, tau, out, 1)
+
+
 _bound = {}
 
 
@@ -91,6 +96,15 @@ def forward(model: Model, data: Data, t: float, q, v, tau) -> np.ndarray:
     return data.qdd
 
 
+def rates(model: Model, data: Data, t: float, q, v, tau) -> np.ndarray:
+    """[dq/dt; qdd] (nq+nv,) at time t: `forward` with the coordinate rates (of the prescribed
+    joints' profile values), arguments as there."""
+    b, fn = _bound_of(model, data)
+    out = np.empty(q.size + v.size)
+    _rates_at(fn, b.address, t, q, v, tau, out)
+    return out
+
+
 if PURE_PYTHON:                                         # no addresses: the same passes, uncompiled
     def rhs(k, t, y, nq):                               # noqa: F811
         """`rhs` uncompiled: k is a PlainBound."""
@@ -105,6 +119,14 @@ if PURE_PYTHON:                                         # no addresses: the same
         """`forward` uncompiled: the same passes on the NamedTuples."""
         q, v = prescribed(model.arrays, data, t, q, v)
         return aba(model.arrays, data, q, v, tau)
+
+    def rates(model: Model, data: Data, t: float, q, v, tau) -> np.ndarray:  # noqa: F811
+        """`rates` uncompiled."""
+        q, v = prescribed(model.arrays, data, t, q, v)
+        out = np.empty(q.size + v.size)
+        qdot(model.arrays, q, v, out[:q.size])
+        out[q.size:] = aba(model.arrays, data, q, v, tau)
+        return out
 
 
 def forward_dynamics(model: Model, data: Data, q, v, tau=None, t: float = 0.0) -> np.ndarray:
