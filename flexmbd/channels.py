@@ -313,6 +313,18 @@ def reaction(f, kind: str, component: str) -> np.ndarray:
     return f[:, "xyz".index(component) + (3 if kind == "reaction_force" else 0)].copy()
 
 
+SI_UNITS = {"deflection": "m", "stress_vm": "Pa", "joint_angle": "rad", "energy": "J", "reaction_force": "N",
+            "reaction_moment": "N m"}
+
+
+def unit(case, name: str) -> str:
+    """Channel `name`'s SI unit: by its kind, and m for the coordinate of a prismatic joint."""
+    c = case.channels[name]
+    if c.kind == "joint_angle" and c.joint in case.joints and case.joints[c.joint].type == "prismatic":
+        return "m"
+    return SI_UNITS[c.kind]
+
+
 def physical_scale(case, name: str, kinetic_max: float | None = None) -> float:
     """The scale of channel `name` in the case, in its unit, that its differences are measured
     against where the reference's own magnitude can be noise (`metrics.channel_norm`):

@@ -141,8 +141,11 @@ def summary(verdicts: list) -> str:
 
 
 def worst(rows_: list[dict], solver: str) -> float:
-    """The largest normalised RMS difference of a solver over its compared channels."""
-    vals = [r["rms"] for r in rows_ if r["solver"] == solver and np.isfinite(r["rms"])]
+    """The largest normalised RMS difference of a solver over its graded channels (those with a
+    tolerance: the ones its verdict judges), or over every compared channel when none is graded."""
+    mine = [r for r in rows_ if r["solver"] == solver and np.isfinite(r["rms"])]
+    graded = [r["rms"] for r in mine if np.isfinite(r["tolerance"])]
+    vals = graded or [r["rms"] for r in mine]
     return max(vals) if vals else np.nan
 
 

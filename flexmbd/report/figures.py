@@ -16,8 +16,13 @@ import numpy as np  # noqa: E402
 from flexmbd import channels, metrics  # noqa: E402
 from flexmbd.files import atomic_write  # noqa: E402
 
-UNITS = {"deflection": ("mm", 1e3), "stress_vm": ("MPa", 1e-6), "joint_angle": ("rad", 1.0),
-         "energy": ("J", 1.0), "reaction_force": ("N", 1.0), "reaction_moment": ("N m", 1.0)}
+DRAWN = {"m": ("mm", 1e3), "Pa": ("MPa", 1e-6)}     # SI unit (`channels.unit`) -> drawn unit, factor
+
+
+def drawn_unit(case, name: str) -> tuple[str, float]:
+    """(unit, factor from SI) a channel is drawn in: deflections and slides in mm, stresses in MPa."""
+    u = channels.unit(case, name)
+    return DRAWN.get(u, (u, 1.0))
 
 
 # one colour and marker per solver on every figure and page (plug-ins: from a second palette)
@@ -54,7 +59,8 @@ def where(case, name: str) -> str:
         comp = f", {c.component}" if c.kind == "deflection" else ""
         return f"{case.name}: {name} ({c.kind}{comp}) of {c.body} at x = {c.at:g} m"
     if c.kind == "joint_angle":
-        return f"{case.name}: {name} (angle of joint {c.joint})"
+        what = "position" if channels.unit(case, name) == "m" else "angle"
+        return f"{case.name}: {name} ({what} of joint {c.joint})"
     return f"{case.name}: {name} ({c.kind})"
 
 
@@ -123,7 +129,7 @@ def channel_figure(case, name: str, results: dict, reference: str):
     periods side by side, shaded on the overview. An energy is drawn as its change from t = 0 (each
     solver's own E(0) removed) and is never zoomed. Returns the Figure (`channel` saves it)."""
     kind = case.channels[name].kind
-    unit, k = UNITS[kind]
+    unit, k = drawn_unit(case, name)
     curves = {s: (np.asarray(r.t, dtype=float), drawn(kind, r.channels[name], k)) for s, r in results.items()
               if name in r.channels and len(r.t)}
     ref = curves.get(reference)
@@ -206,11 +212,16 @@ def spectra(case, name: str, results: dict, system_hz, nyquist: float, path: Pat
     return save(fig, path)
 
 
+def angle_channels(case) -> list:
+    """The joint_angle channels that are angles (of revolute joints; a slide's is a length)."""
+    return [ch for ch, c in case.channels.items() if c.kind == "joint_angle" and channels.unit(case, ch) == "rad"]
+
+
 def elasticity(case, flexible, rigid, rigid_name: str, path: Path) -> str:
-    """Flexible minus rigid joint angles: what elasticity changes."""
+    """Flexible minus rigid joint angles (of revolute joints): what elasticity changes."""
     fig, ax = plt.subplots(figsize=(9, 3.6))
-    for ch, c in case.channels.items():
-        if c.kind == "joint_angle" and ch in flexible.channels and ch in rigid.channels:
+    for ch in angle_channels(case):
+        if ch in flexible.channels and ch in rigid.channels:
             d = flexible.channels[ch] - metrics.on_grid(flexible.t, rigid.t, rigid.channels[ch])
             ax.plot(flexible.t, d, lw=1.0, label=f"{ch}: flexmbd - {rigid_name}")
     ax.set_xlabel("t [s]")

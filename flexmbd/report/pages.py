@@ -180,7 +180,7 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
 
     # what elasticity changes: flexible minus rigid joint angles
     rigid = next((s for s in ("pinocchio", "mujoco") if s in ok), None)
-    if "flexmbd" in ok and rigid and any(c.kind == "joint_angle" for c in case.channels.values()):
+    if "flexmbd" in ok and rigid and figures.angle_channels(case):
         img = figures.elasticity(case, ok["flexmbd"], ok[rigid], rigid, d / "elasticity.png")
         sections.append(("Flexible minus rigid", f"<p><img src='{img}' alt='{img}'></p>", f"![{img}]({img})\n\n"))
 
@@ -301,9 +301,10 @@ def write_index(out: Path, stage: Path, runs: list, warn=None) -> None:
     links_html = [[f"<a href='{r[0]}/index.html'>{html.escape(r[0])}</a>"] + r[1:] for r in summary]
     links_md = [[f"[{r[0]}]({r[0]}/index.md)"] + r[1:] for r in summary]
     when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    intro = (f"Every case on every solver. A run passes when every compared channel's RMS difference from the "
+    intro = (f"Every case on every solver. A run passes when every graded channel's RMS difference from the "
              f"case's reference solver, over the reference's largest magnitude, is within the case's tolerance; "
-             f"the worst difference is the largest of them. Generated {when}, commit "
+             f"the worst difference is the largest of them (a channel without a tolerance in the case is drawn and "
+             f"tabled, not graded). Generated {when}, commit "
              f"{results.git_commit() or 'unknown'}. Reviewer tables: ")
     pages = ["accuracy.csv", "accuracy.md", "accuracy.tex"]
     bench_html, bench_md = bench_section(stage, warn)

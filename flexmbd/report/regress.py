@@ -26,8 +26,6 @@ from flexmbd.progress import job, jobs_done
 from flexmbd.results import Result
 
 BASELINES = Path(__file__).resolve().parent.parent.parent / "references" / "baselines"
-UNITS = {"deflection": "m", "stress_vm": "Pa", "joint_angle": "rad", "energy": "J",
-         "reaction_force": "N", "reaction_moment": "N m"}
 DEFAULT_TOLERANCE = 1e-3          # channels without a tolerance in the case file
 
 
@@ -41,7 +39,7 @@ def write(base: Path, case, r: Result) -> Path:
     commit and Python of the run itself when the result carries them (a stored or a worker's
     result), else this process's."""
     env = {**results.environment(), **r.extra}           # the rule of `results.sidecar`
-    units = "; ".join(["t s"] + [f"{c} {UNITS[case.channels[c].kind]}" for c in r.channels])
+    units = "; ".join(["t s"] + [f"{c} {channels.unit(case, c)}" for c in r.channels])
     how = (f"flexmbd import {case.name} --solver {r.solver} {r.extra['imported']['file']}" if "imported" in r.extra
            else f"flexmbd run {case.name} --solver {r.solver}")
     head = [f"source: {how} (case file {case.path.name}, sha256 {case.sha256})",
