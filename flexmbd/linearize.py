@@ -209,8 +209,7 @@ def along(case, t, coords: dict, instants, model: Model | None = None) -> list:
     (`model_of`), when the caller has it."""
     model = model_of(case) if model is None else model
     loops = loops_of(case, model)
-    if loops:
-        closed(case, loops, 0.0, model.q0, model.v0)
+    guess = closed(case, loops, 0.0, model.q0, model.v0)[0] if loops else model.q0
     if not frozen_joints(model, coords, loops):
         raise InputError(f"{case.path}: the recorded joint coordinates ({', '.join(coords) or 'none'}) do not fix "
                          f"every free joint (each must be a one-coordinate joint with a joint_angle channel)")
@@ -219,12 +218,14 @@ def along(case, t, coords: dict, instants, model: Model | None = None) -> list:
     out = []
     for s in instants:
         k = int(np.argmin(np.abs(t - s)))
-        q, v = model.q0.copy(), np.zeros(model.nv)          # modal coordinates of q0: zero
+        q, v = guess.copy(), np.zeros(model.nv)             # modal coordinates of q0: zero (a loop's
+        #                                                     dependent ones: the last instant's, Newton's guess)
         for i in range(1, model.nb + 1):
             name = model.jnt_names[i]
             if name in coords and model.jnt_nv[i] == 1 and not model.jnt_prescribed[i]:
                 q[model.jnt_qadr[i]], v[model.jnt_vadr[i]] = coords[name][k], rates[name][k]
         if loops:
             q, v = closed(case, loops, float(t[k]), q, v)
+            guess = q
         out.append((float(t[k]), system_modes(model, q, v, float(t[k]), loops=loops)))
     return out

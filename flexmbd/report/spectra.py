@@ -113,14 +113,18 @@ FROZEN = (41, 11)       # instants of the frozen linearization: up to 64 coordin
 def frozen_modes(case, ok: dict) -> tuple[str, list] | None:
     """(the solver whose run gave the states, [(instant s, [(Hz, label)])]): the system linearized
     about the states of a run at evenly spaced instants (`linearize.along`: the joints at their
-    recorded angles and rates, prescribed joints on their profile), from the reference's run or
-    else the first ok run that records every free joint's angle. None when no run does, when
+    recorded angles and rates, prescribed joints on their profile, a loop's dependent joints by
+    its closure), from the reference's run or else the first ok run that records every free
+    (independent) joint's angle. None when no run does, when
     nothing is driven and the joints hardly move (below 0.05 rad), or when the frequencies do not
     move (a steady spin): then the initial state's modes hold throughout."""
     from flexmbd import linearize
     angles = {n: c.joint for n, c in case.channels.items() if c.kind == "joint_angle"}
     model = linearize.model_of(case)
-    if not linearize.frozen_joints(model, set(angles.values())):
+    loops = linearize.loops_of(case, model)
+    if loops:                                           # its dependent coordinates follow by closure
+        linearize.closed(case, loops, 0.0, model.q0, model.v0)
+    if not linearize.frozen_joints(model, set(angles.values()), loops):
         return None
     driven = bool(model.jnt_prescribed[1:].any())
     order = [case.report.reference] + [s for s in ok if s != case.report.reference]
