@@ -252,8 +252,8 @@ class Loops:
         qdd0 = rates[self.model.nq:]
         K = np.empty((self.model.nv, G.shape[0]))
         q, v = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float)
-        for k in range(G.shape[0]):
-            s = 1e6 / max(np.abs(G[k]).max(), 1e-300)
+        for k in range(G.shape[0]):             # the response is linear in tau: a large force s G_k keeps the
+            s = 1e6 / max(np.abs(G[k]).max(), 1e-300)   # difference from qdd_0 free of qdd_0's round-off
             tau = np.ascontiguousarray(s * G[k])
             K[:, k] = (entry.forward(self.model, self.data, float(t), q, v, tau) - qdd0) / s
         lam = np.linalg.lstsq(G @ K, -g - G @ qdd0, rcond=RANK)[0]
