@@ -475,8 +475,8 @@ def simulate_loops(loops, t_end: float, method: str = "dopri5", rtol: float = 1e
     start = time.perf_counter()
     if method not in PROJECTED:
         return Simulation(t=t_out[:0], q=Y[:0, :nq], v=Y[:0, nq:], settings=settings, status=results.failed(
-            f"integrator {method!r} cannot restart after each projection onto a closed loop's constraints: "
-            f"use {', '.join(PROJECTED)}", 0.0))
+            f"integrator {method!r} cannot restart after each projection onto a closed loop's constraints "
+            f"(use {', '.join(list(PROJECTED)[:-1])} or {list(PROJECTED)[-1]})", 0.0))
 
     def f(t, y):
         count[0] += 1
