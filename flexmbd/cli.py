@@ -136,6 +136,8 @@ def system_modes(case, about: str, as_json: bool) -> int:
     for r in rows:
         print(f"  {r['index']:3d}  {r['freq_hz']:12.4f} Hz  damping {r['damping']:.3g}  {r['label']} "
               f"({100 * r['share']:.0f} % of the kinetic energy)")
+    if not rows:
+        print("  none: no coordinate vibrates about this state (rigid bodies, or motion without stiffness)")
     return 0
 
 
