@@ -485,3 +485,13 @@ def test_any_bytes_as_a_case_file_are_one_input_error(tmp_path, blob):
     p = tmp_path / "bytes.toml"
     p.write_bytes(blob)
     assert _load_or_input_error(p) is None
+
+
+def test_a_loop_case_without_an_integrator_method_gets_one_that_runs_it(tmp_path):
+    """`adams`, the default, cannot restart after each projection onto a loop: a loop case that
+    names no method gets dopri5; one that names adams keeps it (and flexmbd says why it fails)."""
+    p = tmp_path / "loop.toml"
+    p.write_text(LOOP)
+    assert cases.load(str(p)).integrator.method == "dopri5"
+    assert cases.load(str(p), ['integrator.method="adams"']).integrator.method == "adams"
+    assert cases.load("pendulum").integrator.method == "adams"

@@ -104,7 +104,12 @@ def validate(raw: dict, where: str) -> dict:
     """Check a raw case dict against the schema and the cross-references; return a filled copy."""
     data = check_table(copy.deepcopy(raw), CASE, where, "")
     _check_references(data, where)
+    if any(j["loop"] for j in data["joints"].values()) and "method" not in (raw.get("integrator") or {}):
+        data["integrator"]["method"] = LOOP_METHOD
     return data
+
+
+LOOP_METHOD = "dopri5"      # a case with a loop and no integrator.method: one that restarts after each projection
 
 
 def hint(word: str, choices) -> str:
