@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flexmbd import profiles, spatial
+from flexmbd.cases import closure
 from flexmbd.dynamics import node_kinematics
 from flexmbd.kernel import entry
 from flexmbd.model import Model, make_data
@@ -216,10 +217,6 @@ class Loops:
         self.data = make_data(model)
         self.zero = np.zeros(model.nv)
         self.dep = None
-        self.free = np.ones(model.nv, dtype=bool)
-        for i in range(1, model.nb + 1):
-            if model.jnt_prescribed[i]:
-                self.free[model.jnt_vadr[i]:model.jnt_vadr[i] + model.jnt_nv[i]] = False
 
     def state(self, t, q, v):
         """One tree evaluation at (t, q, v): ([dq/dt; qdd_0] (nq+nv,), r, G, gamma, frames per cut)."""
@@ -273,14 +270,7 @@ class Loops:
                 if m.jnt_nv[i] == 1 and not m.jnt_prescribed[i] and m.jnt_qadr[i] == m.jnt_vadr[i]]
         cand += [k for i in range(m.nb, 0, -1) if m.jnt_qadr[i] == m.jnt_vadr[i]
                  for k in range(m.body_madr[i] + m.body_nm[i] - 1, m.body_madr[i] - 1, -1)]
-        full = np.linalg.matrix_rank(G[:, self.free], tol=RANK * max(np.abs(G).max(), 1e-300))
-        dep = []
-        for k in cand:
-            trial = dep + [k]
-            if np.linalg.matrix_rank(G[:, trial], tol=RANK * max(np.abs(G).max(), 1e-300)) == len(trial):
-                dep = trial
-            if len(dep) == full:
-                break
+        dep = closure.pick(G[:, cand], cand)
         return np.array(sorted(dep), dtype=int)
 
     def close(self, t, q, v, iterations: int = 30):

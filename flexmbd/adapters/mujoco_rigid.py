@@ -55,6 +55,7 @@ import numpy as np
 
 import mujoco
 from flexmbd import cases, channels, profiles, results
+from flexmbd.cases.closure import pick
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, quat_to_rot, rot_to_quat
 
@@ -246,31 +247,17 @@ def closure(m, d) -> tuple[np.ndarray, np.ndarray]:
     return d.efc_pos[:d.ne].copy(), d.efc_J[:d.ne * m.nv].reshape(d.ne, m.nv).copy()
 
 
-def dependent_dofs(J, order) -> list:
-    """The dofs the loops' closure fixes, given the Jacobian J (ne, nv) of the closure and the
-    candidate dofs `order`, the last first: each that raises the rank of the columns taken so
-    far (relative tolerance 1e-9), until they reach the rank of J."""
-    tol = 1e-9 * max(np.abs(J).max(initial=0.0), 1e-300)
-    full, dep = np.linalg.matrix_rank(J, tol=tol), []
-    for k in reversed(order):
-        if len(dep) == full:
-            break
-        if np.linalg.matrix_rank(J[:, dep + [k]], tol=tol) > len(dep):
-            dep.append(k)
-    return dep
-
-
 def close_loops(case, m, d, iterations: int = 20) -> float:
     """Close the loops from the tree's initial state in d, in place, as flexmbd chooses the
     coordinates (docs/formulation.md, section 11): the dependent ones are one-coordinate tree
-    joints without motion, from the last in the tree back (`dependent_dofs`), the others kept.
+    joints without motion, from the last in the tree back (`cases.closure.pick`), the others kept.
     Newton on them (least squares on their columns of `closure`, steps by mj_integratePos), then
     their velocities such that J qvel = 0. Returns the largest residual left (m)."""
     joints = [case.joints[link.joint] for link in case.tree]
     order = [m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)] for j in joints
              if j.type in ("revolute", "prismatic") and j.motion is None]
     r, J = closure(m, d)
-    dep = dependent_dofs(J, order)
+    dep = pick(J[:, order[::-1]], order[::-1])
     for _ in range(iterations):
         step = np.zeros(m.nv)
         step[dep] = -np.linalg.lstsq(J[:, dep], r, rcond=None)[0]

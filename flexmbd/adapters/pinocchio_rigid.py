@@ -63,6 +63,7 @@ import pinocchio as pin
 from scipy.integrate import DOP853, RK45, Radau
 
 from flexmbd import cases, channels, profiles, results
+from flexmbd.cases import closure
 from flexmbd.adapters import common, pinocchio_model
 
 RIGID = True                        # every beam rigid: deformation channels are zero, not compared
@@ -280,11 +281,12 @@ class Rigid:
 
     def assemble(self, q, v) -> tuple[np.ndarray, np.ndarray]:
         """The closed state (q (nq,), v (nv,)) from the guess q, v: the coordinates the closure
-        fixes (`dependent`) moved by Gauss-Newton until the cut joints close, their rates solved
+        fixes (`cases.closure.pick`) moved by Gauss-Newton until the cut joints close, their rates solved
         from the closure's velocity J v = 0; the others (the independent and the prescribed
         joints) kept. ValueError when the loops do not close."""
         e, J = self.closure(q)
-        dep = dependent(J, self.fv)
+        free = list(self.fv[::-1])
+        dep = np.sort(np.array(closure.pick(J[:, free], free), dtype=int))   # the first declared stay independent
         tol = ASSEMBLY_TOL * (1.0 + max(np.linalg.norm(X.translation) for X in self.pm.jointPlacements))
         for _ in range(ASSEMBLY_ITER):
             if np.abs(e).max() <= tol:
@@ -310,17 +312,6 @@ class Rigid:
     def energy(self, q, v) -> float:
         """Kinetic + gravitational potential energy, J."""
         return pin.computeKineticEnergy(self.pm, self.pd, q, v) + pin.computePotentialEnergy(self.pm, self.pd, q)
-
-
-def dependent(J, free) -> np.ndarray:
-    """The velocity indices a closure Jacobian J (nc, nv) fixes among the free ones (sorted):
-    from the last backwards, each whose column adds to the rank, until the free columns' rank is
-    reached, so that the joints declared first stay independent."""
-    rank, dep = np.linalg.matrix_rank(J[:, free]), []
-    for k in free[::-1]:
-        if len(dep) < rank and np.linalg.matrix_rank(J[:, dep + [k]]) > len(dep):
-            dep.append(k)
-    return np.sort(np.array(dep, dtype=int))
 
 
 def qdot(pm, q, v) -> np.ndarray:
