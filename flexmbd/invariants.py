@@ -41,17 +41,34 @@ class Invariants(NamedTuple):
 def invariants(fb: FlexBody, stiffening: bool = False) -> Invariants:
     """The inertia shape invariants I1..I10 of one reduced body (leading axis of size 1), and with
     `stiffening` the foreshortening sums Db, Dh (docs/formulation.md §4b; zero without)."""
-    m, x0, J = fb.m, fb.x0, fb.J
-    Pr, Pt = fb.Phi[:, :3, :], fb.Phi[:, 3:, :]                     # (N, 3, nm)
-    eye = np.eye(3)
+    m, x0 = fb.m, fb.x0
+    Pt = fb.Phi[:, 3:, :]                                            # (N, 3, nm)
+    I = mass_sums(x0, Pt, m, m[:, None] * x0, m[:, None, None] * Pt, fb.J, fb.Phi[:, :3, :])
+    one = lambda a: np.ascontiguousarray(a, dtype=float)[None]
+    Db = np.einsum("p,pkl->kl", m, fb.D) if stiffening else np.zeros((fb.n_modes, fb.n_modes))
+    Dh = np.einsum("p,p,pkl->kl", m, x0[:, 0], fb.D) if stiffening else np.zeros((fb.n_modes, fb.n_modes))
+    return Invariants(*(one(a) for a in I[:7]), np.array([I[7]]), one(I[8]), one(I[9]), Db=one(Db), Dh=one(Dh))
 
-    # second moments of the node masses: x0 x0, x0 Phi_k, Phi_k Phi_l
-    Q0 = np.einsum("p,pa,pb->ab", m, x0, x0)
-    Q1 = np.einsum("p,pa,pbk->kab", m, x0, Pt)                      # (nm, 3, 3): sum m x0 Phi_k^T
-    Q2 = np.einsum("p,pak,pbl->klab", m, Pt, Pt)                    # (nm, nm, 3, 3): sum m Phi_k Phi_l^T
+
+def mass_sums(x0, Pt, m, Mx0, MPt, J=None, Pr=None) -> tuple:
+    """I1..I10 of a body whose mass is a symmetric matrix Ms (N, N) over its nodes, given as the
+    mass-weighted fields (docs/formulation.md §3): m = Ms 1 (N,), Mx0 = Ms x0 (N, 3) and
+    MPt = Ms Pt (N, 3, nm), with x0 (N, 3) and Pt (N, 3, nm) the node positions and mode
+    translations; J (N, 3, 3) and Pr (N, 3, nm) the rotary inertias and mode rotations of nodes
+    that have them. A lumped body has Ms = diag(m); a solid its consistent scalar mass, so that
+    every sum is the exact integral of rho over the interpolated fields.
+
+    Each sum over p of m_p a_p b_p^T becomes sum_pq Ms_pq a_p b_q^T = sum_p a_p (Ms b)_p^T.
+    """
+    eye = np.eye(3)
+    # second moments of the mass: x0 x0, x0 Phi_k, Phi_k Phi_l
+    Q0 = np.einsum("pa,pb->ab", x0, Mx0)
+    Q1 = np.einsum("pa,pbk->kab", x0, MPt)                          # (nm, 3, 3): sum m x0 Phi_k^T
+    Q2 = np.einsum("pak,pbl->klab", Pt, MPt)                        # (nm, nm, 3, 3): sum m Phi_k Phi_l^T
+    Q0 = 0.5 * (Q0 + Q0.T)
 
     # a~ b~ = b a^T - (a . b) I turns the skew products into second moments
-    I1 = J.sum(axis=0) + np.trace(Q0) * eye - Q0
+    I1 = np.trace(Q0) * eye - Q0 + (0.0 if J is None else J.sum(axis=0))
     tr1 = np.trace(Q1, axis1=1, axis2=2)
     I2 = 2.0 * tr1[:, None, None] * eye - Q1 - Q1.transpose(0, 2, 1)
     tr2 = np.trace(Q2, axis1=2, axis2=3)
@@ -59,16 +76,14 @@ def invariants(fb: FlexBody, stiffening: bool = False) -> Invariants:
 
     I4 = m @ x0
     I5 = np.einsum("p,pak->ak", m, Pt)
-    I6 = np.einsum("p,pab,pbk->ak", m, _skew_rows(x0), Pt)
-    I7 = np.einsum("p,pkab,pbl->kal", m, _skew_rows(Pt.transpose(0, 2, 1)), Pt)
-    I9 = np.einsum("pak,pab,pbl->kl", Pr, J, Pr) + np.einsum("p,pak,pal->kl", m, Pt, Pt)
-    I10 = np.einsum("pab,pbk->ak", J, Pr)
-    one = lambda a: np.ascontiguousarray(a, dtype=float)[None]
-    Db = np.einsum("p,pkl->kl", m, fb.D) if stiffening else np.zeros((fb.n_modes, fb.n_modes))
-    Dh = np.einsum("p,p,pkl->kl", m, x0[:, 0], fb.D) if stiffening else np.zeros((fb.n_modes, fb.n_modes))
-    return Invariants(I1=one(I1), I2=one(I2), I3=one(I3), I4=one(I4), I5=one(I5), I6=one(I6),
-                      I7=one(I7), I8=np.array([m.sum()]), I9=one(0.5 * (I9 + I9.T)), I10=one(I10),
-                      Db=one(Db), Dh=one(Dh))
+    I6 = np.einsum("pab,pbk->ak", _skew_rows(x0), MPt)
+    I7 = np.einsum("pkab,pbl->kal", _skew_rows(Pt.transpose(0, 2, 1)), MPt)
+    I9 = np.einsum("pak,pal->kl", Pt, MPt)
+    I10 = np.zeros((3, Pt.shape[2]))
+    if J is not None:
+        I9 = I9 + np.einsum("pak,pab,pbl->kl", Pr, J, Pr)
+        I10 = np.einsum("pab,pbk->ak", J, Pr)
+    return I1, I2, I3, I4, I5, I6, I7, float(m.sum()), 0.5 * (I9 + I9.T), I10
 
 
 def stack(invs: list, nm: int) -> Invariants:

@@ -64,3 +64,37 @@ def test_invariants_equal_their_node_loop_definitions(seed):
     for name, r in ref.items():
         x = getattr(inv, name)[0]
         assert x.shape == r.shape and np.abs(x - r).max() <= 1e-12 * np.abs(r).max(), name
+
+
+def test_mass_sums_of_a_solid_are_its_continuum_integrals():
+    """`mass_sums` with a solid's consistent scalar mass: the rigid invariants are the box's own
+    integrals (I1 its inertia about the origin, I4 its first moment, I8 its mass; exact, since the
+    elements interpolate x exactly), I9 = Phi^T M Phi = 1 for M-orthonormal modes, I5 the modes'
+    momentum sum_pq Ms_pq Phi_q; and with a diagonal Ms they are the lumped node sums."""
+    import scipy.sparse as sp
+
+    from flexmbd.fe import mesh, solid
+    L, h, b, rho = 0.4, 0.05, 0.03, 2700.0
+    m = mesh.box(L, h, b, (8, 2, 2), "hex20")
+    x = m.nodes - np.array([0.1, 0.0, 0.0])                                # the body frame 0.1 m in
+    K, Ms = solid.stiffness(m, 7e10, 0.33), solid.scalar_mass(m, rho)
+    _, Phi = solid.clamped_modes(K, Ms, m.node_sets["x0"], 4)
+    Pt = Phi.reshape(-1, 3, 4)
+    I = invariants.mass_sums(x, Pt, np.asarray(Ms.sum(axis=1)).ravel(), Ms @ x,
+                             (Ms @ Pt.reshape(len(x), -1)).reshape(Pt.shape))
+    mass, c = rho * L * h * b, np.array([L / 2 - 0.1, 0.0, 0.0])
+    Ic = mass / 12 * np.diag([h ** 2 + b ** 2, L ** 2 + b ** 2, L ** 2 + h ** 2])
+    I1 = Ic + mass * (c @ c * np.eye(3) - np.outer(c, c))
+    assert np.allclose(I[0], I1, rtol=1e-12, atol=1e-12 * I1.max())
+    assert np.allclose(I[3], mass * c, atol=1e-12 * mass * L) and I[7] == pytest.approx(mass, rel=1e-13)
+    assert np.allclose(I[8], np.eye(4), atol=1e-10)
+    assert np.allclose(I[4], (Ms @ Pt.reshape(len(x), -1)).reshape(Pt.shape).sum(axis=0), atol=1e-12)
+    # a diagonal Ms reduces every sum to the lumped body's node sums (invariants.invariants)
+    d = np.random.default_rng(0).uniform(0.5, 1.5, len(x))
+    lumped = invariants.mass_sums(x, Pt, d, d[:, None] * x, d[:, None, None] * Pt)
+    via = invariants.mass_sums(x, Pt, d, sp.diags(d) @ x, (sp.diags(d) @ Pt.reshape(len(x), -1)).reshape(Pt.shape))
+    for a, b_ in zip(lumped, via):
+        assert np.allclose(a, b_, rtol=1e-14, atol=1e-14 * np.abs(a).max())
+    I2 = [-sum(d[p] * (skew(x[p]) @ skew(Pt[p, :, k]) + skew(Pt[p, :, k]) @ skew(x[p])) for p in range(len(x)))
+          for k in range(4)]                                               # the node-loop definition
+    assert np.allclose(lumped[1], I2, atol=1e-12 * np.abs(I2).max())

@@ -1,0 +1,327 @@
+"""Isoparametric solid elements and the sparse assembly of a solid's stiffness and mass (SI units).
+
+Elements: tet4, tet10, hex8, hex20 (node orders in `fe.mesh`), isotropic linear elasticity, every
+element fully integrated (Gauss-Legendre: hex8 2^3, hex20 3^3 points; tetrahedra by the collapsed
+Gauss-Legendre rule exact for the polynomial degree of each integrand). The mass is consistent.
+
+DOF order: node p owns global DOFs 3 p + k, k = [ux, uy, uz], m. A solid's mass matrix is
+M = Ms (x) I3 with Ms (N, N) the scalar consistent mass (`scalar_mass`); the floating-frame
+invariants need only Ms (`flexbody`).
+
+Stress: Voigt order [xx, yy, zz, yz, zx, xy], engineering shear strains, Pa.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from flexmbd.fe.mesh import EDGES, Mesh
+
+HEX_CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
+                        [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], dtype=float)
+
+
+# ---------------------------------------------------------------------------------------------
+# shape functions N (g, nn) and their natural derivatives dN (g, nn, 3) at points xi (g, 3)
+
+def shape(kind: str, xi: np.ndarray) -> tuple:
+    """N (g, nn) and dN/dxi (g, nn, 3) of an element `kind` at natural points xi (g, 3):
+    tetrahedra on the unit simplex (xi, eta, zeta >= 0, sum <= 1), hexahedra on [-1, 1]^3."""
+    return _SHAPES[kind](np.atleast_2d(np.asarray(xi, dtype=float)))
+
+
+def _tet4(xi):
+    L = np.column_stack([1.0 - xi.sum(axis=1), xi])                       # barycentric (g, 4)
+    dL = np.array([[-1.0, -1.0, -1.0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])  # dL_i/dxi (4, 3)
+    return L, np.broadcast_to(dL, (xi.shape[0], 4, 3)).copy()
+
+
+def _tet10(xi):
+    L, dL = _tet4(xi)
+    N = np.empty((xi.shape[0], 10))
+    dN = np.empty((xi.shape[0], 10, 3))
+    N[:, :4] = L * (2.0 * L - 1.0)
+    dN[:, :4] = (4.0 * L - 1.0)[:, :, None] * dL
+    for k, (i, j) in enumerate(EDGES["tet10"]):
+        N[:, 4 + k] = 4.0 * L[:, i] * L[:, j]
+        dN[:, 4 + k] = 4.0 * (L[:, i, None] * dL[:, j] + L[:, j, None] * dL[:, i])
+    return N, dN
+
+
+def _hex8(xi):
+    s = 1.0 + xi[:, None, :] * HEX_CORNERS[None]                          # (g, 8, 3): 1 + xi_a c_a
+    N = 0.125 * s.prod(axis=2)
+    dN = np.empty(s.shape)
+    for a in range(3):
+        others = [b for b in range(3) if b != a]
+        dN[:, :, a] = 0.125 * HEX_CORNERS[:, a] * s[:, :, others].prod(axis=2)
+    return N, dN
+
+
+def _hex20(xi):
+    g = xi.shape[0]
+    N = np.empty((g, 20))
+    dN = np.empty((g, 20, 3))
+    c = HEX_CORNERS
+    s = 1.0 + xi[:, None, :] * c[None]                                    # (g, 8, 3)
+    t = (xi[:, None, :] * c[None]).sum(axis=2) - 2.0                      # (g, 8): xi.c - 2
+    N[:, :8] = 0.125 * s.prod(axis=2) * t
+    for a in range(3):
+        o = [b for b in range(3) if b != a]
+        dN[:, :8, a] = 0.125 * c[:, a] * (s[:, :, o].prod(axis=2) * t + s.prod(axis=2))
+    for k, (i, j) in enumerate(EDGES["hex20"]):
+        m = 0.5 * (c[i] + c[j])                                            # mid-edge point: one coordinate 0
+        a = int(np.flatnonzero(m == 0)[0])                                 # the edge's direction
+        o = [b for b in range(3) if b != a]
+        q = 1.0 + xi[:, o] * m[o]                                          # (g, 2)
+        N[:, 8 + k] = 0.25 * (1.0 - xi[:, a] ** 2) * q.prod(axis=1)
+        dN[:, 8 + k, a] = -0.5 * xi[:, a] * q.prod(axis=1)
+        dN[:, 8 + k, o[0]] = 0.25 * (1.0 - xi[:, a] ** 2) * m[o[0]] * q[:, 1]
+        dN[:, 8 + k, o[1]] = 0.25 * (1.0 - xi[:, a] ** 2) * m[o[1]] * q[:, 0]
+    return N, dN
+
+
+_SHAPES = {"tet4": _tet4, "tet10": _tet10, "hex8": _hex8, "hex20": _hex20}
+CENTRE = {"tet4": [0.25, 0.25, 0.25], "tet10": [0.25, 0.25, 0.25], "hex8": [0.0, 0.0, 0.0], "hex20": [0.0, 0.0, 0.0]}
+
+
+# ---------------------------------------------------------------------------------------------
+# quadrature
+
+def gauss(kind: str, degree: int) -> tuple:
+    """Points (g, 3) and weights (g,) exact for polynomials of `degree` on the element's natural
+    domain: tensor Gauss-Legendre on the cube; on the simplex, Gauss-Legendre on the cube collapsed
+    by xi = a (1 - b)(1 - c), eta = b (1 - c), zeta = c (Jacobian (1 - b)(1 - c)^2)."""
+    if kind.startswith("hex"):
+        x, w = np.polynomial.legendre.leggauss(max(1, -(-(degree + 1) // 2)))
+        P = np.stack(np.meshgrid(x, x, x, indexing="ij"), axis=-1).reshape(-1, 3)
+        return P, np.einsum("i,j,k->ijk", w, w, w).ravel()
+    n = max(1, -(-(degree + 3) // 2))                                      # degree + 2 in c, exact at 2n - 1
+    x, w = np.polynomial.legendre.leggauss(n)
+    x, w = 0.5 * (x + 1.0), 0.5 * w                                        # on [0, 1]
+    a, b, c = (v.ravel() for v in np.meshgrid(x, x, x, indexing="ij"))
+    W = np.einsum("i,j,k->ijk", w, w, w).ravel() * (1.0 - b) * (1.0 - c) ** 2
+    return np.column_stack([a * (1.0 - b) * (1.0 - c), b * (1.0 - c), c]), W
+
+
+# the polynomial degree p of N: total on the simplex, per direction on the cube
+ORDER = {"tet4": 1, "tet10": 2, "hex8": 1, "hex20": 2}
+
+
+def stiffness_rule(kind: str) -> tuple:
+    """Full integration of dN dN: degree 2p - 2 on an affine tetrahedron; on the cube, 2p per
+    direction (hex8 2^3, hex20 3^3 points)."""
+    p = ORDER[kind]
+    return gauss(kind, 2 * p - 2 if kind.startswith("tet") else 2 * p)
+
+
+def mass_rule(kind: str) -> tuple:
+    """Exact integration of N N on an affine element: degree 2p."""
+    return gauss(kind, 2 * ORDER[kind])
+
+
+# ---------------------------------------------------------------------------------------------
+# element quantities, vectorized over the elements of one kind
+
+def jacobians(kind: str, X: np.ndarray, xi: np.ndarray) -> tuple:
+    """At natural points xi (g, 3) of elements with node positions X (ne, nn, 3):
+    N (g, nn), dN/dx (ne, g, nn, 3) and det J (ne, g)."""
+    N, dN = shape(kind, xi)
+    J = np.einsum("eni,gnj->egij", X, dN)                                  # dx_i / dxi_j
+    det = np.linalg.det(J)
+    dNx = np.einsum("gnj,egji->egni", dN, np.linalg.inv(J))
+    return N, dNx, det
+
+
+def elasticity(E: float, nu: float) -> np.ndarray:
+    """Isotropic elasticity matrix D (6, 6), Voigt [xx, yy, zz, yz, zx, xy], engineering shear."""
+    lam, mu = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))
+    D = np.zeros((6, 6))
+    D[:3, :3] = lam
+    D[[0, 1, 2], [0, 1, 2]] += 2.0 * mu
+    D[[3, 4, 5], [3, 4, 5]] = mu
+    return D
+
+
+def strain_matrix(dNx: np.ndarray) -> np.ndarray:
+    """B (..., 6, 3 nn) from dN/dx (..., nn, 3): strain = B u_e, u_e = [u_0x u_0y u_0z u_1x ...]."""
+    shp = dNx.shape[:-2]
+    nn = dNx.shape[-2]
+    B = np.zeros(shp + (6, nn, 3))
+    x, y, z = dNx[..., 0], dNx[..., 1], dNx[..., 2]
+    B[..., 0, :, 0], B[..., 1, :, 1], B[..., 2, :, 2] = x, y, z
+    B[..., 3, :, 1], B[..., 3, :, 2] = z, y
+    B[..., 4, :, 0], B[..., 4, :, 2] = z, x
+    B[..., 5, :, 0], B[..., 5, :, 1] = y, x
+    return B.reshape(shp + (6, 3 * nn))
+
+
+def element_stiffness(kind: str, X: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """(ne, 3nn, 3nn) stiffness of each element, integral of B^T D B."""
+    xi, w = stiffness_rule(kind)
+    _, dNx, det = jacobians(kind, X, xi)
+    B = strain_matrix(dNx)                                                  # (ne, g, 6, 3nn)
+    DB = np.einsum("ab,egbj->egaj", D, B) * (det * w)[:, :, None, None]
+    return np.einsum("egai,egaj->eij", B, DB)
+
+
+def element_scalar_mass(kind: str, X: np.ndarray, rho: float) -> np.ndarray:
+    """(ne, nn, nn) scalar consistent mass of each element, integral of rho N N^T."""
+    xi, w = mass_rule(kind)
+    N, _, det = jacobians(kind, X, xi)
+    return rho * np.einsum("gi,gj,eg->eij", N, N, det * w)
+
+
+def volumes(kind: str, X: np.ndarray) -> np.ndarray:
+    """(ne,) element volumes, m^3."""
+    xi, w = stiffness_rule(kind) if kind.startswith("hex") else gauss(kind, 2)
+    return jacobians(kind, X, xi)[2] @ w
+
+
+def min_jacobian(kind: str, X: np.ndarray) -> np.ndarray:
+    """(ne,) the smallest det J over the element's corners and integration points: <= 0 where an
+    element is inverted or degenerate."""
+    corners = HEX_CORNERS if kind.startswith("hex") else np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    pts = np.vstack([corners, stiffness_rule(kind)[0], mass_rule(kind)[0]])
+    return jacobians(kind, X, pts)[2].min(axis=1)
+
+
+# ---------------------------------------------------------------------------------------------
+# assembly
+
+def vector_dofs(cells: np.ndarray) -> np.ndarray:
+    """(ne, 3nn) global DOFs of each element, node-major: 3 p + k."""
+    return (3 * cells[:, :, None] + np.arange(3)).reshape(cells.shape[0], -1)
+
+
+def _scatter(blocks: np.ndarray, dofs: np.ndarray, n: int) -> sp.csr_matrix:
+    rows = np.repeat(dofs, dofs.shape[1], axis=1).ravel()
+    cols = np.tile(dofs, (1, dofs.shape[1])).ravel()
+    A = sp.coo_matrix((blocks.ravel(), (rows, cols)), shape=(n, n)).tocsr()
+    A.sum_duplicates()
+    return A
+
+
+# elements per block of the assembly: bounds the element arrays' memory (hex20: 27 points x 6 x 60
+# strain rows, 0.3 GB for 4,000 elements at once) without slowing the vectorized loops
+BLOCK = 1000
+
+
+def stiffness(mesh: Mesh, E: float, nu: float) -> sp.csr_matrix:
+    """Global stiffness K (3N, 3N), csr, symmetric."""
+    D = elasticity(E, nu)
+    n = 3 * mesh.n_nodes
+    K = sp.csr_matrix((n, n))
+    for kind, cells in mesh.cells.items():
+        for c in np.array_split(cells, -(-cells.shape[0] // BLOCK)):
+            K = K + _scatter(element_stiffness(kind, mesh.nodes[c], D), vector_dofs(c), n)
+    return ((K + K.T) * 0.5).tocsr()
+
+
+def scalar_mass(mesh: Mesh, rho: float) -> sp.csr_matrix:
+    """Scalar consistent mass Ms (N, N), csr: M = Ms (x) I3 (`vector_mass`)."""
+    n = mesh.n_nodes
+    Ms = sp.csr_matrix((n, n))
+    for kind, cells in mesh.cells.items():
+        for c in np.array_split(cells, -(-cells.shape[0] // BLOCK)):
+            Ms = Ms + _scatter(element_scalar_mass(kind, mesh.nodes[c], rho), c, n)
+    return ((Ms + Ms.T) * 0.5).tocsr()
+
+
+def vector_mass(Ms: sp.spmatrix) -> sp.csr_matrix:
+    """M (3N, 3N) = Ms (x) I3 in the node-major DOF order."""
+    return sp.kron(Ms, sp.identity(3), format="csr")
+
+
+# ---------------------------------------------------------------------------------------------
+# stress recovery
+
+def centres(mesh: Mesh) -> tuple:
+    """Element centres: (kinds (ne_total,) str, rows (ne_total,), x (ne_total, 3)), elements in the
+    order of mesh.cells."""
+    kinds, rows, xs = [], [], []
+    for kind, cells in mesh.cells.items():
+        N, _ = shape(kind, np.array([CENTRE[kind]]))
+        xs.append(np.einsum("n,enj->ej", N[0], mesh.nodes[cells]))
+        kinds += [kind] * cells.shape[0]
+        rows.append(np.arange(cells.shape[0]))
+    return np.array(kinds), np.concatenate(rows), np.vstack(xs)
+
+
+def stress_rows(mesh: Mesh, E: float, nu: float, kind: str, row: int, xi=None) -> tuple:
+    """The stress at natural point xi (default: the centre) of element `row` of cells[kind] as
+    rows acting on the element's DOFs: (S (6, 3nn), dofs (3nn,)), sigma = S u[dofs]."""
+    cells = mesh.cells[kind][row:row + 1]
+    _, dNx, _ = jacobians(kind, mesh.nodes[cells], np.array([CENTRE[kind] if xi is None else xi]))
+    return elasticity(E, nu) @ strain_matrix(dNx[0, 0]), vector_dofs(cells)[0]
+
+
+def von_mises(s: np.ndarray) -> np.ndarray:
+    """von Mises stress of Voigt stresses (..., 6), Pa."""
+    xx, yy, zz, yz, zx, xy = np.moveaxis(s, -1, 0)
+    return np.sqrt(0.5 * ((xx - yy) ** 2 + (yy - zz) ** 2 + (zz - xx) ** 2) + 3.0 * (yz ** 2 + zx ** 2 + xy ** 2))
+
+
+def containing(mesh: Mesh, x: np.ndarray) -> tuple:
+    """(kind, row) of the element whose centre is nearest to point x (3,), m."""
+    kinds, rows, c = centres(mesh)
+    k = int(np.argmin(np.linalg.norm(c - np.asarray(x, dtype=float), axis=1)))
+    return str(kinds[k]), int(rows[k])
+
+
+# ---------------------------------------------------------------------------------------------
+# modes and interfaces
+
+def node_dofs(nodes: np.ndarray) -> np.ndarray:
+    """(3k,) global DOFs of the nodes (k,), node-major."""
+    return (3 * np.asarray(nodes, dtype=int)[:, None] + np.arange(3)).ravel()
+
+
+def clamped_modes(K: sp.spmatrix, Ms: sp.spmatrix, held: np.ndarray, n: int) -> tuple:
+    """The lowest n normal modes with the nodes `held` fixed (a clamped interface): frequencies
+    (n,) Hz and modes Phi (3N, n), M-orthonormal (M = Ms (x) I3), zero on `held`, each column's
+    largest entry positive. Sparse shift-invert Lanczos about 0 (K is positive definite once the
+    interface is held): only the free stiffness is factored; nothing dense of the mesh size is formed."""
+    N = Ms.shape[0]
+    free = np.setdiff1d(np.arange(3 * N), node_dofs(held))
+    M = vector_mass(Ms)
+    Kff, Mff = K[free][:, free].tocsc(), M[free][:, free].tocsc()
+    lam, X = spla.eigsh(Kff, k=n, M=Mff, sigma=0.0, which="LM")
+    order = np.argsort(lam)
+    Phi = np.zeros((3 * N, n))
+    Phi[free] = X[:, order]
+    k = np.argmax(np.abs(Phi), axis=0)
+    Phi = Phi * np.where(Phi[k, np.arange(n)] < 0, -1.0, 1.0)
+    return np.sqrt(np.clip(lam[order], 0.0, None)) / (2.0 * np.pi), Phi
+
+
+def rigid_fields(x: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """(3k, 6) displacements of the points x (k, 3) under a rigid motion of the reference point
+    ref (3,): columns [rotation x, y, z; translation x, y, z] (spatial order), u = theta x (x - ref) + t."""
+    d = np.asarray(x, dtype=float) - np.asarray(ref, dtype=float)
+    R = np.zeros((d.shape[0], 3, 6))
+    R[:, :, :3] = -_skew(d)                                      # theta x d = -d~ theta
+    R[:, :, 3:] = np.eye(3)
+    return R.reshape(-1, 6)
+
+
+def averaging(x: np.ndarray, ref: np.ndarray, w=None) -> np.ndarray:
+    """The averaging (RBE3-like) interface of points x (k, 3) about ref (3,): A (6, 3k) giving the
+    reference point's [theta; t] as the weighted least-squares rigid fit of their displacements,
+    A = (R^T W R)^-1 R^T W (R = `rigid_fields`, W = diag of the weights w (k,), default 1). A force
+    and moment [m; f] at the reference point spread over the points as A^T [m; f]: the same
+    resultant and moment about ref, each point's share proportional to its weight."""
+    R = rigid_fields(x, ref)
+    W = np.repeat(np.ones(len(x)) if w is None else np.asarray(w, dtype=float), 3)
+    RtW = R.T * W
+    return np.linalg.solve(RtW @ R, RtW)
+
+
+def _skew(a: np.ndarray) -> np.ndarray:
+    S = np.zeros(a.shape + (3,))
+    S[..., 0, 1], S[..., 0, 2] = -a[..., 2], a[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = a[..., 2], -a[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -a[..., 1], a[..., 0]
+    return S
