@@ -9,6 +9,9 @@
                       Pinocchio, median of many calls from Python
     flexible_chain    one evaluation for n flexible beams (12 modes) in a chain, each on its
                       parent's tip node; the fitted exponent of cost against n (n >= 4)
+    solid_mesh        one evaluation of the same solid part (the paper's beam as hex20, 12 clamped-interface
+                      modes, on a revolute joint under gravity) meshed at about 5,000 and 50,000 DOFs, with
+                      the time and peak memory of each reduction: the run time does not depend on the mesh
     compile_s         first compilation of the kernels (empty cache, in a subprocess) and a cached load
 
 Wall times are solve-only (`Result.wall_s`) for both solvers. Nothing here asserts a time.
@@ -102,6 +105,37 @@ def flexible_chain(ns=(1, 2, 4, 8, 16, 32, 64)) -> tuple[list[dict], float]:
         return rows, np.nan
     exponent = float(np.polyfit(np.log([b[0] for b in big]), np.log([b[1] for b in big]), 1)[0])
     return rows, exponent
+
+
+SOLID_MESHES = {"5k": [60, 2, 2], "50k": [240, 4, 3]}      # hex20 divisions: 5,463 and 51,258 DOFs
+
+
+def solid_case(divisions) -> cases.Case:
+    """The paper's beam as a hex20 solid (12 clamped-interface modes) on a revolute joint under gravity."""
+    raw = {"title": "solid pendulum", "duration": 1.0, "gravity": [0.0, -9.81, 0.0],
+           "materials": {"steel": {"E": 2.06e11, "nu": 0.29, "rho": 7820.0}},
+           "bodies": {"bar": {"type": "solid", "material": "steel", "frame": "root", "modes": {"count": 12},
+                              "mesh": {"box": [1.5, 0.015, 0.01], "divisions": list(divisions)},
+                              "interfaces": {"root": {"set": "x0", "kind": "rigid"}, "tip": {"set": "xL"}}}},
+           "joints": {"pivot": {"type": "revolute", "parent": "ground", "child": "bar"}},
+           "channels": {"tip": {"kind": "deflection", "body": "bar", "at": "tip"}}}
+    return cases.Case(name="solid", path=Path("bench"), data=cases.validate(raw, "bench solid"))
+
+
+def solid_mesh(meshes=SOLID_MESHES) -> list[dict]:
+    """Per mesh: its DOFs, the reduction's time (s) and the process's peak resident memory after
+    it (MB, so a larger mesh measured later shows its own peak), and one evaluation (us)."""
+    import resource
+    rows = []
+    for name, div in meshes.items():
+        case = solid_case(div)
+        t0 = time.perf_counter()
+        fb = case.reduced("bar")
+        reduce_s = time.perf_counter() - t0
+        f, _ = evaluation(from_case(case))
+        rows.append({"mesh": name, "dofs": 3 * (fb.n_nodes - 2), "reduce_s": reduce_s,
+                     "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "flexmbd_us": median_us(f)})
+    return rows
 
 
 def compile_seconds() -> dict:
@@ -198,6 +232,7 @@ def run(quick: bool = False, with_work_precision: bool = True, progress=None) ->
     out["rigid_chain"] = rigid_chain((1, 2, 8) if quick else (1, 2, 8, 32, 64))
     ns = (1, 4, 8) if quick else (1, 2, 4, 8, 16, 32, 64)
     out["flexible_chain"], out["flexible_chain_exponent"] = flexible_chain(ns)
+    out["solid_mesh"] = solid_mesh({"5k": SOLID_MESHES["5k"]} if quick else SOLID_MESHES)
     if with_work_precision:
         names = ["cantilever_step"] if quick else ["cantilever_step", "pendulum", "double_pendulum"]
         if quick:

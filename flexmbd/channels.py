@@ -10,7 +10,9 @@ functions below turn that into channels, the same way for every solver:
                  with hinged-hinged modes, of the chord frame through both end nodes), minus its
                  undeformed offset from the root node: (R^T (r_p - r_0))_axis - (x0_p - x0_0)_axis
     stress_vm    von Mises stress sqrt(sigma^2 + 3 tau^2) at the section point (y, z), with
-                 sigma = E (eps - y kappa_z + z kappa_y), tau = G r(y, z) twist rate
+                 sigma = E (eps - y kappa_z + z kappa_y), tau = G r(y, z) twist rate; on a
+                 solid, the von Mises stress of the stress tensor at the centre of the element
+                 that contains the channel's point
     joint_angle  the joint's coordinate (rad; m for a prismatic joint)
     energy       the sum of the energy parts (kinetic, gravity, strain), J
     reaction_*   a component of the force the joint transmits from parent onto child, child frame
@@ -30,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from flexmbd import flexbody
+from flexmbd.fe.solid import von_mises as solid_von_mises
 from flexmbd.fe.stress import section_stresses, von_mises
 from flexmbd.spatial import expm_so3
 
@@ -47,6 +50,12 @@ class Beam:
     root    (n, 3, 3)|None   rotation of the root node's frame in F (None: chord frame)
     strains {x: (n, 4)}      section strains [eps, kappa_y, kappa_z, twist rate] at x (1, 1/m, rad/m)
     extent  {name: (n,)}     a modal solver's measures of its linear validity (`modal_extent`)
+    origin                   the key of the root point: 0.0 on a beam; a solid's frame interface
+    stresses {p: (n, 6)}     a solid's stresses [xx, yy, zz, yz, zx, xy] (Pa, body frame) at the
+                             centres of the elements holding its stress points p (3,) (`modal_solid`)
+
+A solid is reported as a Beam too: its points are its interfaces' reference points (keyed by the
+interface's name, the root its frame interface's), its root rotation that interface's.
     """
 
     length: float
@@ -55,6 +64,9 @@ class Beam:
     root: np.ndarray | None
     strains: dict = field(default_factory=dict)
     extent: dict = field(default_factory=dict)
+    origin: object = 0.0
+    stresses: dict = field(default_factory=dict)
+    surface: object = None      # a solid: k (samples) -> (len(k), nf, 6) stresses at its boundary faces' elements
 
 
 @dataclass
@@ -76,7 +88,11 @@ def points_needed(case, body: str) -> list:
     """Positions x (m) whose points a Beam must hold: the root, the tip, every deflection
     channel's point and the shape points (`shape_positions`), in that order, without repeats (a
     shape point within 1e-9 L of a listed position is that position)."""
-    L = float(case.bodies[body].length)
+    b = case.bodies[body]
+    if b.type == "solid":                               # the frame's interface, then the channels'
+        return list(dict.fromkeys([b.frame] + [c.at for c in case.channels.values()
+                                               if c.kind == "deflection" and c.body == body]))
+    L = float(b.length)
     xs = [0.0, L]
     xs += [c.at for c in case.channels.values() if c.kind == "deflection" and c.body == body]
     xs = list(dict.fromkeys(xs))
@@ -95,6 +111,8 @@ def evenly_spaced(case, body: str) -> list:
 def shape_positions(case, body: str) -> list:
     """The keys of a Beam's points (`points_needed`) that are the beam's shape points, root to
     tip: `report.shape_points` evenly spaced positions (none when 0)."""
+    if case.bodies[body].type == "solid":               # a solid's field is drawn at instants instead
+        return []
     listed = points_needed(case, body)
     return [min(listed, key=lambda y: abs(y - x)) for x in evenly_spaced(case, body)]
 
@@ -108,10 +126,11 @@ def wants_energy(case) -> bool:
     return any(c.kind == "energy" for c in case.channels.values())
 
 
-def modal_points(fb: flexbody.FlexBody, xs, eta) -> tuple[dict, dict]:
+def modal_points(fb: flexbody.FlexBody, xs, eta, nodes: dict | None = None) -> tuple[dict, dict]:
     """({x: (n, 3)}, {x: (3,)}): positions x0_p + Phi_t,p eta of the nodes nearest to xs in the
-    body frame, and their undeformed positions, from modal coordinates eta (n, nm)."""
-    nodes = {x: fb.node_at(x) for x in xs}
+    body frame, and their undeformed positions, from modal coordinates eta (n, nm); `nodes`
+    {x: p} where the nodes are known (a solid's interfaces)."""
+    nodes = {x: fb.node_at(x) for x in xs} if nodes is None else nodes
     return ({x: fb.x0[p] + eta @ fb.Phi[p, 3:, :].T for x, p in nodes.items()},
             {x: fb.x0[p] for x, p in nodes.items()})
 
@@ -166,6 +185,28 @@ def modal_beam(fb: flexbody.FlexBody, eta, mat, sec, points: dict, x0: dict, roo
     if strain:
         strains = with_axial_strain(strains, {x: axial_force(fb.x0, F, x) for x in strains}, mat.E * sec.A)
     return Beam(length=fb.length, points=points, x0=x0, root=root, strains=strains, extent=extent)
+
+
+def modal_solid(fb: flexbody.FlexBody, solid, keys: list, points, eta) -> Beam:
+    """The Beam of a modal solid (`cases.Solid`) from its modal coordinates eta (n, nm): the
+    reference points of its interfaces `keys` (the frame's first), the frame interface's rotation
+    (the identity: the modes hold it), the stresses at its stress points (`points`, the order of
+    FlexBody.S_solid) and its largest elastic node displacement over its length (`solid_extent`)."""
+    at, x0 = modal_points(fb, keys, eta, {k: solid.node(k) for k in keys})
+    stresses = {tuple(p): eta @ fb.S_solid[k].T for k, p in enumerate(points)}
+    _, inverse, S = flexbody.surface_stress_modes(solid, fb)
+    return Beam(length=fb.length, points=at, x0=x0, root=modal_root(fb, eta), origin=solid.frame,
+                stresses=stresses, extent=solid_extent(fb, eta), surface=surface_stresses(S, inverse, eta))
+
+
+def solid_extent(fb: flexbody.FlexBody, eta, block: int = 256) -> dict:
+    """{"deflection": (n,)} the largest elastic node displacement |Phi_t,p eta| over the body's
+    length, in blocks of samples (a solid has many nodes). A solid's rotations and strains are
+    not measured here: its stress channels show them."""
+    Pt = fb.Phi[:, 3:, :]
+    out = [np.linalg.norm(np.einsum("pim,nm->npi", Pt, eta[k:k + block]), axis=2).max(axis=1)
+           for k in range(0, len(eta), block)]
+    return {"deflection": (np.concatenate(out) if out else np.zeros(0)) / fb.length}
 
 
 def axial_force(x0: np.ndarray, F: np.ndarray, x: float) -> np.ndarray:
@@ -258,13 +299,13 @@ def chord_frame(e) -> np.ndarray:
 def displacement(beam: Beam, x: float, k=slice(None)) -> np.ndarray:
     """(n, 3) displacement of the point at x in the root-node frame (or the chord frame), minus
     its undeformed offset from the root node, m; at the samples k (all by default)."""
-    r0 = beam.points[0.0][k]
+    r0 = beam.points[beam.origin][k]
     R = None if beam.root is None else beam.root[k]
     if R is None:
         e = beam.points[beam.length][k] - r0
         R = np.array([chord_frame(u / np.linalg.norm(u)) for u in e]).reshape(-1, 3, 3)
     d = np.einsum("nji,nj->ni", R, beam.points[x][k] - r0)
-    return d - (beam.x0[x] - beam.x0[0.0])
+    return d - (beam.x0[x] - beam.x0[beam.origin])
 
 
 def deflection(beam: Beam, x: float, axis: int) -> np.ndarray:
@@ -297,10 +338,40 @@ def shapes(case, traj: Trajectory, instants) -> dict:
     return out
 
 
+def fields(case, traj: Trajectory, instants) -> dict:
+    """The von Mises field on every solid's surface at the output samples nearest to `instants`:
+    {body: {"t": [k], "vm": (k, nf) nested lists, Pa}}, one value per boundary face
+    (`flexbody.surface_stress_modes`: its element's centre stress), as `shapes` picks its samples;
+    a solid whose solver gives no field is left out."""
+    t, half = np.asarray(traj.t, dtype=float), 0.5 * case.integrator.output_dt * (1.0 + 1e-9)
+    picks = [int(np.argmin(np.abs(t - s))) for s in instants] if len(t) else []
+    picks = list(dict.fromkeys(i for i, s in zip(picks, instants) if abs(t[i] - s) <= half))
+    out = {}
+    for name, beam in traj.beams.items():
+        if beam.surface is None or not picks:
+            continue
+        vm = solid_von_mises(np.asarray(beam.surface(np.array(picks)), dtype=float))
+        keep = np.all(np.isfinite(vm), axis=1)
+        if keep.any():
+            out[name] = {"t": [float(t[i]) for i, ok in zip(picks, keep) if ok], "vm": vm[keep].tolist()}
+    return out
+
+
+def surface_stresses(S: np.ndarray, inverse: np.ndarray, eta) -> object:
+    """The `Beam.surface` of a modal solid: k -> (len(k), nf, 6) stresses at its boundary faces
+    from the modal stresses S (ne, 6, nm) of their elements (`inverse`: face -> row of S)."""
+    return lambda k: np.einsum("eam,km->kea", S, eta[k])[:, inverse]
+
+
 def stress_vm(strains, E: float, G: float, sec, fibre) -> np.ndarray:
     """(n,) von Mises stress at the section point `fibre` (y, z) (None: (cy, 0)) from section
     strains (n, 4), Pa."""
     return von_mises(*section_stresses(strains, E, G, sec, fibre))
+
+
+def solid_vm(stresses) -> np.ndarray:
+    """(n,) von Mises stress of a solid's stresses (n, 6) at an element centre, Pa."""
+    return solid_von_mises(np.asarray(stresses, dtype=float))
 
 
 def energy(traj: Trajectory) -> np.ndarray:
@@ -355,10 +426,12 @@ def gravity_energy(case) -> float:
 
     def reach(name: str) -> float:
         b, parent = case.bodies[name], case.joint_of(name).parent
-        own = b.length if b.type == "beam" else float(np.linalg.norm(b.com))
+        own = b.length if b.type in ("beam", "solid") else float(np.linalg.norm(b.com))
         return own + (reach(parent) if parent != "ground" else 0.0)
 
     def mass(b) -> float:
+        if b.type == "solid":                           # its consistent mass's total, the row sums
+            return float(case.reduced(b.name).m.sum())
         return b.material.rho * b.geometry.A * b.length if b.type == "beam" else b.mass
 
     return g * sum(mass(b) * reach(n) for n, b in case.bodies.items())
@@ -384,6 +457,8 @@ def channels(case, traj: Trajectory) -> dict:
             out[name] = np.zeros(n)
         elif kind == "deflection":
             out[name] = deflection(traj.beams[c.body], c.at, "xyz".index(c.component))
+        elif c.where is not None:                                   # a solid: at an element centre
+            out[name] = solid_vm(traj.beams[c.body].stresses[c.where])
         else:
             body = case.bodies[c.body]
             out[name] = stress_vm(traj.beams[c.body].strains[float(c.at)], body.material.E, body.material.G,

@@ -27,7 +27,9 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from flexmbd import constraints, solvers
+import numpy as np
+
+from flexmbd import constraints, flexbody, solvers
 from flexmbd.errors import InputError
 
 MEMORY_LIMIT = 3e9          # bytes, of one stage
@@ -224,7 +226,24 @@ def modes(case, rigid: bool = False) -> list:
         seg = f" in each of {n_seg} segments" if n_seg > 1 else ""
         out.append(Stage(f"computing the FE modes of beam {name!r} ({dofs} DOFs, {m} modes{seg})", key,
                          memory=eig_b + shape_b + 8.0 * 200 * dofs, seconds=seconds))
+    for name, b in case.bodies.items():
+        if b.type == "solid":
+            dofs = 3 * solid_nodes(b)
+            out.append(Stage(f"assembling and reducing solid {name!r} ({dofs} DOFs, {b.modes.count} modes)",
+                             f"bodies.{name}.mesh", memory=SOLID_BYTES * dofs, seconds=SOLID_SECONDS * dofs))
     return out
+
+
+# a solid's assembly and clamped-interface modes (fe.solid), per DOF of its mesh: measured with
+# benchmarks/solid_reduction.py on hex20 meshes, 12 modes: 5,463 / 23,511 / 64,053 DOFs in
+# 0.4 / 4.1 / 10.4 s, peak 118 / 248 / 613 MB (the process's whole resident memory)
+SOLID_SECONDS, SOLID_BYTES = 2e-4, 1.2e4
+
+
+def solid_nodes(b) -> int:
+    """The node count of a case solid's mesh."""
+    import dataclasses
+    return flexbody.solid_mesh(**dataclasses.asdict(b.mesh)).n_nodes
 
 
 def evaluation(case) -> float:
@@ -292,6 +311,8 @@ def highest_frequency(case) -> tuple[float, str]:
     most the highest frequency its elements can carry. (0, '') without flexible beams."""
     best = (0.0, "")
     for name, b in case.bodies.items():
+        if b.type == "solid" and b.flexible:            # as the beam of its bounding box's section
+            best = max(best, (solid_frequency(b), name))
         if b.type != "beam" or not b.flexible:
             continue
         sec = b.geometry
@@ -305,6 +326,19 @@ def highest_frequency(case) -> tuple[float, str]:
         mesh = max(2.0 * math.sqrt(12.0 * E * max(sec.Iy, sec.Iz) / (rho * sec.A * le ** 4)), 2.0 * math.sqrt(E / rho) / le)
         best = max(best, (min(freqs[m - 1], mesh), name))
     return best
+
+
+def solid_frequency(b) -> float:
+    """An estimate (rad/s) of a solid's highest retained frequency: the `count`-th bending or
+    axial frequency of a clamped beam with the solid's largest extent as length and the other two
+    as a rectangular section."""
+    import dataclasses
+    L, h, w = sorted(np.ptp(flexbody.solid_mesh(**dataclasses.asdict(b.mesh)).nodes, axis=0), reverse=True)
+    E, rho, m = b.material.E, b.material.rho, min(b.modes.count, 10000)
+    waves = [(j - 0.5) * math.pi for j in range(1, m + 1)]
+    freqs = sorted([(k / L) ** 2 * math.sqrt(E * d * d / (12.0 * rho)) for k in waves for d in (h, w)]
+                   + [k / L * math.sqrt(E / rho) for k in waves])
+    return freqs[m - 1]
 
 
 def system(case, about: str = "initial") -> list:
@@ -347,8 +381,8 @@ def fe_linear(case, t_end: float, opt: dict) -> list:
     dense products; newmark factorizes once and steps by sparse solves; damping takes a dense
     eigensolution of all n DOFs."""
     (name, body), = case.bodies.items()
-    n = 6 * body.elements
-    scheme = opt["scheme"]
+    n = 3 * solid_nodes(body) if body.type == "solid" else 6 * body.elements
+    scheme = opt["scheme"] or ("newmark" if body.type == "solid" else "exact")
     dt = opt["dt"] or (case.integrator.output_dt if scheme == "exact" else 5e-5)
     out_dt = case.integrator.output_dt
     stride = max(round(out_dt / dt), 1)
@@ -356,17 +390,20 @@ def fe_linear(case, t_end: float, opt: dict) -> list:
     damped = body.damping_ratio > 0
     if scheme == "exact":
         setup_s, setup_b, per_step = 3e-10 * (2 * n) ** 3, 48.0 * (2 * n) ** 2, 1e-9 * (2 * n) ** 2
+    elif body.type == "solid":                  # a 3-D mesh's factor fills in more: 2.1 ms a step at 5,463 DOFs
+        setup_s, setup_b, per_step = 1e-4 * n, SOLID_BYTES * n, 4e-7 * n + 2e-5
     else:
         setup_s, setup_b, per_step = 1e-5 * n, 8.0 * 200 * n, 1e-8 * 12 * n + 2e-5
     if damped:
         setup_s, setup_b = setup_s + 5e-10 * n ** 3, setup_b + 40.0 * n ** 2
-    matrix = f"bodies.{name}.elements"
+    matrix = f"bodies.{name}.mesh" if body.type == "solid" else f"bodies.{name}.elements"
     steps_key = "solvers.fe-linear.dt" if opt["dt"] and opt["dt"] < out_dt else \
         ("duration" if t_end == case.duration else "--t-end")
     return [Stage(f"setting up the {scheme} scheme for {n} DOFs", matrix, memory=setup_b, seconds=setup_s),
             Stage(f"stepping {n} DOFs through {steps:.3g} {scheme} steps of {out_dt / stride:.3g} s",
                   steps_key if steps * per_step > setup_s else matrix,
-                  memory=32.0 * samples(case, t_end) * n, seconds=steps * per_step)]
+                  memory=32.0 * samples(case, t_end) * n, seconds=steps * per_step,
+                  progress=body.type == "solid")]
 
 
 def analytic(case, t_end: float, opt: dict) -> list:

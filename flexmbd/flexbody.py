@@ -18,6 +18,16 @@ need of it is kept here as plain arrays, in the body frame (beam along +x from t
                           -1/2 eta^T D_p eta (D_p = sum over the elements between the root and p
                           of Phi_e^T G_e Phi_e, G_e the element geometric stiffness per unit
                           axial force; docs/formulation.md §4b)
+    Mx0, MPt (N, 3), (N, 3, nm)  a body with a consistent mass (a solid): Ms x0 and Ms Phi_t, the
+                          mass-weighted fields its invariants are summed from (`invariants.mass_sums`;
+                          m is then Ms 1); empty (0, 3), (0, 3, nm) for a lumped body
+    S_solid (ns, 6, nm)   a solid's modal stresses at the centres of its stress elements, Voigt
+                          [xx, yy, zz, yz, zx, xy], Pa per unit modal coordinate; (0, 6, nm) for a beam
+
+A solid (`solid_body`) is held the same way: its nodes are the mesh's, after one node per
+interface (its reference point: no mass, its motion the interface's, node 0 the frame's), with
+three translational DOFs (rotation rows and J zero), no foreshortening (D zero), `length` its
+largest extent; docs/fe.md, Solids.
 
 The node masses m_p, J_p are always the lumped ones: the floating-frame invariants are node sums,
 and their modal mass I9 = sum Phi_r^T J_p Phi_r + m_p Phi_t^T Phi_t is Phi^T M_lumped Phi. The
@@ -48,7 +58,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from flexmbd.fe import assembly, element, modes, section, stress
+from flexmbd.fe import assembly, element, meshfile, modes, section, solid, stress
+from flexmbd.fe import mesh as fe_mesh
 from flexmbd.files import atomic_write
 
 
@@ -68,6 +79,9 @@ class FlexBody:
     stress_x: np.ndarray
     S_strain: np.ndarray
     D: np.ndarray
+    Mx0: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
+    MPt: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3, 0)))
+    S_solid: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 6, 0)))
 
     @property
     def n_nodes(self) -> int:
@@ -247,8 +261,13 @@ def reduce(name: str, beam, stress_points=()) -> FlexBody:
     """`build`, once per content: the reduction is cached by everything it depends on (the beam
     `cases.Beam` with its material, and the stress points) but the beam's name, so equal beams (the
     segments of a split beam) and the solver, the report, the command line and every adapter share
-    one computation per process. Its arrays are read-only; `name` names the body returned."""
-    return _named(name, dataclasses.replace(beam, name=""), tuple(float(x) for x in stress_points))
+    one computation per process. Its arrays are read-only; `name` names the body returned. A case
+    solid (`cases.Solid`, stress points (3,) in its frame) reduces by `solid_body`."""
+    if beam.type == "solid":
+        points = tuple(tuple(float(v) for v in p) for p in stress_points)
+    else:
+        points = tuple(float(x) for x in stress_points)
+    return _named(name, dataclasses.replace(beam, name=""), points)
 
 
 @functools.lru_cache(maxsize=256)
@@ -269,7 +288,7 @@ def _reduced(beam, points: tuple) -> FlexBody:
     first asks (a command's own, with every core, or a worker's), so a worker forked from one
     that holds it (`executor.Worker`) has the bits it would have computed itself."""
     with threadpool_limits(limits=1):
-        fb = build(beam, points)
+        fb = solid_body(beam, points) if beam.type == "solid" else build(beam, points)
     for f in fields(fb):
         a = getattr(fb, f.name)
         if isinstance(a, np.ndarray):
@@ -289,3 +308,132 @@ def load(path) -> FlexBody:
     kw["name"], kw["boundary"] = str(kw["name"]), str(kw["boundary"])
     kw["length"] = float(kw["length"])
     return FlexBody(**kw)
+
+
+# ---------------------------------------------------------------------------------------------
+# solids (docs/fe.md, Solids)
+
+def solid_mesh(file=None, units="m", box=None, divisions=None, element="hex20") -> fe_mesh.Mesh:
+    """The mesh of a case solid's `mesh` table (validated: `file` absolute), read or built once
+    per content (an import error is an InputError naming the file and line)."""
+    if file is not None:
+        return _mesh_file(str(file), units)
+    return _mesh_box(tuple(box), tuple(int(n) for n in divisions), element)
+
+
+@functools.lru_cache(maxsize=8)
+def _mesh_file(path: str, units: str) -> fe_mesh.Mesh:
+    return meshfile.read(path, units)
+
+
+@functools.lru_cache(maxsize=8)
+def _mesh_box(box: tuple, n: tuple, kind: str) -> fe_mesh.Mesh:
+    return fe_mesh.box(*box, n, kind)
+
+
+def reference_point(mesh: fe_mesh.Mesh, node_set: str, point=None) -> np.ndarray:
+    """(3,) an interface's reference point, mesh coordinates (m): its `point`, or the centroid of
+    its node set."""
+    if point is not None:
+        return np.asarray(point, dtype=float)
+    return mesh.nodes[mesh.node_sets[node_set]].mean(axis=0)
+
+
+def element_at(mesh: fe_mesh.Mesh, x) -> tuple | None:
+    """(kind, row) of the element that contains point x (3,), mesh coordinates (m): of the
+    elements whose centres are nearest, the first whose corner box holds x (round-off allowed);
+    None when no element does."""
+    kinds, rows, c = solid.centres(mesh)
+    x = np.asarray(x, dtype=float)
+    for k in np.argsort(np.linalg.norm(c - x, axis=1))[:16]:
+        X = mesh.nodes[mesh.cells[kinds[k]][rows[k]]]
+        lo, hi = X.min(axis=0), X.max(axis=0)
+        slack = 1e-9 * float(np.max(hi - lo))
+        if np.all(x >= lo - slack) and np.all(x <= hi + slack):
+            return str(kinds[k]), int(rows[k])
+    return None
+
+
+def solid_labels(m: np.ndarray, Pt: np.ndarray) -> np.ndarray:
+    """(nm,) a solid's mode labels: 'mode k' and the body axes its motion mostly lies along (each
+    axis's share of sum m_p |Phi_t,p|^2 with the node masses m (N,); every axis above a quarter,
+    largest first), e.g. 'mode 1 (z)', 'mode 7 (y+z)' for a torsion mode of a beam-like solid."""
+    share = np.einsum("p,pak->ka", m, Pt ** 2)
+    share = share / np.maximum(share.sum(axis=1, keepdims=True), 1e-300)
+    out = []
+    for k, row in enumerate(share):
+        axes = [a for a in np.argsort(-row) if row[a] > 0.25]
+        out.append(f"mode {k + 1} ({'+'.join('xyz'[a] for a in axes)})")
+    return np.array(out, dtype=str)
+
+
+def solid_length(spec) -> float:
+    """The largest extent of a case solid's mesh (`cases.MeshSpec`), m."""
+    return float(np.ptp(solid_mesh(**dataclasses.asdict(spec)).nodes, axis=0).max())
+
+
+def interface_offset(body, interface: str) -> np.ndarray:
+    """(3,) an interface's reference point in a case solid's body frame, m."""
+    mesh = solid_mesh(**dataclasses.asdict(body.mesh))
+    f, o = body.interfaces[interface], body.interfaces[body.frame]
+    return reference_point(mesh, f.set, f.point) - reference_point(mesh, o.set, o.point)
+
+
+def solid_order(body) -> list:
+    """The interfaces of a case solid in node order: the frame's (node 0), then the others in
+    file order (node k)."""
+    return [body.frame] + [n for n in body.interfaces if n != body.frame]
+
+
+def solid_body(body, stress_points=()) -> FlexBody:
+    """Reduce a case solid (`cases.Solid`) to a FlexBody: clamped-interface normal modes (the
+    frame interface's nodes held), orthonormal in the consistent mass; `stress_points` (k, 3):
+    body-frame points whose elements' centre stresses the channels need."""
+    mesh, mat = solid_mesh(**dataclasses.asdict(body.mesh)), body.material
+    K, Ms = solid.stiffness(mesh, mat.E, mat.nu), solid.scalar_mass(mesh, mat.rho)
+    faces = {n: body.interfaces[n] for n in solid_order(body)}
+    ref = {n: reference_point(mesh, f.set, f.point) for n, f in faces.items()}
+    origin = ref[body.frame]
+    nm, N = body.modes.count, mesh.n_nodes
+    held = mesh.node_sets[faces[body.frame].set]
+    freq, Phi3 = solid.clamped_modes(K, Ms, held, nm, mesh.nodes) if nm else (np.zeros(0), np.zeros((3 * N, 0)))
+    Pt = Phi3.reshape(N, 3, nm)
+    k = len(faces)
+    Phi = np.zeros((k + N, 6, nm))
+    Phi[k:, 3:, :] = Pt
+    for i, (name, face) in enumerate(faces.items()):
+        if i:                                           # an averaging interface: its nodes' rigid fit
+            nodes = mesh.node_sets[face.set]
+            A = solid.averaging(mesh.nodes[nodes], ref[name])
+            Phi[i] = A @ Phi3[solid.node_dofs(nodes)]
+    x = mesh.nodes - origin
+    x0 = np.vstack([[ref[n] - origin for n in faces], x])
+    pad = lambda a: np.concatenate([np.zeros((k,) + a.shape[1:]), a])
+    m = pad(np.asarray(Ms.sum(axis=1)).ravel())
+    S = []
+    for p in stress_points:
+        kind, row = element_at(mesh, np.asarray(p, dtype=float) + origin)
+        rows, dofs = solid.stress_rows(mesh, mat.E, mat.nu, kind, row)
+        S.append(rows @ Phi3[dofs])
+    Km = modal_stiffness(K, Phi3)
+    return FlexBody(
+        name=body.name, length=solid_length(body.mesh), x0=x0, m=m, J=np.zeros((k + N, 3, 3)),
+        Phi=Phi, freq_hz=freq, labels=solid_labels(m[k:], Pt), Km=Km,
+        Cm=np.diag(2.0 * body.damping_ratio * 2.0 * np.pi * freq), boundary="clamped-interface",
+        stress_x=np.zeros(0), S_strain=np.zeros((0, 4, nm)), D=np.zeros((k + N, nm, nm)),
+        Mx0=pad(Ms @ x), MPt=pad((Ms @ Pt.reshape(N, -1)).reshape(N, 3, nm)),
+        S_solid=np.array(S).reshape(len(S), 6, nm))
+
+
+def surface_stress_modes(body, fb: FlexBody) -> tuple:
+    """(faces, owners, S): a case solid's boundary faces (`fe.solid.boundary_faces`, corner node
+    indices of its mesh), the element of each, and the modal stresses S (ne, 6, nm) at the centres
+    of those elements (`owners` indexes S's rows through `np.unique`'s inverse), Pa per unit modal
+    coordinate of the reduced body fb: what the case page's von Mises field is drawn from."""
+    mesh = solid_mesh(**dataclasses.asdict(body.mesh))
+    faces, owners = solid.boundary_faces(mesh)
+    elements, inverse = np.unique(owners, return_inverse=True)
+    k = len(body.interfaces)
+    Phi3 = fb.Phi[k:, 3:, :].reshape(-1, fb.n_modes)
+    S = [rows @ Phi3[dofs] for rows, dofs in solid.centre_stress_rows(mesh, body.material.E, body.material.nu, elements)]
+    return faces, inverse, np.array(S).reshape(len(elements), 6, fb.n_modes)

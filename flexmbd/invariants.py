@@ -43,7 +43,10 @@ def invariants(fb: FlexBody, stiffening: bool = False) -> Invariants:
     `stiffening` the foreshortening sums Db, Dh (docs/formulation.md §4b; zero without)."""
     m, x0 = fb.m, fb.x0
     Pt = fb.Phi[:, 3:, :]                                            # (N, 3, nm)
-    I = mass_sums(x0, Pt, m, m[:, None] * x0, m[:, None, None] * Pt, fb.J, fb.Phi[:, :3, :])
+    if fb.Mx0.shape[0]:                                             # a consistent mass (a solid)
+        I = mass_sums(x0, Pt, m, fb.Mx0, fb.MPt)
+    else:
+        I = mass_sums(x0, Pt, m, m[:, None] * x0, m[:, None, None] * Pt, fb.J, fb.Phi[:, :3, :])
     one = lambda a: np.ascontiguousarray(a, dtype=float)[None]
     Db = np.einsum("p,pkl->kl", m, fb.D) if stiffening else np.zeros((fb.n_modes, fb.n_modes))
     Dh = np.einsum("p,p,pkl->kl", m, x0[:, 0], fb.D) if stiffening else np.zeros((fb.n_modes, fb.n_modes))

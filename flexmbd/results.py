@@ -436,6 +436,8 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
         df = read_table(csv, text, ["t"] + chans, samples)
     if "shapes" in meta:
         check_shapes(js, meta["shapes"])
+    if "fields" in meta:
+        check_fields(js, meta["fields"])
     if status.kind == "failed" and meta.get("failed_at_s") is not None:
         status = Status("failed", status.why, float(meta["failed_at_s"]))
     return Result(solver=solver, case=case, t=df["t"].to_numpy(dtype=float),
@@ -473,6 +475,26 @@ def check_shapes(path: Path, shapes) -> None:
         got = [n.pop() if n else 0 for n in sizes]
         if got != [len(s["t"]), len(s["x"]), 3] or not s["t"] or len(s["x"]) < 2:
             raise InputError(f"{path}: {key}.u: {' x '.join(map(str, got))} numbers, expected {want}")
+
+
+def check_fields(path: Path, fields) -> None:
+    """A sidecar's surface fields (`channels.fields`): per solid, t (k,) s and vm (k, nf) nested
+    lists of finite numbers (Pa), one row per instant. An InputError naming the file and key
+    otherwise."""
+    if not isinstance(fields, dict):
+        raise InputError(f"{path}: fields: expected a table of solids, each with t and vm")
+    for body, f in fields.items():
+        key = f"fields.{body}"
+        if not isinstance(f, dict) or set(f) != {"t", "vm"}:
+            raise InputError(f"{path}: {key}: expected a table with the keys t and vm")
+        try:
+            t, vm = np.asarray(f["t"], dtype=float), np.asarray(f["vm"], dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"{path}: {key}: expected lists of numbers (vm: one row per instant)") from None
+        if t.ndim != 1 or not t.size or vm.ndim != 2 or vm.shape[0] != t.size or not np.isfinite(vm).all() \
+                or not np.isfinite(t).all():
+            raise InputError(f"{path}: {key}.vm: expected {t.size} rows (one per instant) of finite numbers, "
+                             f"got an array of shape {vm.shape}")
 
 
 def stale(r: Result, case_sha256: str, channels) -> str:

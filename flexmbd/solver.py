@@ -20,6 +20,7 @@ from flexmbd.version import __version__
 
 SETTINGS = {}           # the case's [integrator] table holds this solver's settings
 LOOPS = True            # cut joints: constraints.Loops
+SOLIDS = True           # flexible solids: flexbody.solid_body
 
 
 def version() -> str:
@@ -221,7 +222,8 @@ def trajectory(case, model: Model, t, Q, V, E=None, loops: constraints.Loops | N
         E = energies(model, Q, V) if E is None else E
         traj.energy = {"kinetic": E[:, 0], "potential": E[:, 1]}
     asked = [c.joint for c in case.channels.values() if c.kind in ("reaction_force", "reaction_moment")]
-    rules = {name: channels.axial_rule(seg.bodies[name].stiffening, bool(seg.stress_sections(name)), fb)
+    rules = {name: (False, False) if seg.bodies[name].type == "solid" else
+             channels.axial_rule(seg.bodies[name].stiffening, bool(seg.stress_sections(name)), fb)
              for name, fb in model.bodies.items()}
     need = asked or any(map(any, rules.values())) or case.segments
     cuts = cut_forces(loops, t, Q, V) if loops and need else None
@@ -232,8 +234,12 @@ def trajectory(case, model: Model, t, Q, V, E=None, loops: constraints.Loops | N
     for name, fb in model.bodies.items():
         i = model.index(name)
         eta = Q[:, model.body_madr[i]:model.body_madr[i] + model.body_nm[i]]
-        points, x0 = channels.modal_points(fb, channels.points_needed(seg, name), eta)
         body = seg.bodies[name]
+        if body.type == "solid":
+            traj.beams[name] = channels.modal_solid(fb, body, channels.points_needed(seg, name),
+                                                    seg.stress_sections(name), eta)
+            continue
+        points, x0 = channels.modal_points(fb, channels.points_needed(seg, name), eta)
         F = node_forces(model, ev, i, Q, V, cut_loads(loops, cuts, ev, i)) if any(rules[name]) else None
         traj.beams[name] = channels.modal_beam(fb, eta, body.material, body.geometry,
                                                points, x0, channels.modal_root(fb, eta), F, rules[name])

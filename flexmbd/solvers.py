@@ -169,6 +169,9 @@ def _precondition(case, name: str) -> results.Status | None:
     if case.loops and not getattr(mod, "LOOPS", False):    # a solver models closed loops only when it says so
         return results.not_applicable(f"closed kinematic loops are not modelled (joint {next(iter(case.loops))!r} "
                                       f"closes one)")
+    solid = next((b.name for b in case.bodies.values() if b.type == "solid"), None)
+    if solid and not getattr(mod, "SOLIDS", False):         # a solver models solid bodies only when it says so
+        return results.not_applicable(f"solid bodies are not modelled (body {solid!r} is one)")
     try:
         why = mod.applies(case)
     except Exception as e:                              # noqa: BLE001 - a plug-in's failure is its status
@@ -255,6 +258,9 @@ def run(case, name: str, t_end: float | None = None) -> Result:
         shapes = channels.shapes(case, dataclasses.replace(traj, t=r.t), case.report.snapshots)
         if shapes:
             r.extra["shapes"] = shapes
+        fields = channels.fields(case, dataclasses.replace(traj, t=r.t), case.report.snapshots)
+        if fields:
+            r.extra["fields"] = fields
     return r
 
 

@@ -42,3 +42,9 @@ def test_convergence_follows_exudyn_rows_only():
     c = bench.convergence(rows, "c", "fox-goodwin")
     assert c["decreasing"] and c["smallest"] == 1e-4 and len(c["errors"]) == 3
     assert not bench.convergence(rows + [row("exudyn-ffrf", 2e-4)], "c", "fox-goodwin")["decreasing"]
+
+
+def test_solid_mesh_rows_reduce_and_evaluate_a_small_mesh():
+    rows = bench.solid_mesh({"tiny": [6, 1, 1]})
+    assert rows[0]["dofs"] == 3 * bench.solid_case([6, 1, 1]).reduced("bar").n_nodes - 6
+    assert rows[0]["flexmbd_us"] > 0 and rows[0]["reduce_s"] > 0

@@ -35,7 +35,7 @@ def test_cases_and_solvers_and_comma_lists(tmp_path):
     assert complete(tmp_path, "flexmbd", "run", "--json", "pend") == ["pendulum"]
     assert complete(tmp_path, "flexmbd", "run", "pendulum", "--solver", "exudyn-") == ["exudyn-ffrf", "exudyn-beam"]
     assert complete(tmp_path, "flexmbd", "report", "--solvers", "flexmbd,exudyn-b") == ["flexmbd,exudyn-beam"]
-    assert complete(tmp_path, "flexmbd", "report", "--cases", "canti") == ["cantilever_step"]
+    assert complete(tmp_path, "flexmbd", "report", "--cases", "canti") == ["cantilever_solid", "cantilever_step"]
 
 
 def test_file_names_where_a_path_goes(tmp_path):

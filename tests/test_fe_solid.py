@@ -83,7 +83,7 @@ def scikit_fem_frequencies(m, kind, n):
 @pytest.mark.parametrize("kind", KINDS)
 def test_clamped_frequencies_match_scikit_fem(kind):
     m = mesh.box(0.2, 0.02, 0.03, (6, 2, 2), kind)
-    f, Phi = solid.clamped_modes(solid.stiffness(m, E, NU), Ms := solid.scalar_mass(m, RHO), m.node_sets["x0"], 6)
+    f, Phi = solid.clamped_modes(solid.stiffness(m, E, NU), Ms := solid.scalar_mass(m, RHO), m.node_sets["x0"], 6, m.nodes)
     # two assemblies of the same discrete problem: agreement to round-off through a sparse
     # shift-invert eigensolve of a matrix of condition ~1e8 (seen: 4e-11); 1e-6 is the criterion
     assert np.abs(f / scikit_fem_frequencies(m, kind, 6) - 1).max() < 1e-6
@@ -99,7 +99,7 @@ def test_cantilever_against_euler_bernoulli():
     L, h, b, E_, nu, rho, P = 1.5, 0.015, 0.01, 2.06e11, 0.29, 7820.0, 12.0
     m = mesh.box(L, h, b, (30, 1, 1), "hex20")
     K, Ms = solid.stiffness(m, E_, nu), solid.scalar_mass(m, rho)
-    f, Phi = solid.clamped_modes(K, Ms, m.node_sets["x0"], 2)
+    f, Phi = solid.clamped_modes(K, Ms, m.node_sets["x0"], 2, m.nodes)
     A, Iz, Iy = b * h, b * h ** 3 / 12, h * b ** 3 / 12
     eb = lambda I: 1.875104068711961 ** 2 / (2 * np.pi * L ** 2) * np.sqrt(E_ * I / (rho * A))
     assert f[0] == pytest.approx(eb(Iy), rel=0.01)                      # thin direction (z) first
@@ -148,3 +148,23 @@ def test_box_tetrahedra_conform():
     _, counts = np.unique(faces, axis=0, return_counts=True)
     boundary = 6 * 2 * 2 * 2                                            # 6 faces x 4 squares x 2 triangles
     assert (counts <= 2).all() and (counts == 1).sum() == boundary
+
+
+def test_mode_signs_do_not_depend_on_the_node_order():
+    """A symmetric mesh's torsion and bending modes have entries of equal size and opposite sign:
+    the sign rule (`solid.signed`) gives the same modes when the nodes are renumbered."""
+    m = mesh.box(0.1, 0.02, 0.02, (4, 2, 2), "hex8")
+    perm = np.random.default_rng(3).permutation(m.n_nodes)
+    inv = np.argsort(perm)
+    p = m._replace(nodes=m.nodes[perm], cells={k: inv[c] for k, c in m.cells.items()},
+                   node_sets={k: np.sort(inv[v]) for k, v in m.node_sets.items()})
+    modes = []
+    for q in (m, p):
+        _, Phi = solid.clamped_modes(solid.stiffness(q, E, NU), solid.scalar_mass(q, RHO), q.node_sets["x0"], 5, q.nodes)
+        modes.append(Phi.reshape(q.n_nodes, 3, 5))
+    f = solid.clamped_modes(solid.stiffness(m, E, NU), solid.scalar_mass(m, RHO), m.node_sets["x0"], 5, m.nodes)[0]
+    distinct = np.flatnonzero(np.diff(f) > 1e-6 * f[1:])                # the square section's pairs aside
+    single = [k for k in range(5) if (k == 0 or k - 1 in distinct) and (k == 4 or k in distinct)]
+    assert single == [2]                                                # the torsion mode
+    for k in single:
+        assert np.allclose(modes[1][inv][:, :, k], modes[0][:, :, k], atol=1e-9 * np.abs(modes[0][:, :, k]).max()), k

@@ -78,7 +78,7 @@ def test_mass_sums_of_a_solid_are_its_continuum_integrals():
     m = mesh.box(L, h, b, (8, 2, 2), "hex20")
     x = m.nodes - np.array([0.1, 0.0, 0.0])                                # the body frame 0.1 m in
     K, Ms = solid.stiffness(m, 7e10, 0.33), solid.scalar_mass(m, rho)
-    _, Phi = solid.clamped_modes(K, Ms, m.node_sets["x0"], 4)
+    _, Phi = solid.clamped_modes(K, Ms, m.node_sets["x0"], 4, m.nodes)
     Pt = Phi.reshape(-1, 3, 4)
     I = invariants.mass_sums(x, Pt, np.asarray(Ms.sum(axis=1)).ravel(), Ms @ x,
                              (Ms @ Pt.reshape(len(x), -1)).reshape(Pt.shape))

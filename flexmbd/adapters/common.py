@@ -10,14 +10,16 @@ import numpy as np
 from flexmbd import channels
 
 
-def clamped_beam(case) -> tuple[str, str]:
-    """(beam name, '') when the case is one beam clamped to ground at its root, else ('', why)."""
+def clamped_beam(case, solids: bool = False) -> tuple[str, str]:
+    """(beam name, '') when the case is one beam (or, with `solids`, one solid) clamped to ground
+    at its root (its frame), else ('', why)."""
     bodies, joints = case.bodies, case.joints
+    what = "beam or solid" if solids else "beam"
     if len(bodies) != 1 or len(joints) != 1:
-        return "", "needs exactly one beam on one joint"
+        return "", f"needs exactly one {what} on one joint"
     (name, body), (jname, joint) = next(iter(bodies.items())), next(iter(joints.items()))
-    if body.type != "beam" or body.rigid:
-        return "", f"body {name!r} is not a flexible beam"
+    if not (body.type == "beam" and not body.rigid or solids and body.type == "solid"):
+        return "", f"body {name!r} is not a flexible {what}"
     if joint.type != "fixed" or joint.parent != "ground":
         return "", f"joint {jname!r} is not a fixed joint to ground (fixed-base cases only)"
     return name, ""

@@ -1,4 +1,4 @@
-"""`exudyn-ffrf`: every flexible beam as an Exudyn `ObjectFFRFreducedOrder` fed the identical
+"""`exudyn-ffrf`: every flexible beam or solid as an Exudyn `ObjectFFRFreducedOrder` fed the identical
 reduced body flexmbd reads; rigid bodies as `ObjectRigidBody`; Exudyn's implicit solver.
 
 The reduced body goes in through Exudyn's own `ObjectFFRFreducedOrderInterface`, built from a
@@ -10,6 +10,18 @@ with `rotary_inertia = true` (default) the FlexBody's J_p are added where the ob
 allows: sum J_p to the reference inertia, sum Phi_r^T J_p Phi_r to the modal mass (so the modal
 mass is the identity the modes were normalised to) and sum J_p Phi_r to the rotation-mode
 coupling. What stays out is the gyroscopic term w x (sum J_p Phi_r) eta_d, zero in planar motion.
+
+A flexible solid (`SOLIDS`; docs/exudyn.md, Solids) goes in as the same FlexBody (its interfaces'
+reference points, node 0 the frame's, then the mesh's nodes; the same modes, Km and Cm) with the
+mesh's consistent mass Ms (x) I3 in place of the lumped one (`solid_mass`: zero rows for the
+interface nodes, Ms rebuilt by `fe.solid.scalar_mass`), so Exudyn's invariants are flexmbd's
+(`invariants.mass_sums`); one massless node at the centre of mass is appended (`mass_centre`) to
+carry gravity. Joints at the frame interface are joints at the reference node; at another
+(averaging) interface a spherical joint or a load acts on that interface's reference node (its
+mode rows are the rigid fit of its node set), any other joint there is not applicable, as is a
+cut joint on a solid in a planar case (it holds x and y only; a solid's modes leave the plane). Channels:
+the interfaces' positions from Exudyn's nodes, the stresses from the modal coordinates and the
+FlexBody's modal stresses (`channels.modal_solid`), the kinetic energy with Ms.
 
 Joints (body frame = the FFRF reference node, which is the beam's root node):
   parent ground / rigid body / the reference node of a beam: `ObjectJointGeneric` between rigid
@@ -56,6 +68,8 @@ the means are formed after the run.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import time
 from dataclasses import replace
 from types import MappingProxyType
@@ -67,6 +81,7 @@ from flexmbd import cases, channels, flexbody, invariants, profiles, results
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
 from flexmbd.cases import closure
+from flexmbd.fe import solid as fe_solid
 
 from exudyn.FEM import ObjectFFRFreducedOrderInterface
 from exudyn.rigidBodyUtilities import GetRigidBodyNode
@@ -82,6 +97,7 @@ SETTINGS = {
 }
 
 LOOPS = True                             # closed loops: cut joints as Exudyn joints (module docstring)
+SOLIDS = True                            # flexible solids: the FlexBody with the mesh's consistent mass (docstring)
 INDEX2 = ("fox-goodwin", "trapezoidal-index2")   # the schemes with velocity-level (index-2) constraints
 NODE_TYPE = exu.NodeType.RotationEulerParameters
 CONSTRAINED = {"fixed": [1, 1, 1, 1, 1, 1], "revolute": [1, 1, 1, 1, 1, 0],
@@ -93,7 +109,7 @@ def version() -> str:
 
 
 def applies(case) -> str:
-    none = [b.name for b in case.bodies.values() if b.type == "beam" and not b.rigid and b.modes.count == 0]
+    none = [b.name for b in case.bodies.values() if b.type in ("beam", "solid") and not b.rigid and b.modes.count == 0]
     if none:
         return (f"body {none[0]!r} retains no modes (modes.count = 0): an FFRF body needs at least one; "
                 f"its rigid limit is what flexmbd, pinocchio and mujoco model")
@@ -106,10 +122,14 @@ def applies(case) -> str:
         parent = case.bodies.get(j.parent)
         if parent is None or parent.type == "rigid" or parent.rigid or j.type == "free":
             continue
-        if j.node == 0 and parent.modes.boundary == "clamped-free":
-            continue                         # the root node is the reference frame: any joint
+        if j.node == 0 and (parent.type == "solid" or parent.modes.boundary == "clamped-free"):
+            continue                         # the root node (a solid's: its frame interface) is the frame
         if j.motion is not None:
             return f"joint {jn!r}: prescribed motion on a flexible node"
+        if parent.type == "solid" and j.type != "spherical":
+            return (f"joint {jn!r}: a {j.type} joint at the averaging interface {j.point.x!r} of solid "
+                    f"{j.parent!r} needs the interface's rotation (the rigid fit of its nodes), which Exudyn's "
+                    f"super-element marker on its reference node does not give (its position only: spherical joints)")
         if j.type == "spherical" or (j.type == "revolute" and not planar):
             continue
         if j.type == "revolute":
@@ -127,6 +147,10 @@ def cuts_apply(case, planar: str) -> str:
     must be able to close the loops (`closing_joints`, here with each beam's joints at their
     node's undeformed place, `offset`)."""
     for jn, j in case.loops.items():
+        on = [b for b in (j.parent, j.child) if b in case.bodies and case.bodies[b].type == "solid"]
+        if on and not planar:
+            return (f"loop joint {jn!r}: in a planar case a cut joint holds its points in x and y only (the tree "
+                    f"holds the rest), but the modes of solid {on[0]!r} can move its point out of the plane")
         out = cut_off_plane(j)
         if j.type == "revolute" and (planar or out):
             return (f"loop joint {jn!r}: a cut revolute joint is Exudyn's spherical joint between its two "
@@ -163,13 +187,20 @@ def cut_off_plane(j: cases.Joint) -> str:
 
 
 class _FEM:
-    """The FlexBody seen through the few FEMinterface calls ObjectFFRFreducedOrderInterface makes."""
+    """The FlexBody seen through the few FEMinterface calls ObjectFFRFreducedOrderInterface makes;
+    `mass` (3N, 3N) its mass matrix (default: the lumped node masses, a beam's). With a mass (a
+    solid) one node is appended, after the FlexBody's N: its centre of mass (`mass_centre`), no mass."""
 
-    def __init__(self, fb: flexbody.FlexBody):
+    def __init__(self, fb: flexbody.FlexBody, mass: sp.spmatrix | None = None):
         self.x0 = np.asarray(fb.x0, dtype=float)
         self.modeBasis = {"matrix": translational_modes(fb)}
         self.postProcessingModes = {}
-        self.mass = sp.diags(np.repeat(fb.m, 3)).tocsr()
+        self.mass = sp.diags(np.repeat(fb.m, 3)).tocsr() if mass is None else sp.csr_matrix(mass)
+        if mass is not None:
+            c, Pc = mass_centre(fb)
+            self.x0 = np.vstack([self.x0, c])
+            self.modeBasis["matrix"] = np.vstack([self.modeBasis["matrix"], Pc])
+            self.mass = sp.block_diag([self.mass, sp.csr_matrix((3, 3))], format="csr")
 
     def GetNodePositionsAsArray(self):
         return self.x0
@@ -192,17 +223,49 @@ def translational_modes(fb: flexbody.FlexBody) -> np.ndarray:
     return np.ascontiguousarray(fb.Phi[:, 3:, :].reshape(-1, fb.n_modes))
 
 
-def ffrf_interface(fb: flexbody.FlexBody, rotary: bool) -> ObjectFFRFreducedOrderInterface:
-    """Exudyn's FFRF invariants of the body; modal stiffness Km; rotary inertia added when asked."""
-    cms = ObjectFFRFreducedOrderInterface(_FEM(fb), rigidBodyNodeType=NODE_TYPE,
+def mass_centre(fb: flexbody.FlexBody) -> tuple:
+    """(x0_c (3,), Phi_c (3, nm)) the body's centre of mass as a node of the super element: the
+    m-weighted mean of its nodes, sum m_p x0_p / M and sum m_p Phi_t,p / M (m_p = sum_q Ms_pq for a
+    solid, some negative at a quadratic mesh's corners). A force on it is the same as m_p / M of the
+    force on every node: a solid's gravity (`add_loads`) through one node instead of thousands."""
+    w = np.asarray(fb.m, dtype=float) / fb.m.sum()
+    return w @ fb.x0, np.einsum("p,pik->ik", w, fb.Phi[:, 3:, :])
+
+
+def ffrf_interface(fb: flexbody.FlexBody, rotary: bool,
+                   mass: sp.spmatrix | None = None) -> ObjectFFRFreducedOrderInterface:
+    """Exudyn's FFRF invariants of the body; modal stiffness Km; rotary inertia added when asked.
+    `mass`: a solid's consistent mass matrix (`solid_mass`), from which Exudyn's interface forms
+    every invariant itself (a solid has no rotary inertia: `rotary` is not used)."""
+    cms = ObjectFFRFreducedOrderInterface(_FEM(fb, mass), rigidBodyNodeType=NODE_TYPE,
                                           roundMassMatrix=0.0, roundStiffnessMatrix=0.0)
     cms.stiffnessMatrixReduced = np.array(fb.Km, dtype=float)
-    if rotary:
+    if rotary and mass is None:
         inv = invariants.invariants(fb)
         cms.massMatrixReduced = np.array(inv.I9[0])                     # sum Phi_r'J Phi_r + m Phi_t'Phi_t
         cms.inertiaLocal = cms.inertiaLocal + fb.J.sum(axis=0)          # sum J_p
         cms.mXRefTildePsi = cms.mXRefTildePsi - inv.I10[0]              # Mrf = G'(I6 + I10)
     return cms
+
+
+def solid_mass(body, fb: flexbody.FlexBody) -> sp.csr_matrix:
+    """(3N, 3N) the consistent mass M = Ms (x) I3 of solid `body` (`cases.Solid`) over the N nodes of
+    its FlexBody fb: zero rows and columns for its interfaces' reference points (nodes 0..k-1, no
+    mass), then the mesh's nodes, Ms the mesh's scalar consistent mass (`fe.solid.scalar_mass`)."""
+    return sp.kron(padded_scalar_mass(body, fb), sp.identity(3), format="csr")
+
+
+def padded_scalar_mass(body, fb: flexbody.FlexBody) -> sp.csr_matrix:
+    """(N, N) the scalar consistent mass of solid `body` over its FlexBody's N nodes (`solid_mass`)."""
+    Ms = scalar_mass(body.mesh, float(body.material.rho))
+    k = fb.n_nodes - Ms.shape[0]
+    return sp.block_diag([sp.csr_matrix((k, k)), Ms], format="csr")
+
+
+@functools.lru_cache(maxsize=8)
+def scalar_mass(spec, rho: float) -> sp.csr_matrix:
+    """Ms (n, n) of the mesh of a case solid's `mesh` table (`cases.MeshSpec`), once per content."""
+    return fe_solid.scalar_mass(flexbody.solid_mesh(**dataclasses.asdict(spec)), rho)
 
 
 def add_ffrf(mbs, fb, cms, R, p, v, w, damping: np.ndarray) -> dict:
@@ -395,7 +458,9 @@ def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> Non
     super-element marker at the mass-weighted mean of the nodes (its Jacobian is the
     mass-weighted sum of the node Jacobians, so this is exact); `mass-proportional` uses Exudyn's
     LoadMassProportional, which on an ObjectFFRFreducedOrder takes the moment of gravity about the
-    reference frame from the undeformed centre of mass only (the deflection's lever arm is lost)."""
+    reference frame from the undeformed centre of mass only (the deflection's lever arm is lost).
+    On a solid `nodal` is its consistent gravity load (m_p = sum_q Ms_pq), on its centre node
+    (`mass_centre`): the same marker position and Jacobian from one node."""
     for ld in case.loads.values():
         name = ld.body
         it = items[name]
@@ -428,11 +493,13 @@ def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> Non
             if name == "ground":
                 continue
             if name in fbs and gravity_mode == "nodal":
-                # M g at the mass-weighted mean of the deformed nodes = m_p g at every node
+                # M g at the mass-weighted mean of the deformed nodes = m_p g at every node (a solid:
+                # its consistent load, sum_q Ms_pq g); a solid's mean is its centre node (`mass_centre`)
                 fb = fbs[name]
-                m = mbs.AddMarker(eii.MarkerSuperElementPosition(
-                    bodyNumber=it["obj"], meshNodeNumbers=list(range(fb.n_nodes)),
-                    weightingFactors=list(fb.m / fb.m.sum())))
+                nodes, w = ([fb.n_nodes], [1.0]) if case.bodies[name].type == "solid" else \
+                    (list(range(fb.n_nodes)), list(fb.m / fb.m.sum()))
+                m = mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=it["obj"], meshNodeNumbers=nodes,
+                                                                 weightingFactors=w))
                 mbs.AddLoad(eii.LoadForceVector(markerNumber=m, loadVector=list(fb.m.sum() * g)))
                 continue
             m = mbs.AddMarker(eii.MarkerBodyMass(bodyNumber=it["obj"]))
@@ -572,8 +639,10 @@ def add_cut(mbs, items: dict, case, fbs: dict, j: cases.Joint) -> dict:
 
 def axial_rules(case, fbs) -> dict:
     """Beam name -> where its quasi-static axial force enters (`channels.axial_rule`): this model
-    has no geometric stiffening, so the axial load is always one of its validity measures."""
-    return {n: channels.axial_rule(False, bool(case.stress_sections(n)), fb) for n, fb in fbs.items()}
+    has no geometric stiffening, so the axial load is always one of its validity measures. A
+    solid: nowhere (its stresses are the modes' own, flexmbd's `solver.trajectory` likewise)."""
+    return {n: (False, False) if case.bodies[n].type == "solid" else
+            channels.axial_rule(False, bool(case.stress_sections(n)), fb) for n, fb in fbs.items()}
 
 
 def axial_bodies(case, fbs) -> list:
@@ -607,7 +676,7 @@ def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
         if name in fbs:
             fb = fbs[name]
             S[name]["eta"] = sens(nodeNumber=it["modal"], outputVariableType=OV.Coordinates)
-            nodes = range(fb.n_nodes) if energy else sorted({fb.node_at(x) for x in channels.points_needed(case, name)})
+            nodes = range(fb.n_nodes) if energy else tracked_nodes(case, name, fb)
             S[name]["r"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Position)
                             for k in nodes}
             if energy:
@@ -621,6 +690,14 @@ def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
                                         else OV.ForceLocal)
                                 for jn, jo in joints.items() if jo is not None and case.joints[jn].parent == name}
     return S
+
+
+def tracked_nodes(case, name: str, fb: flexbody.FlexBody) -> list:
+    """The nodes of body `name` whose positions the channels read (`channels.points_needed`): a
+    beam's nearest to each position, a solid's interfaces' reference points."""
+    body = case.bodies[name]
+    node = body.node if body.type == "solid" else fb.node_at
+    return sorted({node(x) for x in channels.points_needed(case, name)})
 
 
 def step_sensors(S: dict) -> list:
@@ -661,7 +738,16 @@ def write_around_outputs(mbs, sim, dt: float, out_dt: float) -> bool:
     return True
 
 
-def watch_divergence(mbs, S: dict, fbs: dict) -> dict:
+def watched_nodes(case, name: str, fb: flexbody.FlexBody, tracked) -> list:
+    """The nodes `watch_divergence` reads of body `name` (`tracked`: those with position sensors):
+    all of a beam's; a solid's interfaces' reference points (its tracked nodes are all of its
+    mesh's when the energy is asked: reading them at every write would cost more than the solve)."""
+    if case.bodies[name].type == "solid":
+        return [k for k in tracked_nodes(case, name, fb) if k in tracked]
+    return list(tracked)
+
+
+def watch_divergence(mbs, S: dict, fbs: dict, case) -> dict:
     """Stop the solve at the first sensor write at which a node of a flexible body lies farther
     from its body frame than (1 + DIVERGED_LENGTHS) beam lengths: its deflection then exceeds
     DIVERGED_LENGTHS lengths (an undeformed node is within one length of the frame), which the
@@ -671,8 +757,8 @@ def watch_divergence(mbs, S: dict, fbs: dict) -> dict:
     the system's stop flag (`SetRenderEngineStopFlag`), which ends the solve after that step.
     Returns {"body": the body whose node left, "t": when}, filled when it stops."""
     seen = {}
-    watched = [(b, S[b]["p"], list(S[b]["r"].values()), (1.0 + results.DIVERGED_LENGTHS) * fb.length)
-               for b, fb in fbs.items() if S.get(b, {}).get("r")]
+    watched = [(b, S[b]["p"], [S[b]["r"][k] for k in watched_nodes(case, b, fb, S[b]["r"])],
+                (1.0 + results.DIVERGED_LENGTHS) * fb.length) for b, fb in fbs.items() if S.get(b, {}).get("r")]
 
     def watch(mbs_, t, sensor_numbers, factors, configuration):
         for b, frame, nodes, far in watched:
@@ -730,7 +816,8 @@ def trajectory(case, fbs: dict, X: dict, t: np.ndarray, joints: dict) -> channel
     frame, the root node's rotation from the modal coordinates, the modal beam
     (`channels.modal_beam`) with, on the beams of `axial_bodies`, the quasi-static axial force
     from `node_forces` (`joints`: add_joint's (object, frame) by joint name), and the cut joints'
-    reactions (`cut_forces`)."""
+    reactions (`cut_forces`). A solid: `channels.modal_solid` of the modal coordinates (its
+    stresses and validity measure) with its interfaces' points from Exudyn's node positions."""
     traj = channels.Trajectory(t=t)
     for jname in channels.joints_needed(case):
         traj.joints[jname] = joint_coordinate(fbs, X, case.joints[jname])
@@ -742,6 +829,11 @@ def trajectory(case, fbs: dict, X: dict, t: np.ndarray, joints: dict) -> channel
     for name, fb in fbs.items():
         Xb, xs = X[name], channels.points_needed(case, name)
         body = case.bodies[name]
+        if body.type == "solid":                 # flexmbd's modal solid, its points Exudyn's nodes
+            beam = channels.modal_solid(fb, body, xs, case.stress_sections(name), Xb["eta"])
+            beam.points = {x: body_positions(Xb, body.node(x)) for x in xs}
+            traj.beams[name] = beam
+            continue
         F = node_forces(case, fb, name, Xb, t, joints, cuts) if any(rules[name]) else None
         traj.beams[name] = channels.modal_beam(
             fb, Xb["eta"], body.material, body.geometry,
@@ -846,15 +938,23 @@ def energy(case, fbs, X) -> np.ndarray:
     """Kinetic + gravitational + strain energy from Exudyn's node positions and velocities.
 
     Flexible body: 1/2 sum m_p |v_p|^2 (+ 1/2 (w + Phi_r eta_d)' J_p (w + Phi_r eta_d), rotary
-    inertia, body axes) - g . sum m_p r_p + 1/2 eta' Km eta. Rigid body: from its node's velocity,
-    angular velocity and pose."""
+    inertia, body axes) - g . sum m_p r_p + 1/2 eta' Km eta; a solid's kinetic energy with its
+    consistent mass, 1/2 sum_pq Ms_pq v_p . v_q (its m_p = sum_q Ms_pq make the gravity term exact).
+    Rigid body: from its node's velocity, angular velocity and pose."""
     g = np.asarray(case.gravity, dtype=float)
     E = 0.0
     for name, Xb in X.items():
         if name in fbs:
             fb = fbs[name]
-            for k in range(fb.n_nodes):
-                E = E + 0.5 * fb.m[k] * np.einsum("ni,ni->n", Xb["u"][k], Xb["u"][k]) - fb.m[k] * Xb["r"][k] @ g
+            if case.bodies[name].type == "solid":           # 1/2 u' (Ms (x) I3) u, u (N, 3) every instant
+                U = np.stack([Xb["u"][k] for k in range(fb.n_nodes)])                         # (N, n, 3)
+                MU = (padded_scalar_mass(case.bodies[name], fb) @ U.reshape(fb.n_nodes, -1)).reshape(U.shape)
+                E = E + 0.5 * np.einsum("kni,kni->n", U, MU)
+                for k in range(fb.n_nodes):
+                    E = E - fb.m[k] * Xb["r"][k] @ g
+            else:
+                for k in range(fb.n_nodes):
+                    E = E + 0.5 * fb.m[k] * np.einsum("ni,ni->n", Xb["u"][k], Xb["u"][k]) - fb.m[k] * Xb["r"][k] @ g
             wr = Xb["w"][:, None, :] + np.einsum("kij,nj->nki", fb.Phi[:, :3, :], Xb["eta_d"])   # (n, N, 3)
             E = E + 0.5 * np.einsum("nki,kij,nkj->n", wr, fb.J, wr)
             E = E + 0.5 * np.einsum("ni,ij,nj->n", Xb["eta"], fb.Km, Xb["eta"])
@@ -888,7 +988,8 @@ def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
         body = case.bodies[name]
         R, p, v, w = states[name]
         if name in fbs:
-            items[name] = add_ffrf(mbs, fbs[name], ffrf_interface(fbs[name], rotary), R, p, v, w, fbs[name].Cm)
+            mass = solid_mass(body, fbs[name]) if body.type == "solid" else None
+            items[name] = add_ffrf(mbs, fbs[name], ffrf_interface(fbs[name], rotary, mass), R, p, v, w, fbs[name].Cm)
         elif body.type == "rigid":
             items[name] = add_rigid(mbs, body, R, p, v, w)
         else:                                    # a beam declared rigid: its undeformed mass properties
@@ -958,7 +1059,7 @@ def run(case, t_end, settings):
     with xc.quiet():
         SC, mbs, items, S, joints = build(model, fbs, opt["rotary_inertia"], opt["gravity"])
         means = bool(step_sensors(S)) and write_around_outputs(mbs, sim, dt, case.integrator.output_dt)
-        stopped = watch_divergence(mbs, S, fbs)
+        stopped = watch_divergence(mbs, S, fbs, model)
         mbs.Assemble()
     setup_s = time.perf_counter() - t_start
 

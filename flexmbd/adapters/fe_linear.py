@@ -1,4 +1,4 @@
-"""`fe-linear`: the full-order linear transient of the beam mesh, every DOF kept.
+"""`fe-linear`: the full-order linear transient of the beam or solid mesh, every DOF kept.
 
     M u'' + C u' + K u = f(t),   u(0) = 0, u'(0) = 0
 
@@ -14,6 +14,12 @@ fixed joint) and nothing truncated. Two time-stepping schemes (setting `scheme`)
 
 Modal damping ratio zeta, when non-zero, enters as C = M Phi diag(2 zeta w) Phi^T M over all
 modes of the full model.
+
+A solid (`run_solid`) keeps every DOF of its mesh with the frame interface's nodes held, its
+loads spread over their interfaces' nodes by the same averaging interface as the reduced body's
+(`fe.solid.averaging`), and steps by Newmark only: the exact scheme and modal damping would form
+dense matrices of the mesh's size. Its interfaces' reference points move as the rigid fit of
+their nodes; its stresses are those at the centres of the channels' elements.
 """
 
 from __future__ import annotations
@@ -27,10 +33,11 @@ from scipy.sparse.linalg import splu
 
 from flexmbd import channels, flexbody, profiles
 from flexmbd.adapters import common
-from flexmbd.fe import stress
+from flexmbd.fe import solid, stress
+from flexmbd.progress import Progress
 
 SETTINGS = {
-    "scheme": (("exact", "newmark"), "exact"),
+    "scheme": (("exact", "newmark"), None),      # default: exact on a beam, newmark on a solid
     "dt": ("float+", None),             # s; default: output_dt (exact), 5e-5 s (newmark)
 }
 
@@ -39,8 +46,14 @@ def version() -> str:
     return "1"
 
 
+SOLIDS = True                           # a clamped solid: its whole mesh (`run_solid`)
+
+
 def applies(case) -> str:
-    _, why = common.clamped_beam(case)
+    name, why = common.clamped_beam(case, solids=True)
+    if name and case.bodies[name].type == "solid" and case.bodies[name].damping_ratio > 0:
+        return ("modal damping of a solid's full model needs all of its modes (a dense eigenproblem of the mesh's "
+                "size)")
     return why
 
 
@@ -58,8 +71,10 @@ def load_vectors(case, n_dof: int) -> list:
 def run(case, t_end, settings):
     from flexmbd.results import Result
     t_start = time.perf_counter()
-    name, _ = common.clamped_beam(case)
+    name, _ = common.clamped_beam(case, solids=True)
     body = case.bodies[name]
+    if body.type == "solid":
+        return run_solid(case, name, t_end, settings, t_start)
     nodes, elements, sec, K, M, _ = flexbody.fe_model(body)
     n_dof = K.shape[0]
     free = np.arange(6, n_dof)                         # root node clamped by the fixed joint
@@ -72,7 +87,7 @@ def run(case, t_end, settings):
     Kf, Mf = K[free][:, free].tocsc(), M[free][:, free].tocsc()
     C = damping(Kf, Mf, body.damping_ratio)
 
-    scheme = settings.get("scheme", "exact")
+    scheme = settings.get("scheme") or "exact"
     out_dt = case.integrator.output_dt
     dt = settings.get("dt") or (out_dt if scheme == "exact" else 5e-5)
     t_out = common.sample_times(case, t_end)
@@ -116,6 +131,72 @@ def trajectory(case, name: str, t, U, nodes, elements, sec) -> channels.Trajecto
     return channels.Trajectory(t=t, beams={name: beam})
 
 
+def run_solid(case, name: str, t_end, settings, t_start: float):
+    """The full-order transient of a clamped solid (module docstring)."""
+    import dataclasses
+
+    from flexmbd.results import Result
+    if (settings.get("scheme") or "newmark") != "newmark":
+        raise ValueError("a solid steps by Newmark only (the exact scheme forms dense matrices of the mesh's size): "
+                         "scheme = \"newmark\"")
+    body = case.bodies[name]
+    mesh, mat = flexbody.solid_mesh(**dataclasses.asdict(body.mesh)), body.material
+    K, M = solid.stiffness(mesh, mat.E, mat.nu), solid.vector_mass(solid.scalar_mass(mesh, mat.rho))
+    n_dof = K.shape[0]
+    face = {n: body.interfaces[n] for n in flexbody.solid_order(body)}
+    ref = {n: flexbody.reference_point(mesh, f.set, f.point) for n, f in face.items()}
+    fit = {n: solid.averaging(mesh.nodes[mesh.node_sets[f.set]], ref[n]) for n, f in face.items()}
+    dofs = {n: solid.node_dofs(mesh.node_sets[f.set]) for n, f in face.items()}
+    free = np.setdiff1d(np.arange(n_dof), dofs[body.frame])
+
+    loads = []
+    for ld in case.loads.values():                      # [m; f] at the interface, spread over its nodes
+        f = np.zeros(n_dof)
+        f[dofs[ld.point.x]] = fit[ld.point.x].T @ np.r_[0.0, 0.0, 0.0, common.body_force(case, ld)]
+        loads.append((f, ld.profile))
+    fg = M @ np.tile(common.gravity_body(case), mesh.n_nodes)
+    Kf, Mf = K[free][:, free].tocsc(), M[free][:, free].tocsc()
+    out_dt = case.integrator.output_dt
+    dt = settings.get("dt") or 5e-5
+    t_out = common.sample_times(case, t_end)
+    stride = max(int(round(out_dt / dt)), 1)
+    dt = out_dt / stride
+    force = lambda t: (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))[free]
+    setup_s = time.perf_counter() - t_start
+    t_solve = time.perf_counter()
+    bar = Progress(float(t_out[-1]), f"{case.name} / fe-linear")
+    U, V = newmark(Kf, Mf, None, force, dt, stride, t_out.size, bar)
+    bar.close()
+    wall_s = time.perf_counter() - t_solve
+
+    u = np.zeros((t_out.size, n_dof))
+    u[:, free] = U
+    origin = ref[body.frame]
+    keys = channels.points_needed(case, name)
+    points = {k: ref[k] - origin + (u[:, dofs[k]] @ fit[k].T)[:, 3:] for k in keys}
+    stresses = {}
+    for p in case.stress_sections(name):
+        kind, row = flexbody.element_at(mesh, np.asarray(p) + origin)
+        S, d = solid.stress_rows(mesh, mat.E, mat.nu, kind, row)
+        stresses[p] = u[:, d] @ S.T
+    faces, owners = solid.boundary_faces(mesh)
+    elements, inverse = np.unique(owners, return_inverse=True)
+    rows = solid.centre_stress_rows(mesh, mat.E, mat.nu, elements)
+    surface = lambda k: np.stack([u[k][:, d] @ S.T for S, d in rows], axis=1)[:, inverse]     # (k, nf, 6)
+    beam = channels.Beam(length=body.length, points=points, x0={k: ref[k] - origin for k in keys},
+                         root=np.tile(np.eye(3), (len(t_out), 1, 1)), origin=body.frame, stresses=stresses,
+                         surface=surface)
+    traj = channels.Trajectory(t=t_out, beams={name: beam})
+    if channels.wants_energy(case):
+        v = np.zeros_like(u)
+        v[:, free] = V
+        traj.energy = {"total": energy(u, v, K, M, fg)}
+    return Result(solver="fe-linear", case=case.name, t=t_out, wall_s=wall_s, setup_s=setup_s,
+                  steps=(t_out.size - 1) * stride, rhs_evals=(t_out.size - 1) * stride,
+                  settings={"dt": dt, "scheme": "newmark", "dofs": int(free.size), "mesh": mesh.source,
+                            "nodes": mesh.n_nodes}, trajectory=traj)
+
+
 def damping(K, M, zeta: float):
     """C = M Phi diag(2 zeta w) Phi^T M over all modes of the full model (None when zeta = 0)."""
     if zeta == 0.0:
@@ -148,11 +229,12 @@ def exact(K, M, C, force, dt: float, stride: int, n_out: int):
     return U, V
 
 
-def newmark(K, M, C, force, dt: float, stride: int, n_out: int):
-    """Average-acceleration Newmark from rest; returns displacements and velocities (n_out, n)."""
+def newmark(K, M, C, force, dt: float, stride: int, n_out: int, bar: Progress | None = None):
+    """Average-acceleration Newmark from rest; returns displacements and velocities (n_out, n);
+    `bar` shows the simulated time."""
     n = K.shape[0]
     Ceff = C if C is not None else sp.csc_matrix((n, n))
-    lu = splu((K + (2.0 / dt) * Ceff + (4.0 / dt ** 2) * M).tocsc())
+    lu = factor((K + (2.0 / dt) * Ceff + (4.0 / dt ** 2) * M).tocsr())
     u, v = np.zeros(n), np.zeros(n)
     a = splu(M.tocsc()).solve(force(0.0) - K @ u - Ceff @ v)
     U, V = np.zeros((n_out, n)), np.zeros((n_out, n))
@@ -166,7 +248,40 @@ def newmark(K, M, C, force, dt: float, stride: int, n_out: int):
             a = (4.0 / dt ** 2) * (u_new - u) - (4.0 / dt) * v - a
             u, v = u_new, v_new
         U[k], V[k] = u, v
+        if bar is not None:
+            bar.update(t)
     return U, V
+
+
+class Banded:
+    """A symmetric positive definite sparse matrix factored as a banded Cholesky factor in the
+    reverse Cuthill-McKee order of its graph: on a slender mesh (a beam's sections in a row) its
+    solves are about half SuperLU's. `solve(b)` as SuperLU's."""
+
+    def __init__(self, A, perm, bw):
+        P = A[perm][:, perm].tocoo()
+        upper = P.row <= P.col
+        ab = np.zeros((bw + 1, A.shape[0]))
+        ab[bw + P.row[upper] - P.col[upper], P.col[upper]] = P.data[upper]
+        self.c, self.perm = scipy.linalg.cholesky_banded(ab), perm
+
+    def solve(self, b):
+        x = np.empty_like(b)
+        x[self.perm] = scipy.linalg.cho_solve_banded((self.c, False), b[self.perm])
+        return x
+
+
+def factor(A):
+    """A factorization of the symmetric positive definite Newmark matrix: `Banded` when its
+    band (in reverse Cuthill-McKee order) holds at most a tenth as many entries as the dense
+    matrix, else SuperLU (sparse LU)."""
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+    perm = reverse_cuthill_mckee(A, symmetric_mode=True)
+    P = A[perm][:, perm].tocoo()
+    bw = int(np.max(np.abs(P.row - P.col))) if P.nnz else 0
+    if (bw + 1) * 10 <= A.shape[0]:
+        return Banded(A, perm, bw)
+    return splu(A.tocsc())
 
 
 def energy(U, V, K, M, fg):

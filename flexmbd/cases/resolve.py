@@ -103,6 +103,58 @@ class Beam:
 
 
 @dataclass(frozen=True)
+class MeshSpec:
+    file: str | None    # the mesh file, absolute path
+    units: str          # "m" or "mm": the file's units
+    box: tuple | None   # a built-in box (L, h, b), m
+    divisions: tuple | None     # its elements along x, y, z
+    element: str        # its element kind
+
+
+@dataclass(frozen=True)
+class Interface:
+    name: str
+    set: str            # the mesh's node set
+    kind: str           # "rigid" (the frame's) or "averaging"
+    point: tuple | None  # (3,) reference point, mesh coordinates, m (None: the set's centroid)
+
+
+@dataclass(frozen=True)
+class Solid:
+    """A flexible solid: its mesh, its interfaces (node = its place in `flexbody.solid_order`),
+    the frame's interface (body frame origin at its reference point, axes the mesh's)."""
+
+    name: str
+    material: Material
+    mesh: MeshSpec
+    interfaces: MappingProxyType    # name -> Interface, file order
+    frame: str
+    modes: Modes
+    damping_ratio: float
+    rigid: bool = False
+    stiffening: bool = False
+    segments: int = 1
+    type: str = "solid"
+
+    def __hash__(self):
+        return hash((self.name, self.material, self.mesh, tuple(self.interfaces.items()), self.frame,
+                     self.modes, self.damping_ratio))
+
+    @property
+    def flexible(self) -> bool:
+        return self.modes.count > 0
+
+    @property
+    def length(self) -> float:
+        """The mesh's largest extent, m: the size its deflections are measured against."""
+        return flexbody.solid_length(self.mesh)
+
+    def node(self, interface: str) -> int:
+        """The FlexBody node of an interface's reference point."""
+        return flexbody.solid_order(self).index(interface)
+
+
+@dataclass(frozen=True)
 class Rigid:
     name: str
     mass: float         # kg
@@ -175,7 +227,8 @@ class Channel:
     at: float | None    # position along the beam as the case names it, m
     component: str      # x, y or z
     fibre: tuple | None  # stress point (y, z) in the section, m (None: the outer fibre)
-    point: Point | None  # deflection and stress: at, snapped
+    point: Point | None  # deflection and stress: at, snapped (a solid's deflection: its interface)
+    where: tuple | None = None  # a solid's stress: the point (3,) in the body frame, m
 
 
 @dataclass(frozen=True)
@@ -268,16 +321,19 @@ class Resolved:
         return segment_name(body, k), local
 
     def stress_sections(self, body: str) -> list:
-        """Positions x of a beam's stress channels, sorted, without repeats (FlexBody.stress_x)."""
+        """Positions x of a beam's stress channels, sorted, without repeats (FlexBody.stress_x);
+        a solid's stress points (3,), sorted, without repeats (FlexBody.S_solid)."""
+        if isinstance(self.bodies.get(body), Solid):
+            return sorted({c.where for c in self.channels.values() if c.kind == "stress_vm" and c.body == body})
         return sorted({c.point.x for c in self.channels.values() if c.kind == "stress_vm" and c.body == body})
 
     def reduced(self, name: str) -> flexbody.FlexBody:
-        """The reduced flexible beam `name` (computed once per content, `flexbody.reduce`)."""
+        """The reduced flexible body `name` (computed once per content, `flexbody.reduce`)."""
         return flexbody.reduce(name, self.bodies[name], self.stress_sections(name))
 
     def flexible(self) -> dict:
-        """Every flexible beam, reduced, by name, in tree order."""
-        return {b.name: self.reduced(b.name) for b in self.tree if b.kind == "beam"}
+        """Every flexible beam and solid, reduced, by name, in tree order."""
+        return {b.name: self.reduced(b.name) for b in self.tree if b.kind in ("beam", "solid")}
 
 
 def tree_order(data: dict) -> list:
@@ -300,6 +356,20 @@ def beam_point(beam: Beam, x: float) -> Point:
 def _body(name: str, b: dict, materials: dict):
     if b["type"] == "rigid":
         return Rigid(name=name, mass=b["mass"], com=tuple(b["com"]), inertia=tuple(b["inertia"]))
+    if b["type"] == "solid":
+        m = b["mesh"]
+        spec = MeshSpec(file=m["file"], units=m["units"], box=None if m["box"] is None else tuple(m["box"]),
+                        divisions=None if m["divisions"] is None else tuple(m["divisions"]), element=m["element"])
+        if b["material"] is None:                       # the mesh file's one material
+            mname, (E, nu, rho) = next(iter(flexbody.solid_mesh(**dataclasses.asdict(spec)).materials.items()))
+            material = Material(name=mname, E=E, nu=nu, rho=rho)
+        else:
+            material = materials[b["material"]]
+        faces = {n: Interface(name=n, set=i["set"], kind=i["kind"], point=None if i["point"] is None else tuple(i["point"]))
+                 for n, i in b["interfaces"].items()}
+        return Solid(name=name, material=material, mesh=spec, interfaces=MappingProxyType(faces), frame=b["frame"],
+                     modes=Modes(count=b["modes"]["count"], boundary=b["modes"]["boundary"], interfaces=None),
+                     damping_ratio=b["damping_ratio"])
     m = b["modes"]
     return Beam(name=name, material=materials[b["material"]], length=b["length"], elements=b["elements"],
                 section=Section(**b["section"]), damping_ratio=b["damping_ratio"], mass=b["mass"], shear=b["shear"],
@@ -314,7 +384,15 @@ def _where(bodies: dict, body: str, at) -> tuple:
     if isinstance(b, Beam):
         p = beam_point(b, at)
         return p, (p.x_node, 0.0, 0.0)
+    if isinstance(b, Solid):
+        p = solid_point(b, at)
+        return p, tuple(float(v) for v in flexbody.interface_offset(b, at))
     return None, tuple(float(v) for v in at)
+
+
+def solid_point(solid: Solid, interface: str) -> Point:
+    """An interface of a solid as a Point: x the interface's name, node its reference point's node."""
+    return Point(body=solid.name, x=interface, node=solid.node(interface), x_node=interface)
 
 
 def resolve(data: dict, split: bool = True) -> Resolved:
@@ -342,10 +420,12 @@ def resolve(data: dict, split: bool = True) -> Resolved:
     tree, nq, nv = [], 0, 0
     for name in order:
         b, j = bodies[name], joints[joint_of[name]]
-        kind = "rigid" if isinstance(b, Rigid) else "rigid beam" if b.rigid else "beam"
-        modes = b.modes.count if kind == "beam" else 0
+        kind = "rigid" if isinstance(b, Rigid) else "solid" if isinstance(b, Solid) else "rigid beam" if b.rigid else "beam"
+        modes = b.modes.count if kind in ("beam", "solid") else 0
+        nodes = 0 if kind == "rigid" else len(b.interfaces) + flexbody.solid_mesh(
+            **dataclasses.asdict(b.mesh)).n_nodes if kind == "solid" else b.elements + 1
         tree.append(Link(name=name, index=index[name], kind=kind, parent=j.parent_index, joint=j.name,
-                         nodes=b.elements + 1 if kind != "rigid" else 0, modes=modes))
+                         nodes=nodes, modes=modes))
         nq, nv = nq + j.nq + modes, nv + j.nv + modes
     loads = {}
     for ln, ld in data["loads"].items():
@@ -354,8 +434,8 @@ def resolve(data: dict, split: bool = True) -> Resolved:
                          force=tuple(ld["force"]), frame=ld["frame"], profile=frozen(ld["profile"]))
     channels = {n: Channel(name=n, kind=c["kind"], body=c["body"], joint=c["joint"], at=c["at"],
                            component=c["component"], fibre=None if c["fibre"] is None else tuple(c["fibre"]),
-                           point=beam_point(bodies[c["body"]], c["at"]) if c["kind"] in ("deflection", "stress_vm")
-                           else None)
+                           point=_channel_point(bodies[c["body"]], c) if c["kind"] in ("deflection", "stress_vm")
+                           else None, where=None if c["point"] is None else tuple(c["point"]))
                 for n, c in data["channels"].items()}
     ig, rep = data["integrator"], data["report"]
     parts = splits(data)
@@ -375,6 +455,14 @@ def resolve(data: dict, split: bool = True) -> Resolved:
         split=None if expanded is data else dataclasses.replace(resolve(expanded, split=False),
                                                                 whole=MappingProxyType(whole)),
         loops=MappingProxyType(loops))
+
+
+def _channel_point(body, c: dict) -> Point | None:
+    """The Point of a deflection or stress channel: snapped along a beam, a solid's interface
+    (none for a solid's stress: it is at a point of the body, `Channel.where`)."""
+    if isinstance(body, Solid):
+        return solid_point(body, c["at"]) if c["kind"] == "deflection" else None
+    return beam_point(body, c["at"])
 
 
 def is_fixed_base(case) -> bool:

@@ -54,6 +54,35 @@ BEAM = {
     "segments": ("int+", 1),        # modal solvers: N flexible beams of length L / N, joined rigidly
 }
 
+MESH = {
+    "file": ("str", None),              # a mesh file (.inp Abaqus, .bdf/.nas/.dat NASTRAN, .msh Gmsh), relative to the case
+    "units": (("m", "mm"), "m"),        # the file's units: "m" (N, kg, s, Pa) or "mm" (N, t, s, MPa)
+    "box": ("vec3", None),              # or a built-in box [L, h, b], m: x in [0, L], y in [-h/2, h/2], z in [-b/2, b/2]
+    "divisions": ("vec3", None),        # box: elements along x, y, z (whole numbers)
+    "element": (("hex20", "hex8", "tet10", "tet4"), "hex20"),   # box: the element kind
+}
+
+INTERFACE = {
+    "set": ("str", REQUIRED),           # a node set of the mesh (a box has "x0" and "xL", its end faces)
+    "kind": (("rigid", "averaging"), "averaging"),  # RBE2-like (only the frame's) or RBE3-like
+    "point": ("vec3", None),            # reference point, mesh coordinates, m (default: the set's centroid)
+}
+
+SOLID_MODES = {
+    "count": ("int0+", REQUIRED),
+    "boundary": (("clamped-interface",), "clamped-interface"),  # normal modes with the frame interface held
+}
+
+SOLID = {
+    "type": (("solid",), REQUIRED),
+    "material": ("str", None),          # default: the mesh file's one material
+    "mesh": (MESH, REQUIRED),
+    "interfaces": ({"*": INTERFACE}, REQUIRED),
+    "frame": ("str", REQUIRED),         # the interface whose reference point is the body frame's origin
+    "modes": (SOLID_MODES, REQUIRED),
+    "damping_ratio": ("float0+", 0.0),
+}
+
 RIGID = {
     "type": (("rigid",), REQUIRED),
     "mass": ("float+", REQUIRED),
@@ -77,7 +106,7 @@ JOINT = {
     "type": (("revolute", "prismatic", "fixed", "spherical", "free"), REQUIRED),
     "parent": ("str", REQUIRED),
     "child": ("str", REQUIRED),
-    "at": ("point", None),              # beam parent: position along it (m); else a point (vec3)
+    "at": ("point", None),              # beam parent: position along it (m); solid: an interface; else a point (vec3)
     "axis": ("vec3", [0.0, 0.0, 1.0]),  # revolute / prismatic axis in the input triad
     "rpy": ("vec3", [0.0, 0.0, 0.0]),   # input triad orientation in the parent frame, rad
     "q0": ("floats", None),
@@ -98,7 +127,7 @@ LOAD_PROFILE = {
 LOAD = {
     "type": (("point_force",), REQUIRED),
     "body": ("str", REQUIRED),
-    "at": ("point", REQUIRED),
+    "at": ("point", REQUIRED),          # beam: position along it (m); solid: an interface; rigid: a point (vec3)
     "force": ("vec3", REQUIRED),        # N
     "frame": (("body", "global"), "body"),
     "profile": (LOAD_PROFILE, {"type": "constant"}),
@@ -108,7 +137,8 @@ CHANNEL = {
     "kind": (("deflection", "stress_vm", "joint_angle", "energy", "reaction_force", "reaction_moment"), REQUIRED),
     "body": ("str", None),
     "joint": ("str", None),
-    "at": ("float0+", None),            # m along the beam
+    "at": ("point", None),              # m along the beam; a solid's interface (deflection)
+    "point": ("vec3", None),            # stress_vm on a solid: a point in the body frame, m
     "component": (("x", "y", "z"), "y"),
     "fibre": ("vec", None),             # stress point (y, z) in the section, m; default outer fibre
 }
@@ -154,5 +184,5 @@ JOINT_COORDS = {"fixed": (0, 0), "revolute": (1, 1), "prismatic": (1, 1), "spher
 JOINT_DOFS = {k: nv for k, (_, nv) in JOINT_COORDS.items()}
 
 # the keys without default that each kind of channel reads (the others must be left out)
-CHANNEL_KEYS = {"deflection": ("body", "at"), "stress_vm": ("body", "at", "fibre"), "joint_angle": ("joint",),
+CHANNEL_KEYS = {"deflection": ("body", "at"), "stress_vm": ("body", "at", "fibre", "point"), "joint_angle": ("joint",),
                 "reaction_force": ("joint",), "reaction_moment": ("joint",), "energy": ()}

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from flexmbd import flexbody
 from flexmbd.cases.schema import (BEAM, CASE, CHANNEL_KEYS, DERIVED, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS,
-                                  MAX_SNAPSHOTS, NAME_CHARS, REQUIRED, RIGID)
+                                  MAX_SNAPSHOTS, NAME_CHARS, REQUIRED, RIGID, SOLID)
 from flexmbd.errors import InputError, printable
 
 CASES_DIR = Path(__file__).resolve().parent.parent.parent / "cases"
@@ -213,6 +213,8 @@ def _check_value(v, kind, where: str, key: str):
     if kind == "point":
         if isinstance(v, list):
             return _check_value(v, "vec3", where, key)
+        if isinstance(v, str):                      # a solid's interface, checked with the body
+            return v
         return _check_value(v, "float0+", where, key)
     if kind == "solver":
         if not isinstance(v, str):
@@ -240,9 +242,10 @@ def _check_body(v, where, key):
     if not isinstance(v, dict):
         _fail(where, key, "expected a table")
     kind = v.get("type")
-    schema = {"beam": BEAM, "rigid": RIGID}.get(kind) if isinstance(kind, str) else None
+    schema = {"beam": BEAM, "rigid": RIGID, "solid": SOLID}.get(kind) if isinstance(kind, str) else None
     if schema is None:
-        _fail(where, key + ".type", f"expected beam or rigid, got {kind!r}{hint(str(kind), ['beam', 'rigid'])}")
+        _fail(where, key + ".type", f"expected beam, rigid or solid, got {kind!r}"
+              f"{hint(str(kind), ['beam', 'rigid', 'solid'])}")
     return check_table(v, schema, where, key + ".")
 
 
@@ -262,6 +265,8 @@ def _check_references(d: dict, where: str) -> None:
             _fail(where, k, "'ground' is reserved for the inertial frame")
         if b["type"] == "beam":
             _check_beam(b, d, where, k)
+        elif b["type"] == "solid":
+            _check_solid(b, d, where, k)
         else:
             _check_rigid(b, where, k)
 
@@ -440,6 +445,15 @@ def _check_beam(b, d, where, k):
 
 
 def _check_point(at, body, where, key):
+    if body["type"] == "solid":
+        if not isinstance(at, str):
+            _fail(where, key, "on a solid give the name of one of its interfaces")
+        if at not in body["interfaces"]:
+            _fail(where, key, f"no interface {at!r} on the solid{hint(at, body['interfaces'])}")
+        return
+    if isinstance(at, str):
+        _fail(where, key, f"an interface name ({at!r}) locates a point on a solid only; on a "
+              f"{body['type']} body give " + ("a position along it in m" if body["type"] == "beam" else "a point [x, y, z] in m"))
     if body["type"] == "beam":
         if isinstance(at, list):
             _fail(where, key, "on a beam give a position along it in m, not a point")
@@ -456,6 +470,8 @@ def _check_attachment(j, bodies, where, k):
     if parent == "ground":
         if not isinstance(j["at"], list):
             _fail(where, f"{k}.at", "on ground give a point [x, y, z] in m")
+    elif bodies[parent]["type"] == "solid" and j["at"] == [0.0, 0.0, 0.0]:
+        j["at"] = bodies[parent]["frame"]
     else:
         _check_point(j["at"], bodies[parent], where, f"{k}.at")
     if j["type"] in ("revolute", "prismatic") and math.hypot(*j["axis"]) < 1e-12:
@@ -550,6 +566,76 @@ def _check_tree(joints, where):
             b = parent_of[b]
 
 
+def _check_solid(b, d, where, k):
+    """A solid: a material (its own or the mesh file's one), a box or a mesh file that reads, its
+    interfaces on node sets of the mesh, the frame's interface rigid and every other averaging,
+    and no more modes than the held mesh has free DOFs."""
+    m = b["mesh"]
+    if (m["file"] is None) == (m["box"] is None):
+        _fail(where, f"{k}.mesh", "give either file (a mesh file) or box ([L, h, b] in m), not both or neither")
+    if m["box"] is not None:
+        for key in ("divisions",):
+            v = m[key]
+            if v is None or any(x != int(x) or x < 1 for x in v):
+                _fail(where, f"{k}.mesh.divisions", f"a box needs divisions = [nx, ny, nz], whole numbers >= 1, got {v}")
+        if any(x <= 0 for x in m["box"]):
+            _fail(where, f"{k}.mesh.box", f"expected positive sizes [L, h, b] in m, got {m['box']}")
+        m["divisions"] = [int(x) for x in m["divisions"]]
+    else:
+        if m["divisions"] is not None:
+            _fail(where, f"{k}.mesh.divisions", "only used with box")
+        f = Path(where).parent / m["file"]
+        if not f.is_file():
+            _fail(where, f"{k}.mesh.file", f"no such file {str(f)!r}")
+        m["file"] = str(f)
+    mesh = flexbody.solid_mesh(**m)                 # an import error is an InputError naming the file and line
+    if b["material"] is None:
+        if len(mesh.materials) != 1:
+            found = f"defines {len(mesh.materials)} materials" if mesh.materials else "defines no material"
+            _fail(where, f"{k}.material", f"missing, and the mesh file {found}: name one of the case's materials")
+    elif b["material"] not in d["materials"]:
+        _fail(where, f"{k}.material", f"no material {b['material']!r}{hint(b['material'], d['materials'])}")
+    if b["frame"] not in b["interfaces"]:
+        _fail(where, f"{k}.frame", f"no interface {b['frame']!r}{hint(b['frame'], b['interfaces'])}")
+    for name, i in b["interfaces"].items():
+        key = f"{k}.interfaces.{name}"
+        if i["set"] not in mesh.node_sets:
+            _fail(where, f"{key}.set", f"no node set {i['set']!r} in {mesh.source} (it has: "
+                  f"{', '.join(sorted(mesh.node_sets)) or 'none'})")
+        if name == b["frame"] and i["kind"] != "rigid":
+            _fail(where, f"{key}.kind", "the frame's interface is held by the clamped-interface modes, so it moves "
+                  "rigidly: kind = \"rigid\"")
+        if name != b["frame"] and i["kind"] == "rigid":
+            _fail(where, f"{key}.kind", "only the frame's interface can be rigid (the modes hold it); give "
+                  "kind = \"averaging\" here")
+    held = len(mesh.node_sets[b["interfaces"][b["frame"]]["set"]])
+    free = 3 * (mesh.n_nodes - held)
+    if b["modes"]["count"] > free:
+        _fail(where, f"{k}.modes.count", f"{b['modes']['count']} modes requested but the mesh has {free} free DOFs")
+
+
+def _check_solid_channel(c, body, where, k):
+    """A deflection at one of the solid's interfaces; a stress at a point [x, y, z] of the body frame."""
+    if c["fibre"] is not None:
+        _fail(where, f"{k}.fibre", "a fibre is a beam section's point; on a solid give point = [x, y, z] (m)")
+    if c["kind"] == "deflection":
+        if c["at"] is None:
+            _fail(where, f"{k}.at", "needs the name of one of the solid's interfaces")
+        _check_point(c["at"], body, where, f"{k}.at")
+        if c["point"] is not None:
+            _fail(where, f"{k}.point", "not used by a deflection channel (it is measured at the interface `at`)")
+        return
+    if c["at"] is not None:
+        _fail(where, f"{k}.at", "a solid's stress is at a point: give point = [x, y, z] (m, body frame)")
+    if c["point"] is None:
+        _fail(where, f"{k}.point", "needs a point [x, y, z] in m, body frame, inside the solid")
+    mesh = flexbody.solid_mesh(**body["mesh"])
+    frame = body["interfaces"][body["frame"]]
+    origin = flexbody.reference_point(mesh, frame["set"], frame["point"])
+    if flexbody.element_at(mesh, [x + o for x, o in zip(c["point"], origin)]) is None:
+        _fail(where, f"{k}.point", f"point {c['point']} m lies in no element of the solid's mesh")
+
+
 def _check_fibre(fibre, body, where, key):
     """A stress point (y, z) in the body axes that lies in the beam's section (round-off allowed)."""
     if len(fibre) != 2:
@@ -582,10 +668,17 @@ def _check_channel(name, c, bodies, joints, where):
             _fail(where, f"{k}.body", f"a {c['kind']} channel needs a body")
         if b not in bodies:
             _fail(where, f"{k}.body", f"no body {b!r}{hint(b, bodies)}")
-        if bodies[b]["type"] != "beam":
-            _fail(where, f"{k}.body", f"{c['kind']} needs a beam, {b!r} is rigid")
+        if bodies[b]["type"] == "rigid":
+            _fail(where, f"{k}.body", f"{c['kind']} needs a beam or a solid, {b!r} is rigid")
+        if bodies[b]["type"] == "solid":
+            _check_solid_channel(c, bodies[b], where, k)
+            return
+        if c["point"] is not None:
+            _fail(where, f"{k}.point", "a stress point [x, y, z] is for a solid; on a beam give `at` (m) and `fibre`")
         if c["at"] is None:
             _fail(where, f"{k}.at", "needs a position along the beam (m)")
+        if not isinstance(c["at"], (int, float)):
+            _fail(where, f"{k}.at", "on a beam give a position along it in m")
         if c["at"] > bodies[b]["length"]:
             _fail(where, f"{k}.at", f"position {c['at']} m lies beyond the beam's length {bodies[b]['length']} m")
         if c["fibre"] is not None:

@@ -1,4 +1,4 @@
-"""Finite-element pre-processor of a straight 3-D beam (SI units).
+"""Finite-element pre-processor of straight 3-D beams and of solids (SI units).
 
 The chain is a sequence of free functions on plain arrays::
 
@@ -11,8 +11,11 @@ The chain is a sequence of free functions on plain arrays::
 
 DOF order: node ``p`` owns global DOFs ``6 p + k``, ``k = [ux, uy, uz, rx, ry, rz]``
 (translations in m, then rotations in rad); ``rz = +duy/dx`` and ``ry = -duz/dx``.
+
+A solid: `mesh` (the Mesh arrays, the box mesher), `meshfile` (Abaqus, NASTRAN and Gmsh files),
+`solid` (isoparametric elements, assembly, clamped-interface modes, interfaces, stress); docs/fe.md.
 """
 
-from flexmbd.fe import assembly, element, modes, section, stress
+from flexmbd.fe import assembly, element, mesh, meshfile, modes, section, solid, stress
 
-__all__ = ["assembly", "element", "modes", "section", "stress"]
+__all__ = ["assembly", "element", "mesh", "meshfile", "modes", "section", "solid", "stress"]

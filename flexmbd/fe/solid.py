@@ -258,6 +258,38 @@ def stress_rows(mesh: Mesh, E: float, nu: float, kind: str, row: int, xi=None) -
     return elasticity(E, nu) @ strain_matrix(dNx[0, 0]), vector_dofs(cells)[0]
 
 
+# corner nodes of each face, ordered so that the face's normal (right-hand rule) points outward
+FACES = {"tet": ((0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2)),
+         "hex": ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))}
+
+
+def boundary_faces(mesh: Mesh) -> tuple:
+    """The mesh's boundary faces (those of one element only): (faces, owners) with faces a list of
+    corner-node index arrays (3 or 4 each, outward normal by the right-hand rule) and owners (nf,)
+    the index of each face's element in the order of `centres`."""
+    keys, faces, owners, first = {}, [], [], 0
+    for kind, cells in mesh.cells.items():
+        for local in FACES[kind[:3]]:
+            for e, f in enumerate(cells[:, list(local)]):
+                key = tuple(sorted(f))
+                if key in keys:
+                    keys[key] = None                                # shared: interior
+                else:
+                    keys[key] = len(faces)
+                    faces.append(f)
+                    owners.append(first + e)
+        first += cells.shape[0]
+    keep = sorted(i for i in keys.values() if i is not None)
+    return [faces[i] for i in keep], np.array([owners[i] for i in keep], dtype=int)
+
+
+def centre_stress_rows(mesh: Mesh, E: float, nu: float, elements: np.ndarray) -> list:
+    """[(S (6, 3nn), dofs (3nn,))] of `stress_rows` at the centres of the elements (indices in the
+    order of `centres`)."""
+    kinds, rows, _ = centres(mesh)
+    return [stress_rows(mesh, E, nu, str(kinds[e]), int(rows[e])) for e in elements]
+
+
 def von_mises(s: np.ndarray) -> np.ndarray:
     """von Mises stress of Voigt stresses (..., 6), Pa."""
     xx, yy, zz, yz, zx, xy = np.moveaxis(s, -1, 0)
@@ -279,11 +311,12 @@ def node_dofs(nodes: np.ndarray) -> np.ndarray:
     return (3 * np.asarray(nodes, dtype=int)[:, None] + np.arange(3)).ravel()
 
 
-def clamped_modes(K: sp.spmatrix, Ms: sp.spmatrix, held: np.ndarray, n: int) -> tuple:
+def clamped_modes(K: sp.spmatrix, Ms: sp.spmatrix, held: np.ndarray, n: int, nodes: np.ndarray) -> tuple:
     """The lowest n normal modes with the nodes `held` fixed (a clamped interface): frequencies
-    (n,) Hz and modes Phi (3N, n), M-orthonormal (M = Ms (x) I3), zero on `held`, each column's
-    largest entry positive. Sparse shift-invert Lanczos about 0 (K is positive definite once the
-    interface is held): only the free stiffness is factored; nothing dense of the mesh size is formed."""
+    (n,) Hz and modes Phi (3N, n), M-orthonormal (M = Ms (x) I3), zero on `held`, signed by
+    `signed` (nodes (N, 3): their positions). Sparse shift-invert Lanczos about 0 (K is positive
+    definite once the interface is held): only the free stiffness is factored; nothing dense of
+    the mesh size is formed."""
     N = Ms.shape[0]
     free = np.setdiff1d(np.arange(3 * N), node_dofs(held))
     M = vector_mass(Ms)
@@ -292,9 +325,22 @@ def clamped_modes(K: sp.spmatrix, Ms: sp.spmatrix, held: np.ndarray, n: int) -> 
     order = np.argsort(lam)
     Phi = np.zeros((3 * N, n))
     Phi[free] = X[:, order]
-    k = np.argmax(np.abs(Phi), axis=0)
-    Phi = Phi * np.where(Phi[k, np.arange(n)] < 0, -1.0, 1.0)
-    return np.sqrt(np.clip(lam[order], 0.0, None)) / (2.0 * np.pi), Phi
+    return np.sqrt(np.clip(lam[order], 0.0, None)) / (2.0 * np.pi), signed(Phi, nodes)
+
+
+# a fixed field with no symmetry (a constant and a generic linear part) against which mode signs
+# are set: unlike the sign of a column's largest entry, it does not depend on the node order of a
+# symmetric mesh, whose modes have entries of equal size and opposite sign
+SIGN_FIELD = (np.array([1.0, 1.3, 1.7]), np.array([[0.31, 0.73, 0.19], [0.53, 0.11, 0.97], [0.67, 0.43, 0.23]]))
+
+
+def signed(Phi: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """Modes (3N, n), each column's sign set so that its projection on SIGN_FIELD (evaluated at
+    the nodes (N, 3), centred and scaled to the mesh's extent) is positive: the same signs for the
+    same mesh whatever the order of its nodes."""
+    x = (nodes - nodes.mean(axis=0)) / max(float(np.ptp(nodes, axis=0).max()), 1e-300)
+    w = (SIGN_FIELD[0] + x @ SIGN_FIELD[1].T).ravel()
+    return Phi * np.where(w @ Phi < 0, -1.0, 1.0)
 
 
 def rigid_fields(x: np.ndarray, ref: np.ndarray) -> np.ndarray:

@@ -57,7 +57,11 @@ def where(case, name: str) -> str:
     c = case.channels[name]
     if c.kind in ("deflection", "stress_vm"):
         comp = f", {c.component}" if c.kind == "deflection" else ""
-        return f"{case.name}: {name} ({c.kind}{comp}) of {c.body} at x = {c.at:g} m"
+        if c.where is not None:                     # a solid's stress point
+            at = f"the element holding ({', '.join(f'{v:g}' for v in c.where)}) m"
+        else:
+            at = f"interface {c.at}" if isinstance(c.at, str) else f"x = {c.at:g} m"
+        return f"{case.name}: {name} ({c.kind}{comp}) of {c.body} at {at}"
     if c.kind == "joint_angle":
         what = "position" if channels.unit(case, name) == "m" else "angle"
         return f"{case.name}: {name} ({what} of joint {c.joint})"

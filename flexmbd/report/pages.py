@@ -15,7 +15,7 @@ import numpy as np
 
 from flexmbd import metrics, results, solvers
 from flexmbd.files import atomic_write
-from flexmbd.report import accuracy, convergence, figures, loading, shapes, spectra, tables
+from flexmbd.report import accuracy, convergence, fields, figures, loading, shapes, spectra, tables
 
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
@@ -132,6 +132,10 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     shape = shapes.section(case, ok, d, ref)                # the deformed shapes, right after the deflections
     if shape:
         sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0] == "Deflection"), 0), shape)
+    field = fields.section(case, ok, d, ref)                # a solid's stress field, after its stress channels
+    if field:
+        sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0].startswith("Stress")), len(sections)),
+                        field)
 
     # spectra of the deflection channels, with the identified peaks and the system's modes
     spec = [figures.spectra(case, n, ok, [f for f, _ in system], 0.5 / dt, d / f"fft_{n}.png")

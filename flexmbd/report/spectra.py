@@ -94,7 +94,7 @@ def moving_modes(case) -> dict:
         axis = 3 + "xyz".index(c.component)
         fb = bodies[c.body]
         out[ch] = {name: labels(other, np.abs(other.Phi[:, axis]).max(axis=0)) for name, other in bodies.items()}
-        out[ch][c.body] = labels(fb, np.abs(fb.Phi[fb.node_at(c.at), axis]))
+        out[ch][c.body] = labels(fb, np.abs(fb.Phi[c.point.node, axis]))       # its snapped node, or interface
     return out
 
 
