@@ -62,7 +62,8 @@ def figure(case, body: str, results: dict, path: Path, reference: str | None = N
                 ax.set_visible(False)
                 continue
             vm = np.asarray(f["vm"][f["t"].index(t)], dtype=float)[faces]
-            pc = PolyCollection(polys, array=vm / 1e6, cmap="viridis", clim=(0.0, top / 1e6), edgecolors="none")
+            pc = PolyCollection(polys, array=vm / 1e6, cmap="viridis", clim=(0.0, top / 1e6), edgecolors="face",
+                                linewidths=0.3)                     # edges in the face colour: no seams
             ax.add_collection(pc)
             ax.autoscale_view()
             ax.tick_params(labelsize=7)
