@@ -385,24 +385,35 @@ def solid_order(body) -> list:
     return [body.frame] + [n for n in body.interfaces if n != body.frame]
 
 
+def solid_modes(body, mesh, K, Ms, ref: dict) -> tuple:
+    """A case solid's mode set (`fe.solid.interface_modes`, its `modes.boundary`): (Hz (nm,),
+    Phi (3N, nm)); ref: each interface's reference point, mesh coordinates."""
+    faces, sets = body.interfaces, mesh.node_sets
+    frame = faces[body.frame]
+    held = sets[frame.set] if body.modes.boundary != "free-free" else ()
+    rigid = [(sets[f.set], ref[n]) for n, f in faces.items() if f.kind == "rigid" and n != body.frame]
+    avg = [(sets[f.set], ref[n]) for n, f in faces.items() if f.kind == "averaging" and n != body.frame]
+    return solid.interface_modes(K, Ms, mesh.nodes, body.modes.boundary, body.modes.count, held=held, rigid=rigid,
+                                 averaging=avg, frame=(sets[frame.set], ref[body.frame]))
+
+
 def solid_body(body, stress_points=()) -> FlexBody:
-    """Reduce a case solid (`cases.Solid`) to a FlexBody: clamped-interface normal modes (the
-    frame interface's nodes held), orthonormal in the consistent mass; `stress_points` (k, 3):
-    body-frame points whose elements' centre stresses the channels need."""
+    """Reduce a case solid (`cases.Solid`) to a FlexBody: its mode set (`solid_modes`), orthonormal
+    in the consistent mass; `stress_points` (k, 3): body-frame points whose elements' centre
+    stresses the channels need."""
     mesh, mat = solid_mesh(**dataclasses.asdict(body.mesh)), body.material
     K, Ms = solid.stiffness(mesh, mat.E, mat.nu), solid.scalar_mass(mesh, mat.rho)
     faces = {n: body.interfaces[n] for n in solid_order(body)}
     ref = {n: reference_point(mesh, f.set, f.point) for n, f in faces.items()}
     origin = ref[body.frame]
     nm, N = body.modes.count, mesh.n_nodes
-    held = mesh.node_sets[faces[body.frame].set]
-    freq, Phi3 = solid.clamped_modes(K, Ms, held, nm, mesh.nodes) if nm else (np.zeros(0), np.zeros((3 * N, 0)))
+    freq, Phi3 = solid_modes(body, mesh, K, Ms, ref) if nm else (np.zeros(0), np.zeros((3 * N, 0)))
     Pt = Phi3.reshape(N, 3, nm)
     k = len(faces)
     Phi = np.zeros((k + N, 6, nm))
     Phi[k:, 3:, :] = Pt
     for i, (name, face) in enumerate(faces.items()):
-        if i:                                           # an averaging interface: its nodes' rigid fit
+        if i:                                           # any other interface: its nodes' rigid fit (a rigid one's: exact)
             nodes = mesh.node_sets[face.set]
             A = solid.averaging(mesh.nodes[nodes], ref[name])
             Phi[i] = A @ Phi3[solid.node_dofs(nodes)]
@@ -419,7 +430,7 @@ def solid_body(body, stress_points=()) -> FlexBody:
     return FlexBody(
         name=body.name, length=solid_length(body.mesh), x0=x0, m=m, J=np.zeros((k + N, 3, 3)),
         Phi=Phi, freq_hz=freq, labels=solid_labels(m[k:], Pt), Km=Km,
-        Cm=np.diag(2.0 * body.damping_ratio * 2.0 * np.pi * freq), boundary="clamped-interface",
+        Cm=np.diag(2.0 * body.damping_ratio * 2.0 * np.pi * freq), boundary=body.modes.boundary,
         stress_x=np.zeros(0), S_strain=np.zeros((0, 4, nm)), D=np.zeros((k + N, nm, nm)),
         Mx0=pad(Ms @ x), MPt=pad((Ms @ Pt.reshape(N, -1)).reshape(N, 3, nm)),
         S_solid=np.array(S).reshape(len(S), 6, nm))

@@ -136,9 +136,9 @@ def test_solid_not_applicable_reasons():
         tip = f"joints.tipjoint={{type='{jt}', parent='block', child='weight', at='tip'}}"
         c = cases.load("brick_pendulum", [WEIGHT, tip])
         assert str(solvers.status_for(c, "exudyn-ffrf")) == (
-            f"not applicable: joint 'tipjoint': a {jt} joint at the averaging interface 'tip' of solid 'block' needs "
-            f"the interface's rotation (the rigid fit of its nodes), which Exudyn's super-element marker on its "
-            f"reference node does not give (its position only: spherical joints)")
+            f"not applicable: joint 'tipjoint': a {jt} joint at interface 'tip' of solid 'block' (not its frame's) "
+            f"needs the interface's rotation, which Exudyn's super-element marker on its reference node does not "
+            f"give (its position only: spherical joints)")
     loop = cases.load("brick_pendulum", [
         WEIGHT, "joints.lj={type='revolute', parent='ground', child='weight', at=[0.3, 0.0, 0.0]}",
         "joints.cut={type='spherical', parent='block', child='weight', at='tip', child_at=[0.0, 0.0, 0.0], loop=true}"])

@@ -168,3 +168,73 @@ def test_mode_signs_do_not_depend_on_the_node_order():
     assert single == [2]                                                # the torsion mode
     for k in single:
         assert np.allclose(modes[1][inv][:, :, k], modes[0][:, :, k], atol=1e-9 * np.abs(modes[0][:, :, k]).max()), k
+
+
+def small_bar():
+    m = mesh.box(0.3, 0.02, 0.03, (6, 1, 2), "hex20")
+    return m, solid.stiffness(m, E, NU), solid.scalar_mass(m, RHO)
+
+
+def test_a_rigid_interface_against_its_constraint_as_a_null_space():
+    """`constraint_basis` (the tip face moving with its reference point's six coordinates) against
+    the same constraint written on the node DOFs, (1 - R R^+) u_set = 0, whose null space a dense
+    SVD gives: the clamped-interface frequencies agree to 1e-8 (seen 1e-12)."""
+    import scipy.linalg as sla
+    m, K, Ms = small_bar()
+    tip, ref = m.node_sets["xL"], np.array([0.3, 0.0, 0.0])
+    f, Phi = solid.interface_modes(K, Ms, m.nodes, "clamped-interface", 6, held=m.node_sets["x0"], rigid=[(tip, ref)])
+    R = solid.rigid_fields(m.nodes[tip], ref)
+    P = np.eye(R.shape[0]) - R @ np.linalg.pinv(R)                       # rows: the set's non-rigid part
+    G = np.zeros((P.shape[0] + 3 * len(m.node_sets["x0"]), K.shape[0]))
+    G[:P.shape[0], solid.node_dofs(tip)] = P
+    G[P.shape[0] + np.arange(3 * len(m.node_sets["x0"])), solid.node_dofs(m.node_sets["x0"])] = 1.0
+    Z = sla.null_space(G)
+    Kz, Mz = Z.T @ K.toarray() @ Z, Z.T @ solid.vector_mass(Ms).toarray() @ Z
+    theirs = np.sqrt(sla.eigh(Kz, Mz, eigvals_only=True, subset_by_index=[0, 5])) / (2 * np.pi)
+    assert np.abs(f / theirs - 1).max() < 1e-8
+    moved = Phi[solid.node_dofs(tip)]                                    # the face moves rigidly
+    assert np.abs(P @ moved).max() < 1e-10 * np.abs(moved).max()
+
+
+def test_craig_bampton_spans_the_static_responses_at_its_interfaces():
+    """The static response to a force and moment at an averaging interface, and to a unit motion of
+    a rigid interface, lie in the Craig-Bampton set (attachment and constraint modes), to 1e-8."""
+    m, K, Ms = small_bar()
+    M = solid.vector_mass(Ms)
+    held, mid = m.node_sets["x0"], np.flatnonzero(np.isclose(m.nodes[:, 0], 0.15))
+    tip, ref = m.node_sets["xL"], np.array([0.3, 0.0, 0.0])
+    f, Phi = solid.interface_modes(K, Ms, m.nodes, "craig-bampton", 14, held=held,
+                                   rigid=[(mid, np.array([0.15, 0.0, 0.0]))], averaging=[(tip, ref)])
+    T = solid.constraint_basis(m.n_nodes, m.nodes, held, [(mid, np.array([0.15, 0.0, 0.0]))])
+    Kr = (T.T @ K @ T).tocsc()
+    F = np.zeros(K.shape[0])
+    F[solid.node_dofs(tip)] = solid.averaging(m.nodes[tip], ref).T @ np.array([0.3, -0.2, 0.5, 10.0, -40.0, 25.0])
+    u = T @ spla.spsolve(Kr, T.T @ F)                                    # the interface's ref free too
+    c = Phi.T @ (M @ u)                                                   # M-orthonormal: the projection
+    assert np.linalg.norm(u - Phi @ c) < 1e-8 * np.linalg.norm(u)
+    inner = np.arange(Kr.shape[0] - 6)
+    e = np.zeros(Kr.shape[0])
+    e[-5] = 1e-3                                                          # the rigid interface's y translation
+    x = e.copy()
+    x[inner] = -spla.spsolve(Kr[inner][:, inner].tocsc(), Kr[inner] @ e)
+    u = T @ x
+    assert np.linalg.norm(u - Phi @ (Phi.T @ (M @ u))) < 1e-8 * np.linalg.norm(u)
+    assert np.allclose(Phi.T @ (M @ Phi), np.eye(14), atol=1e-10)
+
+
+def test_free_free_modes_less_the_frame_fit_span_the_free_free_modes():
+    """Free-free modes with the rigid motion fitting the frame interface removed span, with the six
+    rigid fields, what the free-free modes span (those of a dense eigensolution, to 1e-8), and the
+    frame interface's fit is zero in each."""
+    import scipy.linalg as sla
+    m, K, Ms = small_bar()
+    M = solid.vector_mass(Ms)
+    frame = (m.node_sets["x0"], np.zeros(3))
+    f, Phi = solid.interface_modes(K, Ms, m.nodes, "free-free", 5, frame=frame)
+    fit = solid.averaging(m.nodes[frame[0]], frame[1]) @ Phi[solid.node_dofs(frame[0])]
+    assert np.abs(fit).max() < 1e-10 * np.abs(Phi).max()
+    lam, X = sla.eigh(K.toarray(), M.toarray(), subset_by_index=[0, 10])
+    X = X[:, 6:]                                                          # the five lowest elastic ones
+    B = np.hstack([Phi, solid.rigid_fields(m.nodes, frame[1])])
+    Q, _ = np.linalg.qr(B)
+    assert np.linalg.norm(X - Q @ (Q.T @ X)) < 1e-8 * np.linalg.norm(X)

@@ -160,3 +160,32 @@ def test_solvers_without_solids_say_so(tmp_path):
         status = solvers.status_for(case, name)
         assert status.startswith(("not applicable", "unavailable")), (name, status)
     assert solvers.status_for(case, "flexmbd") == "" and solvers.status_for(case, "fe-linear") == ""
+
+
+def test_craig_bampton_modes_with_a_rigid_tip_against_the_full_order_solid(tmp_path):
+    """A rigid (RBE2-like) tip interface and Craig-Bampton modes (its six constraint modes and the
+    normal modes with it held): flexmbd against fe-linear's whole mesh under the same constraint
+    (`fe.solid.constraint_basis`), as in test_modal_solid_against_the_full_order_solid."""
+    mesh = 'box = [0.1, 0.02, 0.03], divisions = [4, 1, 2], element = "hex20"'
+    path = case_file(tmp_path, mesh, "x0", "xL", count=30, duration=0.005)
+    text = path.read_text().replace('[bodies.block.interfaces.tip]\nset = "xL"',
+                                    '[bodies.block.interfaces.tip]\nset = "xL"\nkind = "rigid"')
+    path.write_text(text.replace('modes = { count = 30 }', 'modes = { count = 30, boundary = "craig-bampton" }'))
+    case = cases.load(str(path), ["solvers.fe-linear.dt=2.5e-7"])
+    assert case.reduced("block").boundary == "craig-bampton"
+    a, b = solvers.run(case, "flexmbd"), solvers.run(case, "fe-linear")
+    rel = {c: np.sqrt(np.mean((a.channels[c] - b.channels[c]) ** 2)) / np.abs(b.channels[c]).max()
+           for c in ("tip_y", "stress")}
+    assert rel["tip_y"] < 0.01 and rel["stress"] < 0.03, rel      # the case tolerances (seen 0.09 %, 2.2 %)
+
+
+def test_free_free_modes_of_a_hinged_block_in_flexmbd_and_exudyn(tmp_path):
+    """brick_pendulum with free-free modes (the hinge face's fitted reference point as the frame):
+    flexmbd and exudyn-ffrf (its own invariants from the consistent mass) over 0.05 s."""
+    pytest.importorskip("exudyn")
+    case = cases.load("brick_pendulum", ['bodies.block.modes.boundary="free-free"', "bodies.block.modes.count=6",
+                                         'bodies.block.interfaces.hinge.kind="averaging"'])
+    a, b = solvers.run(case, "flexmbd", 0.05), solvers.run(case, "exudyn-ffrf", 0.05)
+    assert a.status.ok and b.status.ok
+    d = np.sqrt(np.mean((a.channels["tip_deflection"] - b.channels["tip_deflection"]) ** 2))
+    assert d < 0.005 * np.abs(b.channels["tip_deflection"]).max()         # the case's tolerance

@@ -17,8 +17,8 @@ mesh's consistent mass Ms (x) I3 in place of the lumped one (`solid_mass`: zero 
 interface nodes, Ms rebuilt by `fe.solid.scalar_mass`), so Exudyn's invariants are flexmbd's
 (`invariants.mass_sums`); one massless node at the centre of mass is appended (`mass_centre`) to
 carry gravity. Joints at the frame interface are joints at the reference node; at another
-(averaging) interface a spherical joint or a load acts on that interface's reference node (its
-mode rows are the rigid fit of its node set), any other joint there is not applicable, as is a
+interface a spherical joint or a load acts on that interface's reference node (its mode rows are
+the rigid fit of its node set, exact for a rigid one), any other joint there is not applicable, as is a
 cut joint on a solid in a planar case (it holds x and y only; a solid's modes leave the plane). Channels:
 the interfaces' positions from Exudyn's nodes, the stresses from the modal coordinates and the
 FlexBody's modal stresses (`channels.modal_solid`), the kinetic energy with Ms.
@@ -127,9 +127,9 @@ def applies(case) -> str:
         if j.motion is not None:
             return f"joint {jn!r}: prescribed motion on a flexible node"
         if parent.type == "solid" and j.type != "spherical":
-            return (f"joint {jn!r}: a {j.type} joint at the averaging interface {j.point.x!r} of solid "
-                    f"{j.parent!r} needs the interface's rotation (the rigid fit of its nodes), which Exudyn's "
-                    f"super-element marker on its reference node does not give (its position only: spherical joints)")
+            return (f"joint {jn!r}: a {j.type} joint at interface {j.point.x!r} of solid {j.parent!r} (not its "
+                    f"frame's) needs the interface's rotation, which Exudyn's super-element marker on its reference "
+                    f"node does not give (its position only: spherical joints)")
         if j.type == "spherical" or (j.type == "revolute" and not planar):
             continue
         if j.type == "revolute":

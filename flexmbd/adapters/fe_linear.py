@@ -93,7 +93,7 @@ def run(case, t_end, settings):
     t_out = common.sample_times(case, t_end)
     stride = max(int(round(out_dt / dt)), 1)
     dt = out_dt / stride
-    force = lambda t: (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))[free]
+    force = lambda t: T.T @ (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))
     step = newmark if scheme == "newmark" else exact
     setup_s = time.perf_counter() - t_start
 
@@ -147,7 +147,11 @@ def run_solid(case, name: str, t_end, settings, t_start: float):
     ref = {n: flexbody.reference_point(mesh, f.set, f.point) for n, f in face.items()}
     fit = {n: solid.averaging(mesh.nodes[mesh.node_sets[f.set]], ref[n]) for n, f in face.items()}
     dofs = {n: solid.node_dofs(mesh.node_sets[f.set]) for n, f in face.items()}
-    free = np.setdiff1d(np.arange(n_dof), dofs[body.frame])
+    # the frame interface's nodes held (the fixed joint), a rigid interface's nodes moving with its
+    # reference point: the whole mesh in the coordinates T maps to its DOFs (`fe.solid.constraint_basis`)
+    T = solid.constraint_basis(mesh.n_nodes, mesh.nodes, mesh.node_sets[face[body.frame].set],
+                               [(mesh.node_sets[f.set], ref[n]) for n, f in face.items()
+                                if f.kind == "rigid" and n != body.frame])
 
     loads = []
     for ld in case.loads.values():                      # [m; f] at the interface, spread over its nodes
@@ -155,13 +159,13 @@ def run_solid(case, name: str, t_end, settings, t_start: float):
         f[dofs[ld.point.x]] = fit[ld.point.x].T @ np.r_[0.0, 0.0, 0.0, common.body_force(case, ld)]
         loads.append((f, ld.profile))
     fg = M @ np.tile(common.gravity_body(case), mesh.n_nodes)
-    Kf, Mf = K[free][:, free].tocsc(), M[free][:, free].tocsc()
+    Kf, Mf = (T.T @ K @ T).tocsr(), (T.T @ M @ T).tocsc()
     out_dt = case.integrator.output_dt
     dt = settings.get("dt") or 5e-5
     t_out = common.sample_times(case, t_end)
     stride = max(int(round(out_dt / dt)), 1)
     dt = out_dt / stride
-    force = lambda t: (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))[free]
+    force = lambda t: T.T @ (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))
     setup_s = time.perf_counter() - t_start
     t_solve = time.perf_counter()
     bar = Progress(float(t_out[-1]), f"{case.name} / fe-linear")
@@ -169,8 +173,7 @@ def run_solid(case, name: str, t_end, settings, t_start: float):
     bar.close()
     wall_s = time.perf_counter() - t_solve
 
-    u = np.zeros((t_out.size, n_dof))
-    u[:, free] = U
+    u = np.asarray((T @ U.T).T)
     origin = ref[body.frame]
     keys = channels.points_needed(case, name)
     points = {k: ref[k] - origin + (u[:, dofs[k]] @ fit[k].T)[:, 3:] for k in keys}
@@ -188,12 +191,10 @@ def run_solid(case, name: str, t_end, settings, t_start: float):
                          surface=surface)
     traj = channels.Trajectory(t=t_out, beams={name: beam})
     if channels.wants_energy(case):
-        v = np.zeros_like(u)
-        v[:, free] = V
-        traj.energy = {"total": energy(u, v, K, M, fg)}
+        traj.energy = {"total": energy(u, np.asarray((T @ V.T).T), K, M, fg)}
     return Result(solver="fe-linear", case=case.name, t=t_out, wall_s=wall_s, setup_s=setup_s,
                   steps=(t_out.size - 1) * stride, rhs_evals=(t_out.size - 1) * stride,
-                  settings={"dt": dt, "scheme": "newmark", "dofs": int(free.size), "mesh": mesh.source,
+                  settings={"dt": dt, "scheme": "newmark", "dofs": int(T.shape[1]), "mesh": mesh.source,
                             "nodes": mesh.n_nodes}, trajectory=traj)
 
 

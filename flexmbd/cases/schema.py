@@ -64,13 +64,13 @@ MESH = {
 
 INTERFACE = {
     "set": ("str", REQUIRED),           # a node set of the mesh (a box has "x0" and "xL", its end faces)
-    "kind": (("rigid", "averaging"), "averaging"),  # RBE2-like (only the frame's) or RBE3-like
+    "kind": (("rigid", "averaging"), "averaging"),  # RBE2-like (moves rigidly) or RBE3-like (a weighted fit)
     "point": ("vec3", None),            # reference point, mesh coordinates, m (default: the set's centroid)
 }
 
 SOLID_MODES = {
     "count": ("int0+", REQUIRED),
-    "boundary": (("clamped-interface",), "clamped-interface"),  # normal modes with the frame interface held
+    "boundary": (("clamped-interface", "craig-bampton", "free-free"), "clamped-interface"),  # fe.solid.interface_modes
 }
 
 SOLID = {

@@ -597,19 +597,29 @@ def _check_solid(b, d, where, k):
         _fail(where, f"{k}.material", f"no material {b['material']!r}{hint(b['material'], d['materials'])}")
     if b["frame"] not in b["interfaces"]:
         _fail(where, f"{k}.frame", f"no interface {b['frame']!r}{hint(b['frame'], b['interfaces'])}")
+    boundary, taken = b["modes"]["boundary"], {}
     for name, i in b["interfaces"].items():
         key = f"{k}.interfaces.{name}"
         if i["set"] not in mesh.node_sets:
             _fail(where, f"{key}.set", f"no node set {i['set']!r} in {mesh.source} (it has: "
                   f"{', '.join(sorted(mesh.node_sets)) or 'none'})")
-        if name == b["frame"] and i["kind"] != "rigid":
-            _fail(where, f"{key}.kind", "the frame's interface is held by the clamped-interface modes, so it moves "
-                  "rigidly: kind = \"rigid\"")
-        if name != b["frame"] and i["kind"] == "rigid":
-            _fail(where, f"{key}.kind", "only the frame's interface can be rigid (the modes hold it); give "
-                  "kind = \"averaging\" here")
-    held = len(mesh.node_sets[b["interfaces"][b["frame"]]["set"]])
-    free = 3 * (mesh.n_nodes - held)
+        if name == b["frame"] and boundary != "free-free" and i["kind"] != "rigid":
+            _fail(where, f"{key}.kind", f"{boundary} modes hold the frame's interface, so it moves rigidly: "
+                  "kind = \"rigid\"")
+        if name == b["frame"] and boundary == "free-free" and i["kind"] != "averaging":
+            _fail(where, f"{key}.kind", "free-free modes leave the frame's interface free: its reference point is "
+                  "their rigid fit, kind = \"averaging\" (a rigid frame interface makes them clamped-interface modes)")
+        if i["kind"] == "rigid":                    # a rigid set's nodes are its reference point's: no other's
+            for n_ in mesh.node_sets[i["set"]]:
+                if n_ in taken:
+                    _fail(where, f"{key}.set", f"node {int(mesh.node_ids[n_])} of set {i['set']!r} is also in "
+                          f"interface {taken[n_]!r}: a rigid interface's nodes belong to it alone")
+                taken[int(n_)] = name
+    if boundary == "craig-bampton" and b["modes"]["count"] < 6 * (len(b["interfaces"]) - 1):
+        _fail(where, f"{k}.modes.count", f"craig-bampton modes hold six per interface besides the frame's: at least "
+              f"{6 * (len(b['interfaces']) - 1)}, got {b['modes']['count']}")
+    held = len(mesh.node_sets[b["interfaces"][b["frame"]]["set"]]) if boundary != "free-free" else 0
+    free = 3 * (mesh.n_nodes - held) - (6 if boundary == "free-free" else 0)
     if b["modes"]["count"] > free:
         _fail(where, f"{k}.modes.count", f"{b['modes']['count']} modes requested but the mesh has {free} free DOFs")
 

@@ -328,6 +328,112 @@ def clamped_modes(K: sp.spmatrix, Ms: sp.spmatrix, held: np.ndarray, n: int, nod
     return np.sqrt(np.clip(lam[order], 0.0, None)) / (2.0 * np.pi), signed(Phi, nodes)
 
 
+def constraint_basis(N: int, nodes: np.ndarray, held=(), rigid=()) -> sp.csr_matrix:
+    """T (3N, m): the node DOFs of a mesh of N nodes (positions nodes (N, 3)) from its reduced
+    coordinates: first the DOFs of every node neither `held` nor in a rigid set (the identity),
+    then six per rigid (RBE2-like) interface of `rigid` [(set (k,), reference point (3,))]: its
+    reference point's [rotation; translation], which move its set as one rigid body
+    (`rigid_fields`). Held nodes have no coordinate; the sets must not share nodes."""
+    fixed = np.concatenate([np.asarray(held, dtype=int)] + [np.asarray(s, dtype=int) for s, _ in rigid])
+    keep = np.setdiff1d(np.arange(3 * N), node_dofs(fixed))
+    rows, cols, vals = [keep], [np.arange(keep.size)], [np.ones(keep.size)]
+    for j, (s, ref) in enumerate(rigid):
+        R = rigid_fields(nodes[np.asarray(s, dtype=int)], ref)                      # (3k, 6)
+        r, c = np.nonzero(R)
+        rows.append(node_dofs(s)[r])
+        cols.append(keep.size + 6 * j + c)
+        vals.append(R[r, c])
+    m = keep.size + 6 * len(rigid)
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(3 * N, m))
+
+
+def interface_modes(K, Ms, nodes: np.ndarray, boundary: str, n: int, held=(), rigid=(), averaging=(),
+                    frame=None) -> tuple:
+    """The lowest n modes of a solid's mode set: frequencies (n,) Hz of the reduced body (from
+    Phi^T K Phi) and modes Phi (3N, n), M-orthonormal (M = Ms (x) I3), K-diagonal, ascending,
+    signed (`signed`). Rigid interfaces `rigid` [(set, ref)] move rigidly in every mode
+    (`constraint_basis`); `held` nodes are zero. The mode sets (docs/fe.md, Solids):
+
+    clamped-interface  the normal modes with `held` (the frame interface) fixed
+    craig-bampton      `held` fixed; six constraint modes per rigid interface (unit motion of its
+                       reference point, the rest static), six attachment modes per averaging
+                       interface of `averaging` [(set, ref)] (its reference point's unit forces
+                       and moments spread by `averaging`, static), and as many of the lowest
+                       normal modes with every rigid interface held too as make n: the whole set,
+                       orthonormalized (Rayleigh-Ritz), so that it holds every static response to
+                       its interfaces exactly
+    free-free          nothing held: the lowest n elastic normal modes, each less the rigid motion
+                       that fits the frame interface `frame` = (set, ref) (`averaging`), so that
+                       the interface's fitted reference point stays at the body frame; the lowest
+                       n of their span (Rayleigh-Ritz)
+    """
+    N = Ms.shape[0]
+    T = constraint_basis(N, nodes, held, rigid)
+    M = vector_mass(Ms)
+    Kr, Mr = (T.T @ K @ T).tocsc(), (T.T @ M @ T).tocsc()
+    if boundary == "clamped-interface":
+        X = spla.eigsh(Kr, k=n, M=Mr, sigma=0.0, which="LM")[1]
+    elif boundary == "craig-bampton":
+        m_iface = 6 * len(rigid)
+        inner = np.arange(Kr.shape[0] - m_iface)
+        lu = spla.splu(Kr[inner][:, inner].tocsc())
+        blocks = []
+        if m_iface:                                     # constraint modes: [-Kii^-1 Kib; I]
+            Kib = Kr[inner][:, inner.size:].toarray()
+            blocks.append(np.vstack([-lu.solve(Kib), np.eye(m_iface)]))
+        if averaging:                                   # attachment modes: Kr^-1 T^T A^T e_j
+            F = np.zeros((3 * N, 6 * len(averaging)))
+            for j, (s, ref) in enumerate(averaging):
+                F[node_dofs(s), 6 * j:6 * j + 6] = averaging_map(nodes[np.asarray(s, dtype=int)], ref).T
+            blocks.append(spla.splu(Kr).solve(np.asarray(T.T @ F)))
+        n_normal = n - sum(b.shape[1] for b in blocks)
+        if n_normal < 0:
+            raise ValueError(f"{n} Craig-Bampton modes cannot hold the {n - n_normal} interface modes")
+        if n_normal:
+            V = spla.eigsh(Kr[inner][:, inner].tocsc(), k=n_normal, M=Mr[inner][:, inner].tocsc(), sigma=0.0,
+                           which="LM")[1]
+            blocks.append(np.vstack([V, np.zeros((m_iface, n_normal))]))
+        X = ritz(Kr, Mr, np.hstack(blocks), n)
+    elif boundary == "free-free":
+        scale = float(np.max(Kr.diagonal() / np.maximum(Mr.diagonal(), 1e-300)))
+        lam, X = spla.eigsh(Kr, k=n + 6, M=Mr, sigma=-1e-9 * scale, which="LM")
+        X = X[:, np.argsort(lam)[6:]]                   # the six rigid-body modes first
+        Phi = T @ X
+        s, ref = frame
+        fit = averaging_map(nodes[np.asarray(s, dtype=int)], ref) @ Phi[node_dofs(s)]       # (6, n)
+        Phi = Phi - rigid_fields(nodes, ref) @ fit
+        return _ritz_hz(K, M, ritz(K.tocsc(), M.tocsc(), Phi, n), nodes)
+    else:
+        raise ValueError(f"mode set {boundary!r}")
+    return _ritz_hz(K, M, T @ X, nodes)
+
+
+def averaging_map(x: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """`averaging` with unit weights (the interfaces of a case)."""
+    return averaging(x, ref)
+
+
+def ritz(K, M, B: np.ndarray, n: int) -> np.ndarray:
+    """The lowest n Rayleigh-Ritz vectors (rows of K, M, n) in the span of B: M-orthonormal,
+    K-diagonal, ascending (B's dependent directions dropped; its columns scaled to unit M-norm first,
+    so that a constraint mode in m per rad and an attachment mode in m per N weigh alike)."""
+    W = B / np.sqrt(np.maximum(np.einsum("ik,ik->k", B, M @ B), 1e-300))
+    for tol in (1e-12, 0.0):                            # twice: the second pass restores what round-off
+        Mb = W.T @ (M @ W)                              # took from an ill-conditioned first one
+        d, U = np.linalg.eigh(0.5 * (Mb + Mb.T))
+        keep = d > tol * d.max()
+        W = W @ (U[:, keep] / np.sqrt(d[keep]))         # M-orthonormal basis of the span
+    Kb = W.T @ (K @ W)
+    lam, V = np.linalg.eigh(0.5 * (Kb + Kb.T))
+    return W @ V[:, :n]
+
+
+def _ritz_hz(K, M, Phi: np.ndarray, nodes: np.ndarray) -> tuple:
+    """(frequencies (n,) Hz from Phi^T K Phi, Phi signed) of M-orthonormal, K-diagonal modes."""
+    lam = np.einsum("ik,ik->k", Phi, K @ Phi)
+    return np.sqrt(np.clip(lam, 0.0, None)) / (2.0 * np.pi), signed(Phi, nodes)
+
+
 # a fixed field with no symmetry (a constant and a generic linear part) against which mode signs
 # are set: unlike the sign of a column's largest entry, it does not depend on the node order of a
 # symmetric mesh, whose modes have entries of equal size and opposite sign
