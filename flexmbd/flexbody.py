@@ -53,11 +53,14 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
 from dataclasses import dataclass, fields
+from pathlib import Path
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from flexmbd.errors import InputError
 from flexmbd.fe import assembly, element, meshfile, modes, section, solid, stress
 from flexmbd.fe import mesh as fe_mesh
 from flexmbd.files import atomic_write
@@ -313,22 +316,72 @@ def load(path) -> FlexBody:
 # ---------------------------------------------------------------------------------------------
 # solids (docs/fe.md, Solids)
 
-def solid_mesh(file=None, units="m", box=None, divisions=None, element="hex20") -> fe_mesh.Mesh:
+def solid_mesh(file=None, units="m", box=None, divisions=None, element="hex20", stiffness=None,
+               mass=None) -> fe_mesh.Mesh:
     """The mesh of a case solid's `mesh` table (validated: `file` absolute), read or built once
     per content (an import error is an InputError naming the file and line)."""
     if file is not None:
-        return _mesh_file(str(file), units)
+        return _mesh_file(str(file), units, digest(file))
     return _mesh_box(tuple(box), tuple(int(n) for n in divisions), element)
 
 
+def digest(path) -> str:
+    """SHA-256 (hex) of a file's bytes ('' when it cannot be read: its reader says why): what a
+    cached reading of it is keyed by, so that an edited file is read again."""
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return ""
+
+
 @functools.lru_cache(maxsize=8)
-def _mesh_file(path: str, units: str) -> fe_mesh.Mesh:
+def _mesh_file(path: str, units: str, sha256: str) -> fe_mesh.Mesh:
     return meshfile.read(path, units)
 
 
 @functools.lru_cache(maxsize=8)
 def _mesh_box(box: tuple, n: tuple, kind: str) -> fe_mesh.Mesh:
     return fe_mesh.box(*box, n, kind)
+
+
+def solid_matrices(body) -> tuple:
+    """(K (3N, 3N), Ms (N, N)) of a case solid: its mesh's own assembly (`fe.solid`), or the
+    matrices of its Abaqus matrix files where the case names them (`matrix_file`); once per content."""
+    spec = body.mesh
+    files = tuple(digest(f) if f else "" for f in (spec.file, spec.stiffness, spec.mass))
+    return _solid_matrices(spec, body.material.E, body.material.nu, body.material.rho, files)
+
+
+@functools.lru_cache(maxsize=8)
+def _solid_matrices(spec, E: float, nu: float, rho: float, files: tuple) -> tuple:
+    mesh = solid_mesh(**dataclasses.asdict(spec))
+    ids = tuple(mesh.node_ids)
+    K = matrix_file(spec.stiffness, spec.units, ids, "stiffness") if spec.stiffness else solid.stiffness(mesh, E, nu)
+    Ms = matrix_file(spec.mass, spec.units, ids, "mass") if spec.mass else solid.scalar_mass(mesh, rho)
+    return K, Ms
+
+
+def matrix_file(path: str, units: str, node_ids: tuple, what: str):
+    """`_matrix_file`, cached by the file's content."""
+    return _matrix_file(path, units, node_ids, what, digest(path))
+
+
+@functools.lru_cache(maxsize=8)
+def _matrix_file(path: str, units: str, node_ids: tuple, what: str, sha256: str):
+    """A solid's matrix from an Abaqus matrix file (`fe.meshfile.read_mtx`, over the mesh's nodes):
+    the stiffness K (3N, 3N) as it is; the mass as its scalar Ms (N, N), the file's M having to be
+    Ms (x) I3 (an isotropic solid's consistent mass) to 1e-9 of its largest entry: an InputError
+    naming the file otherwise."""
+    A = meshfile.read_mtx(path, np.asarray(node_ids), units)
+    if what == "stiffness":
+        return A
+    Ms = A[0::3, 0::3].tocsr()
+    gap = abs(A - solid.vector_mass(Ms)).max() if A.nnz else 0.0
+    if gap > 1e-9 * abs(A).max():
+        raise InputError(f"{path}: not a solid's consistent mass (M = Ms (x) I3, the same on x, y and z and no "
+                         f"coupling between them): it differs from that form by {gap:.3g} (largest entry "
+                         f"{abs(A).max():.3g})")
+    return Ms
 
 
 def reference_point(mesh: fe_mesh.Mesh, node_set: str, point=None) -> np.ndarray:
@@ -402,7 +455,7 @@ def solid_body(body, stress_points=()) -> FlexBody:
     in the consistent mass; `stress_points` (k, 3): body-frame points whose elements' centre
     stresses the channels need."""
     mesh, mat = solid_mesh(**dataclasses.asdict(body.mesh)), body.material
-    K, Ms = solid.stiffness(mesh, mat.E, mat.nu), solid.scalar_mass(mesh, mat.rho)
+    K, Ms = solid_matrices(body)
     faces = {n: body.interfaces[n] for n in solid_order(body)}
     ref = {n: reference_point(mesh, f.set, f.point) for n, f in faces.items()}
     origin = ref[body.frame]

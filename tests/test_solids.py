@@ -189,3 +189,36 @@ def test_free_free_modes_of_a_hinged_block_in_flexmbd_and_exudyn(tmp_path):
     assert a.status.ok and b.status.ok
     d = np.sqrt(np.mean((a.channels["tip_deflection"] - b.channels["tip_deflection"]) ** 2))
     assert d < 0.005 * np.abs(b.channels["tip_deflection"]).max()         # the case's tolerance
+
+
+def write_mtx(path, A, node_ids):
+    """A symmetric (3N, 3N) matrix as Abaqus writes it (*MATRIX OUTPUT, the default layout): the
+    upper triangle as 'row node, row dof, column node, column dof, value'."""
+    U = __import__("scipy.sparse", fromlist=["triu"]).triu(A).tocoo()
+    path.write_text("".join(f"{node_ids[r // 3]},{r % 3 + 1}, {node_ids[c // 3]},{c % 3 + 1}, {float(v)!r}\n"
+                            for r, c, v in zip(U.row, U.col, U.data)))
+
+
+def test_matrices_from_abaqus_matrix_files_give_the_same_body(tmp_path, capsys):
+    """A mesh file's stiffness and mass given as Abaqus matrix files (`mesh.stiffness`, `mesh.mass`)
+    replace the assembly; written from the assembly, they reduce to the same body to 1e-12. A mass
+    that is not a solid's (M = Ms (x) I3) is one line naming the file, exit status 2."""
+    from flexmbd import flexbody
+    from flexmbd.fe import solid
+    base = case_file(tmp_path, f'file = "{DATA / "block.inp"}"', name="assembled")
+    case = cases.load(str(base))
+    mesh = flexbody.solid_mesh(**dataclasses.asdict(case.bodies["block"].mesh))
+    K, Ms = flexbody.solid_matrices(case.bodies["block"])
+    write_mtx(tmp_path / "K.mtx", K, mesh.node_ids)
+    write_mtx(tmp_path / "M.mtx", solid.vector_mass(Ms), mesh.node_ids)
+    path = case_file(tmp_path, f'file = "{DATA / "block.inp"}", stiffness = "K.mtx", mass = "M.mtx"', name="files")
+    a, b = case.reduced("block"), cases.load(str(path)).reduced("block")
+    assert np.allclose(b.freq_hz, a.freq_hz, rtol=1e-12, atol=0)
+    assert np.abs(b.Phi - a.Phi).max() <= 1e-10 * np.abs(a.Phi).max()
+    M = solid.vector_mass(Ms).tolil()
+    M[1, 1] *= 1.01                                                        # y of node 0 heavier than its x
+    write_mtx(tmp_path / "M.mtx", M.tocsr(), mesh.node_ids)
+    assert main(["run", str(path), "--solver", "flexmbd", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "M.mtx: not a solid's consistent mass" in err, err
+    assert not (tmp_path / "out").exists()

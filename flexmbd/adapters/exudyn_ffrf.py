@@ -14,7 +14,7 @@ coupling. What stays out is the gyroscopic term w x (sum J_p Phi_r) eta_d, zero 
 A flexible solid (`SOLIDS`; docs/exudyn.md, Solids) goes in as the same FlexBody (its interfaces'
 reference points, node 0 the frame's, then the mesh's nodes; the same modes, Km and Cm) with the
 mesh's consistent mass Ms (x) I3 in place of the lumped one (`solid_mass`: zero rows for the
-interface nodes, Ms rebuilt by `fe.solid.scalar_mass`), so Exudyn's invariants are flexmbd's
+interface nodes, Ms the mesh's: `flexbody.solid_matrices`), so Exudyn's invariants are flexmbd's
 (`invariants.mass_sums`); one massless node at the centre of mass is appended (`mass_centre`) to
 carry gravity. Joints at the frame interface are joints at the reference node; at another
 interface a spherical joint or a load acts on that interface's reference node (its mode rows are
@@ -68,8 +68,6 @@ the means are formed after the run.
 
 from __future__ import annotations
 
-import dataclasses
-import functools
 import time
 from dataclasses import replace
 from types import MappingProxyType
@@ -81,7 +79,6 @@ from flexmbd import cases, channels, flexbody, invariants, profiles, results
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
 from flexmbd.cases import closure
-from flexmbd.fe import solid as fe_solid
 
 from exudyn.FEM import ObjectFFRFreducedOrderInterface
 from exudyn.rigidBodyUtilities import GetRigidBodyNode
@@ -251,21 +248,15 @@ def ffrf_interface(fb: flexbody.FlexBody, rotary: bool,
 def solid_mass(body, fb: flexbody.FlexBody) -> sp.csr_matrix:
     """(3N, 3N) the consistent mass M = Ms (x) I3 of solid `body` (`cases.Solid`) over the N nodes of
     its FlexBody fb: zero rows and columns for its interfaces' reference points (nodes 0..k-1, no
-    mass), then the mesh's nodes, Ms the mesh's scalar consistent mass (`fe.solid.scalar_mass`)."""
+    mass), then the mesh's nodes, Ms the mesh's scalar consistent mass (`flexbody.solid_matrices`)."""
     return sp.kron(padded_scalar_mass(body, fb), sp.identity(3), format="csr")
 
 
 def padded_scalar_mass(body, fb: flexbody.FlexBody) -> sp.csr_matrix:
     """(N, N) the scalar consistent mass of solid `body` over its FlexBody's N nodes (`solid_mass`)."""
-    Ms = scalar_mass(body.mesh, float(body.material.rho))
+    Ms = flexbody.solid_matrices(body)[1]
     k = fb.n_nodes - Ms.shape[0]
     return sp.block_diag([sp.csr_matrix((k, k)), Ms], format="csr")
-
-
-@functools.lru_cache(maxsize=8)
-def scalar_mass(spec, rho: float) -> sp.csr_matrix:
-    """Ms (n, n) of the mesh of a case solid's `mesh` table (`cases.MeshSpec`), once per content."""
-    return fe_solid.scalar_mass(flexbody.solid_mesh(**dataclasses.asdict(spec)), rho)
 
 
 def add_ffrf(mbs, fb, cms, R, p, v, w, damping: np.ndarray) -> dict:

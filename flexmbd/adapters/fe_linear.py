@@ -93,7 +93,7 @@ def run(case, t_end, settings):
     t_out = common.sample_times(case, t_end)
     stride = max(int(round(out_dt / dt)), 1)
     dt = out_dt / stride
-    force = lambda t: T.T @ (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))
+    force = lambda t: (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))[free]
     step = newmark if scheme == "newmark" else exact
     setup_s = time.perf_counter() - t_start
 
@@ -141,7 +141,8 @@ def run_solid(case, name: str, t_end, settings, t_start: float):
                          "scheme = \"newmark\"")
     body = case.bodies[name]
     mesh, mat = flexbody.solid_mesh(**dataclasses.asdict(body.mesh)), body.material
-    K, M = solid.stiffness(mesh, mat.E, mat.nu), solid.vector_mass(solid.scalar_mass(mesh, mat.rho))
+    K, Ms = flexbody.solid_matrices(body)             # the mesh's assembly, or its matrix files
+    M = solid.vector_mass(Ms)
     n_dof = K.shape[0]
     face = {n: body.interfaces[n] for n in flexbody.solid_order(body)}
     ref = {n: flexbody.reference_point(mesh, f.set, f.point) for n, f in face.items()}

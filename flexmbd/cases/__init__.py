@@ -55,12 +55,17 @@ class Case:
     @functools.cached_property
     def content_sha256(self) -> str:
         """SHA-256 (hex) of what the case says: every value with its defaults and overrides filled
-        in, and the content of the motion tables it reads. Unlike `sha256` (the file's text), a
-        comment or a reordered table leaves it unchanged."""
+        in, and the content of the motion tables, mesh files and matrix files it reads. Unlike
+        `sha256` (the file's text), a comment or a reordered table leaves it unchanged."""
         h = hashlib.sha256(json.dumps(self.data, sort_keys=True, default=str).encode())
         for j in self.joints.values():
             if j.motion is not None and j.motion["type"] == "table":
                 h.update(Path(j.motion["file"]).read_bytes())
+        for b in self.bodies.values():                  # a solid's mesh and matrix files
+            if b.type == "solid":
+                for f in (b.mesh.file, b.mesh.stiffness, b.mesh.mass):
+                    if f:
+                        h.update(Path(f).read_bytes())
         return h.hexdigest()
 
 

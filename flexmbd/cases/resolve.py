@@ -109,6 +109,8 @@ class MeshSpec:
     box: tuple | None   # a built-in box (L, h, b), m
     divisions: tuple | None     # its elements along x, y, z
     element: str        # its element kind
+    stiffness: str | None = None    # Abaqus matrix files of the mesh file's K and M, absolute paths
+    mass: str | None = None
 
 
 @dataclass(frozen=True)
@@ -359,7 +361,8 @@ def _body(name: str, b: dict, materials: dict):
     if b["type"] == "solid":
         m = b["mesh"]
         spec = MeshSpec(file=m["file"], units=m["units"], box=None if m["box"] is None else tuple(m["box"]),
-                        divisions=None if m["divisions"] is None else tuple(m["divisions"]), element=m["element"])
+                        divisions=None if m["divisions"] is None else tuple(m["divisions"]), element=m["element"],
+                        stiffness=m["stiffness"], mass=m["mass"])
         if b["material"] is None:                       # the mesh file's one material
             mname, (E, nu, rho) = next(iter(flexbody.solid_mesh(**dataclasses.asdict(spec)).materials.items()))
             material = Material(name=mname, E=E, nu=nu, rho=rho)

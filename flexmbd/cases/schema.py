@@ -60,6 +60,8 @@ MESH = {
     "box": ("vec3", None),              # or a built-in box [L, h, b], m: x in [0, L], y in [-h/2, h/2], z in [-b/2, b/2]
     "divisions": ("vec3", None),        # box: elements along x, y, z (whole numbers)
     "element": (("hex20", "hex8", "tet10", "tet4"), "hex20"),   # box: the element kind
+    "stiffness": ("str", None),         # an Abaqus matrix file (.mtx) of the file's mesh: K instead of assembling it
+    "mass": ("str", None),              # the same for M (a solid's: Ms (x) I3)
 }
 
 INTERFACE = {

@@ -574,6 +574,9 @@ def _check_solid(b, d, where, k):
     if (m["file"] is None) == (m["box"] is None):
         _fail(where, f"{k}.mesh", "give either file (a mesh file) or box ([L, h, b] in m), not both or neither")
     if m["box"] is not None:
+        for key in ("stiffness", "mass"):
+            if m[key] is not None:
+                _fail(where, f"{k}.mesh.{key}", "a matrix file belongs to a mesh file (`file`), not to a box")
         for key in ("divisions",):
             v = m[key]
             if v is None or any(x != int(x) or x < 1 for x in v):
@@ -584,11 +587,16 @@ def _check_solid(b, d, where, k):
     else:
         if m["divisions"] is not None:
             _fail(where, f"{k}.mesh.divisions", "only used with box")
-        f = Path(where).parent / m["file"]
-        if not f.is_file():
-            _fail(where, f"{k}.mesh.file", f"no such file {str(f)!r}")
-        m["file"] = str(f)
+        for key in ("file", "stiffness", "mass"):
+            if m[key] is not None:
+                f = Path(where).parent / m[key]
+                if not f.is_file():
+                    _fail(where, f"{k}.mesh.{key}", f"no such file {str(f)!r}")
+                m[key] = str(f)
     mesh = flexbody.solid_mesh(**m)                 # an import error is an InputError naming the file and line
+    for key in ("stiffness", "mass"):               # read (and checked) once here, kept by content
+        if m[key] is not None:
+            flexbody.matrix_file(m[key], m["units"], tuple(mesh.node_ids), key)
     if b["material"] is None:
         if len(mesh.materials) != 1:
             found = f"defines {len(mesh.materials)} materials" if mesh.materials else "defines no material"
