@@ -322,9 +322,7 @@ def shapes(case, traj: Trajectory, instants) -> dict:
     `displacement` there (root-node or chord frame, m). An instant farther than half an output
     interval from every sample (the run ended before it) is left out, as is a sample at which a
     beam's displacements are not finite; a beam without shape points or snapshots is left out."""
-    t, half = np.asarray(traj.t, dtype=float), 0.5 * case.integrator.output_dt * (1.0 + 1e-9)
-    picks = [int(np.argmin(np.abs(t - s))) for s in instants] if len(t) else []
-    picks = list(dict.fromkeys(i for i, s in zip(picks, instants) if abs(t[i] - s) <= half))
+    t, picks = np.asarray(traj.t, dtype=float), snapshot_samples(case, traj.t, instants)
     out = {}
     for name, beam in traj.beams.items():
         xs = shape_positions(case, name)
@@ -338,14 +336,20 @@ def shapes(case, traj: Trajectory, instants) -> dict:
     return out
 
 
+def snapshot_samples(case, t, instants) -> list:
+    """The output samples (indices of t) nearest to `instants`, without repeats, leaving out an
+    instant farther than half an output interval from every sample (the run ended before it)."""
+    t, half = np.asarray(t, dtype=float), 0.5 * case.integrator.output_dt * (1.0 + 1e-9)
+    picks = [int(np.argmin(np.abs(t - s))) for s in instants] if len(t) else []
+    return list(dict.fromkeys(i for i, s in zip(picks, instants) if abs(t[i] - s) <= half))
+
+
 def fields(case, traj: Trajectory, instants) -> dict:
     """The von Mises field on every solid's surface at the output samples nearest to `instants`:
     {body: {"t": [k], "vm": (k, nf) nested lists, Pa}}, one value per boundary face
     (`flexbody.surface_stress_modes`: its element's centre stress), as `shapes` picks its samples;
     a solid whose solver gives no field is left out."""
-    t, half = np.asarray(traj.t, dtype=float), 0.5 * case.integrator.output_dt * (1.0 + 1e-9)
-    picks = [int(np.argmin(np.abs(t - s))) for s in instants] if len(t) else []
-    picks = list(dict.fromkeys(i for i, s in zip(picks, instants) if abs(t[i] - s) <= half))
+    t, picks = np.asarray(traj.t, dtype=float), snapshot_samples(case, traj.t, instants)
     out = {}
     for name, beam in traj.beams.items():
         if beam.surface is None or not picks:

@@ -447,7 +447,7 @@ def solid_modes(body, mesh, K, Ms, ref: dict) -> tuple:
     rigid = [(sets[f.set], ref[n]) for n, f in faces.items() if f.kind == "rigid" and n != body.frame]
     avg = [(sets[f.set], ref[n]) for n, f in faces.items() if f.kind == "averaging" and n != body.frame]
     return solid.interface_modes(K, Ms, mesh.nodes, body.modes.boundary, body.modes.count, held=held, rigid=rigid,
-                                 averaging=avg, frame=(sets[frame.set], ref[body.frame]))
+                                 averaged=avg, frame=(sets[frame.set], ref[body.frame]))
 
 
 def solid_body(body, stress_points=()) -> FlexBody:

@@ -17,7 +17,7 @@ import numpy as np
 
 from flexmbd.flexbody import FlexBody
 from flexmbd.jit import njit
-from flexmbd.spatial import cross_force_into, skew
+from flexmbd.spatial import cross_force_into, skew, skew_rows
 
 
 class Invariants(NamedTuple):
@@ -79,8 +79,8 @@ def mass_sums(x0, Pt, m, Mx0, MPt, J=None, Pr=None) -> tuple:
 
     I4 = m @ x0
     I5 = np.einsum("p,pak->ak", m, Pt)
-    I6 = np.einsum("pab,pbk->ak", _skew_rows(x0), MPt)
-    I7 = np.einsum("pkab,pbl->kal", _skew_rows(Pt.transpose(0, 2, 1)), MPt)
+    I6 = np.einsum("pab,pbk->ak", skew_rows(x0), MPt)
+    I7 = np.einsum("pkab,pbl->kal", skew_rows(Pt.transpose(0, 2, 1)), MPt)
     I9 = np.einsum("pak,pal->kl", Pt, MPt)
     I10 = np.zeros((3, Pt.shape[2]))
     if J is not None:
@@ -104,15 +104,6 @@ def stack(invs: list, nm: int) -> Invariants:
 
 INV_SHAPES = [(3, 3), ("m", 3, 3), ("m", "m", 3, 3), (3,), (3, "m"), (3, "m"), ("m", 3, "m"), (),
               ("m", "m"), (3, "m"), ("m", "m"), ("m", "m")]
-
-
-def _skew_rows(a: np.ndarray) -> np.ndarray:
-    """Skew matrices of the last axis: (..., 3) -> (..., 3, 3)."""
-    S = np.zeros(a.shape + (3,))
-    S[..., 0, 1], S[..., 0, 2] = -a[..., 2], a[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = a[..., 2], -a[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -a[..., 1], a[..., 0]
-    return S
 
 
 # ---------------------------------------------------------------------------------------------

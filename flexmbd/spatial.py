@@ -18,6 +18,15 @@ from flexmbd.dense import mm
 from flexmbd.jit import njit
 
 
+def skew_rows(a: np.ndarray) -> np.ndarray:
+    """Skew matrices of the last axis: (..., 3) -> (..., 3, 3), a~ b = a x b."""
+    S = np.zeros(a.shape + (3,))
+    S[..., 0, 1], S[..., 0, 2] = -a[..., 2], a[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = a[..., 2], -a[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -a[..., 1], a[..., 0]
+    return S
+
+
 @njit
 def skew(a) -> np.ndarray:
     """a~ (3, 3): a~ b = a x b."""

@@ -204,7 +204,7 @@ def test_craig_bampton_spans_the_static_responses_at_its_interfaces():
     held, mid = m.node_sets["x0"], np.flatnonzero(np.isclose(m.nodes[:, 0], 0.15))
     tip, ref = m.node_sets["xL"], np.array([0.3, 0.0, 0.0])
     f, Phi = solid.interface_modes(K, Ms, m.nodes, "craig-bampton", 14, held=held,
-                                   rigid=[(mid, np.array([0.15, 0.0, 0.0]))], averaging=[(tip, ref)])
+                                   rigid=[(mid, np.array([0.15, 0.0, 0.0]))], averaged=[(tip, ref)])
     T = solid.constraint_basis(m.n_nodes, m.nodes, held, [(mid, np.array([0.15, 0.0, 0.0]))])
     Kr = (T.T @ K @ T).tocsc()
     F = np.zeros(K.shape[0])

@@ -18,6 +18,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from flexmbd.fe.mesh import EDGES, Mesh
+from flexmbd.spatial import skew_rows
 
 HEX_CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
                         [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], dtype=float)
@@ -296,13 +297,6 @@ def von_mises(s: np.ndarray) -> np.ndarray:
     return np.sqrt(0.5 * ((xx - yy) ** 2 + (yy - zz) ** 2 + (zz - xx) ** 2) + 3.0 * (yz ** 2 + zx ** 2 + xy ** 2))
 
 
-def containing(mesh: Mesh, x: np.ndarray) -> tuple:
-    """(kind, row) of the element whose centre is nearest to point x (3,), m."""
-    kinds, rows, c = centres(mesh)
-    k = int(np.argmin(np.linalg.norm(c - np.asarray(x, dtype=float), axis=1)))
-    return str(kinds[k]), int(rows[k])
-
-
 # ---------------------------------------------------------------------------------------------
 # modes and interfaces
 
@@ -337,7 +331,7 @@ def constraint_basis(N: int, nodes: np.ndarray, held=(), rigid=()) -> sp.csr_mat
     return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(3 * N, m))
 
 
-def interface_modes(K, Ms, nodes: np.ndarray, boundary: str, n: int, held=(), rigid=(), averaging=(),
+def interface_modes(K, Ms, nodes: np.ndarray, boundary: str, n: int, held=(), rigid=(), averaged=(),
                     frame=None) -> tuple:
     """The lowest n modes of a solid's mode set: frequencies (n,) Hz of the reduced body (from
     Phi^T K Phi) and modes Phi (3N, n), M-orthonormal (M = Ms (x) I3), K-diagonal, ascending,
@@ -347,7 +341,7 @@ def interface_modes(K, Ms, nodes: np.ndarray, boundary: str, n: int, held=(), ri
     clamped-interface  the normal modes with `held` (the frame interface) fixed
     craig-bampton      `held` fixed; six constraint modes per rigid interface (unit motion of its
                        reference point, the rest static), six attachment modes per averaging
-                       interface of `averaging` [(set, ref)] (its reference point's unit forces
+                       interface of `averaged` [(set, ref)] (its reference point's unit forces
                        and moments spread by `averaging`, static), and as many of the lowest
                        normal modes with every rigid interface held too as make n: the whole set,
                        orthonormalized (Rayleigh-Ritz), so that it holds every static response to
@@ -376,10 +370,10 @@ def interface_modes(K, Ms, nodes: np.ndarray, boundary: str, n: int, held=(), ri
         if m_iface:                                     # constraint modes: [-Kii^-1 Kib; I]
             Kib = Kr[inner][:, inner.size:].toarray()
             blocks.append(np.vstack([-lu.solve(Kib), np.eye(m_iface)]))
-        if averaging:                                   # attachment modes: Kr^-1 T^T A^T e_j
-            F = np.zeros((3 * N, 6 * len(averaging)))
-            for j, (s, ref) in enumerate(averaging):
-                F[node_dofs(s), 6 * j:6 * j + 6] = averaging_map(nodes[np.asarray(s, dtype=int)], ref).T
+        if averaged:                                    # attachment modes: Kr^-1 T^T A^T e_j
+            F = np.zeros((3 * N, 6 * len(averaged)))
+            for j, (s, ref) in enumerate(averaged):
+                F[node_dofs(s), 6 * j:6 * j + 6] = averaging(nodes[np.asarray(s, dtype=int)], ref).T
             blocks.append(spla.splu(Kr).solve(np.asarray(T.T @ F)))
         n_normal = n - sum(b.shape[1] for b in blocks)
         if n_normal < 0:
@@ -395,7 +389,7 @@ def interface_modes(K, Ms, nodes: np.ndarray, boundary: str, n: int, held=(), ri
         X = X[:, np.argsort(lam)[6:]]                   # the six rigid-body modes first
         Phi = T @ X
         s, ref = frame
-        fit = averaging_map(nodes[np.asarray(s, dtype=int)], ref) @ Phi[node_dofs(s)]       # (6, n)
+        fit = averaging(nodes[np.asarray(s, dtype=int)], ref) @ Phi[node_dofs(s)]       # (6, n)
         Phi = Phi - rigid_fields(nodes, ref) @ fit
         return _ritz_hz(K, M, ritz(K.tocsc(), M.tocsc(), Phi, n), nodes)
     else:
@@ -407,11 +401,6 @@ def start(A) -> np.ndarray:
     """A fixed starting vector for the Lanczos iterations on A (ARPACK's own is random): the same
     matrix gives the same modes to the last bit in every process."""
     return np.random.default_rng(0).uniform(0.5, 1.5, A.shape[0])
-
-
-def averaging_map(x: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """`averaging` with unit weights (the interfaces of a case)."""
-    return averaging(x, ref)
 
 
 def ritz(K, M, B: np.ndarray, n: int) -> np.ndarray:
@@ -455,7 +444,7 @@ def rigid_fields(x: np.ndarray, ref: np.ndarray) -> np.ndarray:
     ref (3,): columns [rotation x, y, z; translation x, y, z] (spatial order), u = theta x (x - ref) + t."""
     d = np.asarray(x, dtype=float) - np.asarray(ref, dtype=float)
     R = np.zeros((d.shape[0], 3, 6))
-    R[:, :, :3] = -_skew(d)                                      # theta x d = -d~ theta
+    R[:, :, :3] = -skew_rows(d)                                      # theta x d = -d~ theta
     R[:, :, 3:] = np.eye(3)
     return R.reshape(-1, 6)
 
@@ -470,11 +459,3 @@ def averaging(x: np.ndarray, ref: np.ndarray, w=None) -> np.ndarray:
     W = np.repeat(np.ones(len(x)) if w is None else np.asarray(w, dtype=float), 3)
     RtW = R.T * W
     return np.linalg.solve(RtW @ R, RtW)
-
-
-def _skew(a: np.ndarray) -> np.ndarray:
-    S = np.zeros(a.shape + (3,))
-    S[..., 0, 1], S[..., 0, 2] = -a[..., 2], a[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = a[..., 2], -a[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -a[..., 1], a[..., 0]
-    return S
