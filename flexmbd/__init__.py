@@ -12,9 +12,10 @@ __all__ = ["load_case", "run", "compare", "system_modes", "__version__"]
 
 def load_case(name_or_path, overrides=()):
     """A validated case (cases.Case) from a name in cases/ or a TOML path, with `dotted.key=VALUE`
-    overrides as `--set` takes them. Bad input raises flexmbd.errors.InputError naming the key."""
-    from flexmbd import cases
-    return cases.load(str(name_or_path), list(overrides))
+    overrides as `--set` takes them. Bad input raises flexmbd.errors.InputError naming the key. A
+    case that names no reference solver gets its default (`solvers.graded`, cases/README.md)."""
+    from flexmbd import cases, solvers
+    return solvers.graded(cases.load(str(name_or_path), list(overrides)))
 
 
 def _case(case):

@@ -31,10 +31,11 @@ OK, DIFFERENT, BAD_INPUT, INTERNAL = 0, 1, 2, 3
 
 
 def _case(name: str, overrides=()) -> cases.Case:
-    """A case loaded and its solver tables checked: bad input stops here, before any work."""
+    """A case loaded and its solver tables checked: bad input stops here, before any work. A case
+    that names no reference solver gets its default (`solvers.graded`)."""
     case = cases.load(name, overrides)
     solvers.check(case)
-    return case
+    return solvers.graded(case)
 
 
 def _load(args) -> cases.Case:
@@ -75,6 +76,8 @@ def _where(args):
 
 
 def cmd_list(args) -> int:
+    if args.solvers:
+        return list_solvers(args)
     rows = []
     for name in cases.available():
         c = _case(name)
@@ -87,6 +90,17 @@ def cmd_list(args) -> int:
         usable = [s for s, st in r["solvers"].items() if st == "ok"]
         print(f"{r['case']:<18} {r['title']}")
         print(f"{'':<18} bodies: {', '.join(r['bodies'])}; solvers: {', '.join(usable)}")
+    return 0
+
+
+def list_solvers(args) -> int:
+    """`flexmbd list --solvers`: which solver models what (`capabilities.table`, docs/solvers.md)."""
+    from flexmbd import capabilities
+    tab = capabilities.table()
+    if args.json:
+        print(json.dumps(tab, indent=2))
+    else:
+        print(capabilities.markdown(tab), end="")
     return 0
 
 
@@ -526,6 +540,8 @@ def parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("list", help="the cases, with title, bodies and solvers", parents=[debug])
     s.add_argument("--json", action="store_true", help="print one JSON array on stdout")
+    s.add_argument("--solvers", action="store_true", help="instead, which solver models what: rigid bodies, beams, "
+                   "tip masses, ... (from each solver's own applies on probe cases; docs/solvers.md)")
     s.set_defaults(func=cmd_list)
 
     s = sub.add_parser("modes", help="retained mode frequencies (Hz) and labels per flexible body, or the "

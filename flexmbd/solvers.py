@@ -150,6 +150,30 @@ def check(case) -> None:
         settings(case, name)
 
 
+# the reference of a case that names none (report.reference): the first of these that can run it
+# here (`status_for` is ''), among report.solvers when the case lists them; independent solvers only,
+# the geometrically exact beam first: flexmbd, the solver under test, is never a case's reference
+REFERENCES = ("exudyn-beam", "fe-linear", "exudyn-ffrf", "pinocchio", "mujoco", "mujoco-rod", "analytic")
+
+
+def default_reference(case) -> str | None:
+    """The reference a case without report.reference is compared with (REFERENCES), None when
+    none of them can run it here."""
+    listed = case.report.solvers
+    return next((n for n in REFERENCES if (not listed or n in listed) and _precondition(case, n) is None), None)
+
+
+def graded(case):
+    """The case with its report's reference filled by `default_reference` when it names none
+    (`case.report.defaults` then says so); the case itself otherwise."""
+    rep = case.report
+    ref = None if rep.reference is not None else default_reference(case)
+    if ref is None:
+        return case
+    rep = dataclasses.replace(rep, reference=ref, defaults=("reference", *rep.defaults))
+    return dataclasses.replace(case, resolved=dataclasses.replace(case.resolved, report=rep))
+
+
 def unavailable_reason(name: str) -> str:
     """'' when the solver can be used on this machine, else why not (`load`)."""
     return load(name)[1]

@@ -247,3 +247,21 @@ def test_the_flexible_pendulums_twenty_segments_are_reduced_once():
     bodies = cases.load("flexible_pendulum").split.flexible()
     assert len(bodies) == 20
     assert flexbody._reduced.cache_info().misses == 1
+
+
+HUB_BEAM = Path(__file__).resolve().parent / "data" / "hub_beam.toml"
+
+
+def test_report_table_is_optional_with_tolerances_by_channel_kind():
+    c = cases.load(str(HUB_BEAM))
+    assert c.report.reference is None and c.report.defaults == ("tolerances",)
+    assert dict(c.report.tolerances) == {"tip_deflection": cases.TOLERANCES["deflection"],
+                                         "hub_angle": cases.TOLERANCES["joint_angle"]}
+    assert set(cases.TOLERANCES) == set(cases.schema.CHANNEL["kind"][0])       # one default per channel kind
+
+
+def test_given_tolerances_are_kept_and_grade_only_their_channels():
+    c = cases.load(str(HUB_BEAM), ["report.tolerances.tip_deflection=0.001"])
+    assert dict(c.report.tolerances) == {"tip_deflection": 0.001} and c.report.defaults == ()
+    shipped = cases.load("slider_crank")                    # its energy and forces are shown, not graded
+    assert "energy" not in shipped.report.tolerances and shipped.report.defaults == ()

@@ -269,7 +269,8 @@ def test_stdout_closed():
 
 
 # ---------------------------------------------------------------------------------------------
-# 13. a case without a [report] table: run and drawn, nothing graded, saying why
+# 13. a case without a [report] table: graded against its default reference with the default
+# tolerances, the page saying so; a case no default reference can run: nothing graded, saying why
 
 
 @pytest.fixture(scope="module")
@@ -282,17 +283,25 @@ def unreported(tmp_path_factory) -> Path:
 
 
 def test_compare_without_a_report_table(unreported, tmp_path):
-    [line] = cli(["compare", unreported, "--solvers", SOLVER, "--out", tmp_path], 0, 1,
-                 names=["nothing graded", "no reference solver", "[report]"])
-    assert str(unreported) in line
+    cli(["compare", unreported, "--solvers", SOLVER, "--set", 'report.solvers=["analytic", "fe-linear"]',
+         "--out", tmp_path], 0, 1, names=["its reference fe-linear runs too"])
     page = (tmp_path / "bare" / "index.html").read_text()
-    assert "Nothing graded" in page and (tmp_path / "bare" / "tip_deflection.png").is_file()
+    assert "Reference: <b>fe-linear</b>" in page and "Defaults, not the case file" in page
+    assert "Nothing graded" not in page and (tmp_path / "bare" / "tip_deflection.png").is_file()
+
+
+def test_compare_without_a_reference_that_applies(unreported, tmp_path):
+    [line] = cli(["compare", unreported, "--solvers", SOLVER, "--set", 'report.solvers=["flexmbd"]',
+                  "--out", tmp_path], 0, 1, names=["nothing graded", "no reference solver", "default references"])
+    assert str(unreported) in line
+    assert "Nothing graded" in (tmp_path / "bare" / "index.html").read_text()
 
 
 def test_api_compare_without_a_report_table(unreported):
     df = flexmbd.compare(unreported, solvers=[SOLVER], t_end=0.1)
-    assert df.empty and df.attrs["status"] == {SOLVER: "ok"}
-    assert "no reference solver" in df.attrs["not_graded"]
+    ref = solvers.default_reference(cases.load(str(unreported)))
+    assert df.attrs["not_graded"] == "" and df.attrs["status"][SOLVER] == "ok"
+    assert set(df["reference"]) == {ref} and set(df["tolerance"]) <= set(cases.TOLERANCES.values())
 
 
 # ---------------------------------------------------------------------------------------------

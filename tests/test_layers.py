@@ -21,7 +21,7 @@ LAYERS = {
     "invariants": 3, "joints": 3, "model": 3, "build": 3, "dynamics": 3,
     "kernel": 4, "integrate": 4, "constraints": 4,
     "channels": 5, "solver": 5, "adapters": 5, "solvers": 5, "linearize": 5, "cost": 5, "external": 5,
-    "executor": 5,
+    "executor": 5, "capabilities": 5,
     "report": 6, "bench": 6, "cli": 6, "completion": 6, "__main__": 6, "__init__": 6,
 }
 

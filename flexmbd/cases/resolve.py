@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from flexmbd import flexbody
-from flexmbd.cases.schema import JOINT, JOINT_COORDS
+from flexmbd.cases.schema import JOINT, JOINT_COORDS, TOLERANCES
 from flexmbd.spatial import rotation_rpy
 
 
@@ -251,6 +251,7 @@ class Report:
     snapshots: tuple    # instants of the deformed-shape snapshots, s
     shape_points: int   # evenly spaced points along each flexible beam drawn in them
     notes: str = ""     # shown on the case page beside its accuracy table
+    defaults: tuple = ()    # which of "reference", "tolerances" are defaults, not the case file's
 
 
 @dataclass(frozen=True)
@@ -451,13 +452,20 @@ def resolve(data: dict, split: bool = True) -> Resolved:
         materials=MappingProxyType(materials), bodies=MappingProxyType(bodies), joints=MappingProxyType(joints),
         loads=MappingProxyType(loads), channels=MappingProxyType(channels), integrator=Integrator(**ig),
         report=Report(reference=rep["reference"], solvers=None if rep["solvers"] is None else tuple(rep["solvers"]),
-                      tolerances=frozen(rep["tolerances"]), snapshots=tuple(rep["snapshots"]),
-                      shape_points=rep["shape_points"], notes=rep["notes"]),
+                      tolerances=frozen(tolerances(rep["tolerances"], data["channels"])),
+                      snapshots=tuple(rep["snapshots"]), shape_points=rep["shape_points"], notes=rep["notes"],
+                      defaults=("tolerances",) * (rep["tolerances"] is None)),
         solvers=frozen(data["solvers"]), tree=tuple(tree), nq=nq, nv=nv,
         segments=MappingProxyType(segments), whole=MappingProxyType(whole),
         split=None if expanded is data else dataclasses.replace(resolve(expanded, split=False),
                                                                 whole=MappingProxyType(whole)),
         loops=MappingProxyType(loops))
+
+
+def tolerances(given: dict | None, chans: dict) -> dict:
+    """The report's tolerances: those the case gives (only those channels are graded), or, when it
+    gives none, every channel's by its kind (`schema.TOLERANCES`)."""
+    return dict(given) if given is not None else {n: TOLERANCES[c["kind"]] for n, c in chans.items()}
 
 
 def _channel_point(body, c: dict) -> Point | None:

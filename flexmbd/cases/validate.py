@@ -313,7 +313,7 @@ def _check_references(d: dict, where: str) -> None:
 
     for name, c in d["channels"].items():
         _check_channel(name, c, bodies, joints, where)
-    for ch in d["report"]["tolerances"]:
+    for ch in d["report"]["tolerances"] or {}:
         if ch not in d["channels"]:
             _fail(where, f"report.tolerances.{ch}", f"no channel {ch!r}{hint(ch, d['channels'])}")
     rep = d["report"]

@@ -38,8 +38,8 @@ def ungraded(case) -> str:
     nothing to compare a run with and no tolerance to hold it to."""
     if case.report.reference is not None:
         return ""
-    return ("the case names no reference solver (report.reference; a case file without a [report] table names "
-            "none), so no run is compared and no tolerance applies")
+    return ("the case names no reference solver (report.reference) and none of the default references "
+            "(cases/README.md, [report]) can run it, so no run is compared and no tolerance applies")
 
 
 @np.errstate(over="ignore")        # a difference beyond the largest double is inf: a fail, shown as such

@@ -197,7 +197,7 @@ def _draw(conn, out: str, stage: str, indexed: bool) -> None:
             return
         try:
             said = []
-            got = pages.write_case(Path(out), Path(stage), cases.load(path, list(overrides)), names, said.append,
+            got = pages.write_case(Path(out), Path(stage), solvers.graded(cases.load(path, list(overrides))), names, said.append,
                                    indexed)
             answer = ("ok", (got, said))
         except Exception:                               # noqa: BLE001 - the parent raises it

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import metrics, results, solvers
+from flexmbd import cases, metrics, results, solvers
 from flexmbd.files import atomic_write
 from flexmbd.report import accuracy, convergence, fields, figures, loading, shapes, spectra, tables
 
@@ -93,6 +93,18 @@ def provenance_rows(res: dict) -> list[list]:
         rows.append([s, r.solver_version, r.case_sha256[:16], e.get("git_commit", ""), e.get("date", ""),
                      e.get("machine", ""), python, came, json.dumps(r.settings, sort_keys=True)[:300]])
     return rows
+
+
+def defaults_note(case) -> str:
+    """One line saying which of the reference and the tolerances are defaults, not the case file's."""
+    rep, said = case.report, []
+    if "reference" in rep.defaults:
+        said.append(f"the reference {rep.reference} is the default (the first independent solver that runs "
+                    f"the case, in the order {', '.join(solvers.REFERENCES)})")
+    if "tolerances" in rep.defaults:
+        said.append("the tolerances are the defaults of each channel's kind ("
+                    + ", ".join(f"{k} {v:g}" for k, v in cases.TOLERANCES.items()) + ")")
+    return "Defaults, not the case file's choices: " + "; ".join(said) + " (cases/README.md, [report])."
 
 
 def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) -> dict:
@@ -202,11 +214,14 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
             "(over many cycles a small frequency difference becomes a large phase difference): dominant "
             "frequency, RMS difference of the amplitude envelopes and of the slow (low-pass below half the "
             "lowest natural frequency) parts.</p>")
+    if case.report.defaults:                                # said on the page: not the case file's choice
+        note += f"<p>{html.escape(defaults_note(case))}</p>"
     notes = case.report.notes.strip()
     if notes:                                               # the case file's notes on its reference and verdicts
         note += "".join(f"<p>{html.escape(' '.join(par.split()))}</p>" for par in notes.split("\n\n"))
     sections.append(("Accuracy", note + tables.html_table(head, rows),
-                     ("\n\n".join(" ".join(par.split()) for par in notes.split("\n\n")) + "\n\n" if notes else "")
+                     (defaults_note(case) + "\n\n" if case.report.defaults else "")
+                     + ("\n\n".join(" ".join(par.split()) for par in notes.split("\n\n")) + "\n\n" if notes else "")
                      + tables.markdown(head, rows)))
 
     # convergence: each solver against its discretisation, from the case's stored studies
