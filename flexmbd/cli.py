@@ -141,14 +141,15 @@ def system_modes(case, about: str, as_json: bool) -> int:
              "(about a minute; cached afterwards)")
     with files.signals_exit():                          # may compile the kernel; writes nothing
         modes = linearize.for_case(case, about, progress=True)
-    rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping if abs(m.damping) > 1e-9 else 0.0,
+    rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping, "damping_resolution": m.damping_resolution,
              "label": m.label, "share": m.share} for k, m in enumerate(modes)]
     if as_json:
         print(json.dumps({"case": case.name, "about": about, "modes": rows}, indent=2))
         return 0
     print(f"{case.name}: system modes about the {'initial state' if about == 'initial' else 'static equilibrium'}")
     for r in rows:
-        print(f"  {r['index']:3d}  {r['freq_hz']:12.4f} Hz  damping {r['damping']:.3g}  {r['label']} "
+        print(f"  {r['index']:3d}  {r['freq_hz']:12.4f} Hz  damping {r['damping']:.3g} "
+              f"(resolved to {r['damping_resolution']:.1g})  {r['label']} "
               f"({100 * r['share']:.0f} % of the kinetic energy)")
     if not rows:
         print("  none: no coordinate vibrates about this state (rigid bodies, or motion without stiffness)")

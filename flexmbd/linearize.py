@@ -16,7 +16,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy import optimize
+from scipy import linalg, optimize
 
 from flexmbd import constraints, dynamics, flexbody, joints
 from flexmbd.build import from_case
@@ -30,9 +30,10 @@ STEP = 1e-6          # central-difference step on q and v (coordinates are O(1) 
 
 class SystemMode(NamedTuple):
     freq_hz: float     # damped frequency |Im lambda| / 2 pi
-    damping: float     # ratio -Re lambda / |lambda|
+    damping: float     # ratio -Re lambda / |lambda|; 0 within its resolution
     label: str         # coordinate with the largest share of the mode's kinetic energy
     share: float       # that share, 0..1
+    damping_resolution: float   # the smallest |damping| its eigenvalue resolves (`damping_resolution`)
 
 
 def model_of(case) -> Model:
@@ -131,16 +132,33 @@ def coordinate_names(model: Model) -> list:
 ROUNDOFF = 1e-10    # relative error of the central differences (step 1e-6: roundoff eps / h)
 
 
+def damping_resolution(B: np.ndarray, lam: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """(2n,) the smallest damping ratio each eigenvalue lam_k of B resolves: the eigen-solver's
+    round-off of lam_k, kappa_k eps ||B||_F (a backward-stable solver's error; kappa_k =
+    1 / |y_k^H x_k| its condition number, y_k and x_k its unit left and right eigenvectors, the
+    columns of `left` and `right`), over |lam_k|. B is the balanced state matrix the eigenvalues
+    are computed from (`scipy.linalg.matrix_balance`: joint and modal coordinates of very
+    different scales make the unbalanced bound 1e4-1e7 times too wide). A ratio -Re lam / |lam|
+    below it is round-off."""
+    tiny = np.finfo(float).tiny
+    kappa = 1.0 / np.maximum(np.abs(np.einsum("ik,ik->k", left.conj(), right)), tiny)
+    return kappa * np.finfo(float).eps * np.linalg.norm(B) / np.maximum(np.abs(lam), tiny)
+
+
 def system_modes(model: Model, q, v, t: float = 0.0, bar=None, loops: constraints.Loops | None = None) -> list:
     """The oscillating eigenvalues of the linearized system (one per conjugate pair, ascending
-    frequency) with damping and label. Non-oscillating roots (rigid-body modes, overdamped or
-    unstable ones) are left out, and so are roots within sqrt(ROUNDOFF max|A|) of zero: a rigid
+    frequency) with damping and label; a damping ratio within its mode's `damping_resolution`
+    is 0. Non-oscillating roots (rigid-body modes, overdamped or unstable ones) are left out,
+    and so are roots within sqrt(ROUNDOFF max|A|) of zero: a rigid
     mode without stiffness is a double zero root, which an error e in A moves by sqrt(e). `bar`:
     the progress of the state matrix (`state_matrix`); `loops`: the case's cut joints, whose
     dependent coordinates `q`, `v` must already satisfy (`constraints.Loops.close`)."""
     free = coordinates(model, loops)
     A = state_matrix(model, q, v, t, bar, loops)
-    lam, vec = np.linalg.eig(A)
+    B, T = linalg.matrix_balance(A, permute=False)              # B = T^-1 A T, T diagonal
+    lam, left, vec = linalg.eig(B, left=True)
+    resolution = damping_resolution(B, lam, left, vec)
+    vec = T @ vec                                               # A's eigenvectors
     zero = np.sqrt(ROUNDOFF * np.abs(A).max(initial=0.0))       # how far the differences move a double zero root
     n = free.size
     data, E = make_data(model), np.eye(model.nv)
@@ -153,8 +171,9 @@ def system_modes(model: Model, q, v, t: float = 0.0, bar=None, loops: constraint
         energy = np.abs(x) ** 2 * M_ii
         share = energy / energy.sum()
         j = int(np.argmax(share))
-        out.append(SystemMode(float(lam[k].imag / (2 * np.pi)), float(-lam[k].real / abs(lam[k])), names[j],
-                              float(share[j])))
+        zeta = -lam[k].real / abs(lam[k])
+        out.append(SystemMode(float(lam[k].imag / (2 * np.pi)), float(zeta if abs(zeta) > resolution[k] else 0.0),
+                              names[j], float(share[j]), float(resolution[k])))
     return sorted(out)
 
 

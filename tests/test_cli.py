@@ -76,6 +76,7 @@ def test_modes_system_json(capsys):
     out = json.loads(capsys.readouterr().out)
     inplane = [m for m in out["modes"] if "xy" in m["label"]]
     assert out["about"] == "initial" and inplane[0]["freq_hz"] == pytest.approx(24.23, abs=0.01)
+    assert all(m["damping"] == 0.0 and 0.0 < m["damping_resolution"] < 1e-9 for m in out["modes"])   # undamped
 
 
 def test_version_and_help_text_for_every_option(capsys):

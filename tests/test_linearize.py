@@ -124,3 +124,45 @@ def test_a_closed_loop_is_linearized_along_a_run():
     sweep = linearize.along(case, t, {"crank_pivot": crank, "rocker_pivot": rocker}, [0.0, 0.1, 0.2])
     for at, modes in sweep:
         assert modes[0].label == "coupler bending xy 1" and modes[0].freq_hz == pytest.approx(34.0, rel=0.15), at
+
+
+def test_damping_resolution_is_the_eigenvalue_condition_number_times_round_off():
+    """On a 2 x 2 triangular B = [[l1, c], [0, l2]] the condition number of l1 is
+    sqrt(1 + (c / (l1 - l2))^2); the resolution is that times eps ||B||_F / |l1|."""
+    from scipy import linalg
+    l1, l2, c = -0.5 + 20.0j, -0.5 - 20.0j, 300.0
+    B = np.array([[l1, c], [0.0, l2]])
+    lam, left, right = linalg.eig(B, left=True)
+    k = int(np.argmin(np.abs(lam - l1)))
+    kappa = np.sqrt(1.0 + abs(c / (l1 - l2)) ** 2)
+    got = linearize.damping_resolution(B, lam, left, right)[k]
+    assert got == pytest.approx(kappa * np.finfo(float).eps * np.linalg.norm(B) / abs(l1), rel=1e-9)
+
+
+@pytest.mark.parametrize("name", ["pendulum", "flexible_pendulum", "rotating_cantilever"])
+def test_an_undamped_systems_damping_is_round_off_within_its_resolution(name):
+    """Without damping every oscillating root's ratio -Re lambda / |lambda| is the eigen-solver's
+    round-off: within its resolution, which stays far below any physical damping (1e-7), so the
+    modes report 0."""
+    from scipy import linalg
+    case = cases.load(name)
+    model = linearize.model_of(case)
+    A = linearize.state_matrix(model, model.q0, model.v0)
+    B, _ = linalg.matrix_balance(A, permute=False)
+    lam, left, right = linalg.eig(B, left=True)
+    res = linearize.damping_resolution(B, lam, left, right)
+    osc = (lam.imag > 1e-9 * np.abs(lam).max()) & (np.abs(lam) > np.sqrt(linearize.ROUNDOFF * np.abs(A).max()))
+    zeta = -lam.real / np.abs(lam)
+    assert osc.any() and np.all(np.abs(zeta[osc]) <= res[osc]) and np.all(res[osc] < 1e-7)
+    modes = linearize.for_case(case)
+    assert len(modes) == osc.sum() and all(m.damping == 0.0 for m in modes)
+
+
+def test_modal_damping_is_resolved():
+    """With 1 % modal damping the pendulum's out-of-plane bending modes (the beam's coordinates
+    alone) keep their 0.01, well above their resolution (within 1e-9: the differences' error)."""
+    modes = linearize.for_case(cases.load("pendulum", ["bodies.beam.damping_ratio=0.01"]))
+    beam = [m for m in modes if "xz" in m.label and m.share > 0.99]
+    assert len(beam) >= 5
+    for m in beam:
+        assert m.damping == pytest.approx(0.01, abs=1e-9) and m.damping_resolution < 1e-9
