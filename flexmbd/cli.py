@@ -326,6 +326,51 @@ def cmd_compare(args) -> int:
     return _verdict(args, got["runs"], got["accuracy"])
 
 
+def framed_runs(args, names: list, flag: str) -> tuple:
+    """(the case, its frames' runs {solver: Result}) of `animate` and `export`: each solver run as
+    `flexmbd run` runs it (`solvers.run`, after the same checks), on the case whose shapes are
+    recorded at --frames instants (`animation.framed`). A solver that cannot run the case is
+    refused before any work; the runs are not stored."""
+    from flexmbd.report import animation
+    case = _load(args)
+    for name in names:
+        solvers.check_name(name, flag)
+        why = solvers.status_for(case, name)
+        if why:
+            raise InputError(f"{case.path}: solver {name}: {why}")
+    cost.check([(case, s) for s in names], args.t_end, args.allow_large)
+    runs = animation.framed(case, animation.instants(case, args.t_end, args.frames))
+    got = {}
+    with files.signals_exit():                          # nothing written while they run
+        for name in names:
+            got[name] = solvers.run(runs, name, args.t_end)
+            if got[name].status.kind == "failed":
+                warn(f"{case.name} / {name}: {got[name].status}; its shapes end there")
+    return case, got
+
+
+def cmd_animate(args) -> int:
+    from flexmbd.report import animation
+    names = _solver_list(args.solvers, "--solvers")
+    out = Path(args.out) if args.out else Path("reports") / "animations" / f"{Path(args.case).stem}.gif"
+    animation.writer(out)                               # the file's kind, before any work
+    files.writable_dir(out.parent, "--out")
+    case, got = framed_runs(args, names, "--solvers")
+    ref = case.report.reference if case.report.reference in got else None
+    n = animation.animate(case, got, out, ref, args.fps)
+    print(f"{case.name}: {n} frames of {', '.join(got)} -> {out}")
+    return OK
+
+
+def cmd_export(args) -> int:
+    from flexmbd.report import animation
+    folder = files.writable_dir(args.vtk, "--vtk")
+    case, got = framed_runs(args, [args.solver], "--solver")
+    pvd, n = animation.vtk(case, got[args.solver], folder)
+    print(f"{case.name} / {args.solver}: {n} instants -> {pvd}")
+    return OK
+
+
 def cmd_regress(args) -> int:
     from flexmbd.report import regress, tables
     listed = lambda text: text.split(",") if text else None
@@ -607,6 +652,30 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout (verdicts and accuracy rows)")
     s.add_argument("--strict", action="store_true", help=strict)
     s.set_defaults(func=cmd_compare)
+
+    frames = Parser(add_help=False)                     # the instants of animate and export
+    frames.add_argument("--frames", type=_count, default=100, metavar="N",
+                        help="instants evenly spread over the run, each at its nearest output sample")
+    frames.add_argument("--t-end", type=_positive, default=None, metavar="SECONDS",
+                        help="simulate this long instead of the case's duration")
+    frames.add_argument("--set", action="append", metavar="KEY=VALUE", help=over)
+    frames.add_argument("--allow-large", action="store_true", help=large)
+
+    s = sub.add_parser("animate", help="an animation (GIF, or MP4 with ffmpeg) of several solvers' deformed shapes "
+                       "overlaid (docs/animation.md)", parents=[debug, frames])
+    s.add_argument("case", help=case)
+    s.add_argument("--solvers", required=True, metavar="A,B,...", help=f"comma-separated solver names: {names}")
+    s.add_argument("--out", default=None, metavar="FILE.gif|FILE.mp4",
+                   help="the animation (default: reports/animations/CASE.gif, which the case page links)")
+    s.add_argument("--fps", type=_count, default=20, help="frames per second")
+    s.set_defaults(func=cmd_animate)
+
+    s = sub.add_parser("export", help="one solver's deformed shapes as a ParaView time series (.vtu files and a "
+                       ".pvd; docs/animation.md)", parents=[debug, frames])
+    s.add_argument("case", help=case)
+    s.add_argument("--solver", required=True, help=f"one of: {names}")
+    s.add_argument("--vtk", required=True, metavar="DIR", help="the folder of the .vtu files and the .pvd")
+    s.set_defaults(func=cmd_export)
 
     s = sub.add_parser("study", help="a grid of overrides on cases and solvers: its table (Parquet) and figures "
                        "(docs/studies.md)", parents=[debug, executors])

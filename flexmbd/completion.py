@@ -13,8 +13,8 @@ from __future__ import annotations
 import argparse
 import shlex
 
-PATHS = {"--out", "--baseline", "--results", "--save", "--meta"}     # options whose value is a path
-FREE = {"--set", "--t-end"}                                            # values nothing can suggest
+PATHS = {"--out", "--baseline", "--results", "--save", "--meta", "--vtk"}     # options whose value is a path
+FREE = {"--set", "--t-end", "--frames", "--fps"}                                            # values nothing can suggest
 
 
 def options(p: argparse.ArgumentParser) -> dict:

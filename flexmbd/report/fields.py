@@ -20,14 +20,21 @@ COLUMNS = 4         # instants per row at most (the first ones)
 VIEWS = (("+z", 2, (0, 1)), ("+y", 1, (0, 2)))      # (name, the axis seen along, the plane's axes)
 
 
+def surface(body) -> tuple:
+    """(nodes (nn, 3), faces) of a case solid: its mesh's nodes in its body frame (m, the frame
+    interface's reference point at the origin) and its boundary faces (corner-node index arrays,
+    3 or 4 each, outward by the right-hand rule), in the order of a stored field's values."""
+    mesh = flexbody.solid_mesh(**dataclasses.asdict(body.mesh))
+    faces, _ = solid.boundary_faces(mesh)
+    frame = body.interfaces[body.frame]
+    return mesh.nodes - flexbody.reference_point(mesh, frame.set, frame.point), faces
+
+
 def views(body) -> list:
     """[(view name, plane axes (2,), polygons (nf_view, k, 2), face rows (nf_view,))] of a case
     solid's boundary faces turned towards each viewer (outward normal along the view axis), in its
     body frame (m): the faces of a view in the order drawn."""
-    mesh = flexbody.solid_mesh(**dataclasses.asdict(body.mesh))
-    faces, _ = solid.boundary_faces(mesh)
-    frame = body.interfaces[body.frame]
-    x = mesh.nodes - flexbody.reference_point(mesh, frame.set, frame.point)
+    x, faces = surface(body)
     out = []
     for name, axis, plane in VIEWS:
         rows, polys = [], []
