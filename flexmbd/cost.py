@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from flexmbd import constraints, flexbody, solvers
+from flexmbd.adapters import fe_linear as fe_linear_adapter
 from flexmbd.errors import InputError
 
 MEMORY_LIMIT = 3e9          # bytes, of one stage
@@ -378,18 +379,23 @@ def fixed_step(case, t_end: float, dt: float, key: str, per_step: float) -> list
 
 def fe_linear(case, t_end: float, opt: dict) -> list:
     """Full-order FE: the exact scheme exponentiates the dense 2n x 2n system matrix and steps by
-    dense products; newmark factorizes once and steps by sparse solves; damping takes a dense
-    eigensolution of all n DOFs."""
+    dense products; the modal scheme solves the dense n x n eigenproblem and steps every mode;
+    newmark factorizes once and steps by sparse solves; damping takes a dense eigensolution of all
+    n DOFs."""
     (name, body), = case.bodies.items()
     n = 3 * solid_nodes(body) if body.type == "solid" else 6 * body.elements
     scheme = opt["scheme"] or ("newmark" if body.type == "solid" else "exact")
-    dt = opt["dt"] or (case.integrator.output_dt if scheme == "exact" else 5e-5)
+    dt = opt["dt"] or (5e-5 if scheme == "newmark" else case.integrator.output_dt)
     out_dt = case.integrator.output_dt
     stride = max(round(out_dt / dt), 1)
     steps = (samples(case, t_end) - 1) * stride
     damped = body.damping_ratio > 0
     if scheme == "exact":
         setup_s, setup_b, per_step = 3e-10 * (2 * n) ** 3, 48.0 * (2 * n) ** 2, 1e-9 * (2 * n) ** 2
+    elif scheme == "modal":                     # eigh of the dense pair (its bar: elapsed against this
+        # estimate), then per step O(n) and u = Phi q at every sample (2 n^2 flops each)
+        setup_s, setup_b = fe_linear_adapter.EIGH_S * n ** 3, 48.0 * n ** 2
+        per_step = 1e-8 * n + 2e-5 + 4e-10 * n * n / stride
     elif body.type == "solid":                  # a 3-D mesh's factor fills in more: 2.1 ms a step at 5,463 DOFs
         setup_s, setup_b, per_step = 1e-4 * n, SOLID_BYTES * n, 4e-7 * n + 2e-5
     else:
@@ -399,7 +405,8 @@ def fe_linear(case, t_end: float, opt: dict) -> list:
     matrix = f"bodies.{name}.mesh" if body.type == "solid" else f"bodies.{name}.elements"
     steps_key = "solvers.fe-linear.dt" if opt["dt"] and opt["dt"] < out_dt else \
         ("duration" if t_end == case.duration else "--t-end")
-    return [Stage(f"setting up the {scheme} scheme for {n} DOFs", matrix, memory=setup_b, seconds=setup_s),
+    return [Stage(f"setting up the {scheme} scheme for {n} DOFs", matrix, memory=setup_b, seconds=setup_s,
+                  progress=scheme == "modal"),
             Stage(f"stepping {n} DOFs through {steps:.3g} {scheme} steps of {out_dt / stride:.3g} s",
                   steps_key if steps * per_step > setup_s else matrix,
                   memory=32.0 * samples(case, t_end) * n, seconds=steps * per_step,

@@ -6,6 +6,7 @@ the k-of-n bar over a command's jobs (`job`, `jobs_done`: runs, pages, baselines
 from __future__ import annotations
 
 import sys
+import threading
 import time
 
 _shown = [True]         # False in a worker process of the executor: its parent shows the job bar
@@ -71,6 +72,30 @@ class Progress:
     def close(self) -> None:
         if self.shown and self.tty:
             sys.stderr.write("\n")
+
+
+class Ticking:
+    """A bar for one call that says nothing while it runs (a dense LAPACK eigensolution, which
+    releases the GIL): a thread draws the elapsed time against the call's estimate `seconds`
+    (`cost.py`'s) until the `with` block ends."""
+
+    def __init__(self, seconds: float, label: str, after_s: float = 2.0):
+        self.bar = Progress(max(seconds, 1.0), label, after_s=after_s, unit="s (estimated)")
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self.tick, daemon=True)
+
+    def tick(self) -> None:
+        while not self.stop.wait(0.5):
+            self.bar.update(time.perf_counter() - self.bar.start)
+
+    def __enter__(self):
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.stop.set()
+        self.thread.join()
+        self.bar.close()
 
 
 def job(k: int, n: int, label: str, elapsed: float) -> None:

@@ -3,7 +3,7 @@
     M u'' + C u' + K u = f(t),   u(0) = 0, u'(0) = 0
 
 on the same mesh, element and mass matrix as the reduced body, with the root node clamped (the
-fixed joint) and nothing truncated. Two time-stepping schemes (setting `scheme`):
+fixed joint) and nothing truncated. Three time-stepping schemes (setting `scheme`):
 
   exact    (default) the first-order system y' = A y + b(t), y = [u; u'], advanced by the matrix
            exponential: y_{k+1} = e^{A h} y_k + A^{-1} (e^{A h} - 1) b(t_k + h/2). Exact for constant
@@ -11,15 +11,23 @@ fixed joint) and nothing truncated. Two time-stepping schemes (setting `scheme`)
   newmark  average-acceleration Newmark (trapezoidal: unconditionally stable, no numerical
            damping, period error (w h)^2 / 12 — 8e-4 at 314 Hz with h = 5e-5 s, a visible phase
            drift of the higher modes over a 2 s run, which is why it is not the default).
+  modal    every mode of the full model (K phi = w^2 M phi, dense: at most MODAL_DOFS DOFs), each
+           modal coordinate advanced exactly over a step under the step's midpoint load: exact, as
+           `exact`, for constant and step loads, with no period error in any mode; undamped only.
 
 Modal damping ratio zeta, when non-zero, enters as C = M Phi diag(2 zeta w) Phi^T M over all
 modes of the full model.
 
 A solid (`run_solid`) keeps every DOF of its mesh with the frame interface's nodes held, its
 loads spread over their interfaces' nodes by the same averaging interface as the reduced body's
-(`fe.solid.averaging`), and steps by Newmark only: the exact scheme and modal damping would form
-dense matrices of the mesh's size. Its interfaces' reference points move as the rigid fit of
-their nodes; its stresses are those at the centres of the channels' elements.
+(`fe.solid.averaging`). Its interfaces' reference points move as the rigid fit of their nodes; its
+stresses are those at the centres of the channels' elements. It steps by one of
+
+  newmark  (default) as above, on the sparse matrices (banded Cholesky or SuperLU);
+  modal    as above, on the dense matrices of the mesh's size: no period error in any mode, so
+           that what differs from a reduced body is its truncation alone.
+
+Modal damping of a solid is not modelled (all of its modes for C, or a dense exponential).
 """
 
 from __future__ import annotations
@@ -34,10 +42,10 @@ from scipy.sparse.linalg import splu
 from flexmbd import channels, flexbody, profiles
 from flexmbd.adapters import common
 from flexmbd.fe import solid, stress
-from flexmbd.progress import Progress
+from flexmbd.progress import Progress, Ticking
 
 SETTINGS = {
-    "scheme": (("exact", "newmark"), None),      # default: exact on a beam, newmark on a solid
+    "scheme": (("exact", "newmark", "modal"), None),   # default: exact on a beam, newmark on a solid
     "dt": ("float+", None),             # s; default: output_dt (exact), 5e-5 s (newmark)
 }
 
@@ -47,6 +55,9 @@ def version() -> str:
 
 
 SOLIDS = True                           # a clamped solid: its whole mesh (`run_solid`)
+MODAL_DOFS = 12_000                     # the modal scheme's largest model: K, M, Phi dense, 1.2 GB each
+EIGH_S = 1e-9                           # s per n^3 of the dense generalized eigh (6,813 DOFs: 320 s on
+                                        # 2 busy cores, 2.4 GB resident)
 
 
 def applies(case) -> str:
@@ -89,16 +100,21 @@ def run(case, t_end, settings):
 
     scheme = settings.get("scheme") or "exact"
     out_dt = case.integrator.output_dt
-    dt = settings.get("dt") or (out_dt if scheme == "exact" else 5e-5)
+    dt = settings.get("dt") or (5e-5 if scheme == "newmark" else out_dt)
     t_out = common.sample_times(case, t_end)
     stride = max(int(round(out_dt / dt)), 1)
     dt = out_dt / stride
-    force = lambda t: (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))[free]
-    step = newmark if scheme == "newmark" else exact
+    terms = [(fg[free], lambda t: 1.0)] + [(f[free], lambda t, p=p: profiles.load_factor(p, t)) for f, p in loads]
+    force = lambda t: sum(f * g(t) for f, g in terms)
+    if scheme == "modal" and C is not None:
+        raise ValueError("the modal scheme models no damping (scheme = \"exact\" does)")
     setup_s = time.perf_counter() - t_start
 
     t_solve = time.perf_counter()
-    U, V = step(Kf, Mf, C, force, dt, stride, t_out.size)
+    if scheme == "modal":
+        U, V = modal(Kf, Mf, terms, dt, stride, t_out.size)
+    else:
+        U, V = (newmark if scheme == "newmark" else exact)(Kf, Mf, C, force, dt, stride, t_out.size)
     wall_s = time.perf_counter() - t_solve
 
     u_full = np.zeros((t_out.size, n_dof))
@@ -136,9 +152,10 @@ def run_solid(case, name: str, t_end, settings, t_start: float):
     import dataclasses
 
     from flexmbd.results import Result
-    if (settings.get("scheme") or "newmark") != "newmark":
-        raise ValueError("a solid steps by Newmark only (the exact scheme forms dense matrices of the mesh's size): "
-                         "scheme = \"newmark\"")
+    scheme = settings.get("scheme") or "newmark"
+    if scheme == "exact":
+        raise ValueError("a solid steps by scheme = \"newmark\" or \"modal\" (the exact scheme's exponential of "
+                         "the mesh's size is not formed)")
     body = case.bodies[name]
     mesh, mat = flexbody.solid_mesh(**dataclasses.asdict(body.mesh)), body.material
     K, Ms = flexbody.solid_matrices(body)             # the mesh's assembly, or its matrix files
@@ -161,16 +178,22 @@ def run_solid(case, name: str, t_end, settings, t_start: float):
         loads.append((f, ld.profile))
     fg = M @ np.tile(common.gravity_body(case), mesh.n_nodes)
     Kf, Mf = (T.T @ K @ T).tocsr(), (T.T @ M @ T).tocsc()
+    if scheme == "modal" and Kf.shape[0] > MODAL_DOFS:
+        raise ValueError(f"the modal scheme forms dense matrices of the model's size: {Kf.shape[0]} DOFs, at most "
+                         f"{MODAL_DOFS} (scheme = \"newmark\" steps a larger one)")
     out_dt = case.integrator.output_dt
-    dt = settings.get("dt") or 5e-5
+    dt = settings.get("dt") or (out_dt if scheme == "modal" else 5e-5)
     t_out = common.sample_times(case, t_end)
     stride = max(int(round(out_dt / dt)), 1)
     dt = out_dt / stride
-    force = lambda t: T.T @ (fg + sum(f * profiles.load_factor(p, t) for f, p in loads))
+    terms = [(T.T @ fg, lambda t: 1.0)] + [(T.T @ f, lambda t, p=p: profiles.load_factor(p, t)) for f, p in loads]
     setup_s = time.perf_counter() - t_start
     t_solve = time.perf_counter()
     bar = Progress(float(t_out[-1]), f"{case.name} / fe-linear")
-    U, V = newmark(Kf, Mf, None, force, dt, stride, t_out.size, bar)
+    if scheme == "modal":
+        U, V = modal(Kf, Mf, terms, dt, stride, t_out.size, bar, velocities=channels.wants_energy(case))
+    else:
+        U, V = newmark(Kf, Mf, None, lambda t: sum(f * g(t) for f, g in terms), dt, stride, t_out.size, bar)
     bar.close()
     wall_s = time.perf_counter() - t_solve
 
@@ -195,7 +218,7 @@ def run_solid(case, name: str, t_end, settings, t_start: float):
         traj.energy = {"total": energy(u, np.asarray((T @ V.T).T), K, M, fg)}
     return Result(solver="fe-linear", case=case.name, t=t_out, wall_s=wall_s, setup_s=setup_s,
                   steps=(t_out.size - 1) * stride, rhs_evals=(t_out.size - 1) * stride,
-                  settings={"dt": dt, "scheme": "newmark", "dofs": int(T.shape[1]), "mesh": mesh.source,
+                  settings={"dt": dt, "scheme": scheme, "dofs": int(T.shape[1]), "mesh": mesh.source,
                             "nodes": mesh.n_nodes}, trajectory=traj)
 
 
@@ -253,6 +276,38 @@ def newmark(K, M, C, force, dt: float, stride: int, n_out: int, bar: Progress | 
         if bar is not None:
             bar.update(t)
     return U, V
+
+
+def modal(K, M, terms: list, dt: float, stride: int, n_out: int, bar: Progress | None = None,
+          velocities: bool = True):
+    """Every mode of the undamped model, u = Phi q with Phi^T M Phi = 1 and q_i'' + w_i^2 q_i =
+    phi_i^T f, the load f(t) = sum_j f_j g_j(t) given as `terms` [(f_j (n,), g_j)], each q_i
+    advanced exactly over a step h under the step's midpoint load p_i (constant over the step):
+
+        q+ = c q + (s / w) q' + (1 - c) p / w^2,    q+' = -w s q + c q' + s p / w,   c, s = cos wh, sin wh
+
+    From rest; displacements and velocities (n_out, n) as `newmark`'s (the velocities None unless
+    `velocities`: each costs a product with the dense Phi); `bar` shows the simulated time."""
+    with Ticking(EIGH_S * K.shape[0] ** 3, f"every mode of {K.shape[0]} DOFs"):
+        w2, Phi = scipy.linalg.eigh(K.toarray(), M.toarray(), driver="gvd")
+    if w2[0] <= 0.0:
+        raise ValueError(f"the model is not held (its lowest eigenvalue w^2 = {w2[0]:.3g}): the modal scheme "
+                         f"needs every mode elastic")
+    w = np.sqrt(w2)
+    c, s = np.cos(w * dt), np.sin(w * dt)
+    q, qd = np.zeros(w.size), np.zeros(w.size)
+    Q, Qd = np.zeros((n_out, w.size)), np.zeros((n_out, w.size))
+    t = 0.0
+    P = [(Phi.T @ f, g) for f, g in terms]               # the loads' modal forces, formed once
+    for k in range(1, n_out):
+        for _ in range(stride):
+            p = sum(pj * g(t + dt / 2) for pj, g in P)
+            q, qd = c * q + s / w * qd + (1.0 - c) * p / w2, -w * s * q + c * qd + s * p / w
+            t += dt
+        Q[k], Qd[k] = q, qd
+        if bar is not None:
+            bar.update(t)
+    return Q @ Phi.T, (Qd @ Phi.T if velocities else None)
 
 
 class Banded:
