@@ -111,3 +111,115 @@ def test_work_precision_draws_a_panel_per_case_and_a_line_per_solver_and_scheme(
     assert lines["flexmbd (dopri5)"].get_color() == figures.style("flexmbd")["color"]
     assert lines["exudyn-ffrf (fox-goodwin)"].get_color() == figures.style("exudyn-ffrf")["color"]
     assert {l.get_label() for l in b.lines} == {"flexmbd (dopri5)", "flexmbd (adams)"}
+
+
+def labels_of(ax) -> list:
+    return ax.get_legend_handles_labels()[1]
+
+
+def test_a_near_constant_stress_draws_flat_with_whole_tick_labels_and_no_offset(pendulum, tmp_path):
+    """A stress of 40.06 MPa carrying round-off (1e-12 of it, alternating): no axis of the saved
+    figure has an offset label, the ticks carry the value itself, and the axis spans at least SPAN
+    of the magnitude (and NOISE of Young's modulus, 2e-4 MPa), so the round-off does not fill it as
+    a square wave."""
+    t = np.linspace(0.0, 1.0, 1001)
+    y = 40.06e6 * (1.0 + 1e-12 * (-1.0) ** np.arange(t.size))
+    res = {"exudyn-beam": run("exudyn-beam", t, stress_vm=y), "flexmbd": run("flexmbd", t, stress_vm=y * (1 + 1e-9))}
+    fig = figures.channel_figure(pendulum, "stress_vm", res, "exudyn-beam")
+    figures.save(fig, tmp_path / "stress_vm.png")
+    top = fig.axes[0]
+    assert all(ax.yaxis.get_offset_text().get_text() == "" and ax.xaxis.get_offset_text().get_text() == ""
+               for ax in fig.axes)
+    lo, hi = top.get_ylim()
+    assert hi - lo >= figures.SPAN * 40.06 * (1 - 1e-9)
+    ticks = [lab.get_text() for lab in top.get_yticklabels() if lo <= lab.get_position()[1] <= hi]
+    assert len(ticks) >= 3 and len(set(ticks)) == len(ticks)
+    assert all(abs(float(tick) - 40.06) < 1e-3 for tick in ticks)            # each tick: the value itself
+    assert np.ptp(top.lines[0].get_ydata()) < 0.01 * (hi - lo)               # the round-off: a straight line
+
+
+@pytest.mark.parametrize("values, text", [
+    ([0.0, 0.25, 0.5], ["0", "0.25", "0.50"]),
+    ([-2e5, 0.0, 2e5, 4e5], ["-2e5", "0", "2e5", "4e5"]),
+    ([1.5e-7, 2.0e-7, 2.5e-7], ["1.5e-7", "2.0e-7", "2.5e-7"]),
+    ([40.060127, 40.0601272, 40.0601274], ["40.0601270", "40.0601272", "40.0601274"]),
+    ([0.0, 500.0, 1000.0], ["0", "500", "1000"]),
+])
+def test_plain_tick_labels_carry_their_whole_value(values, text):
+    assert figures.Plain().format_ticks(values) == text
+
+
+@pytest.mark.parametrize("solvers", [["exudyn-beam"], ["flexmbd", "mujoco-rod"]])
+def test_no_empty_difference_panel_without_a_solver_to_compare(pendulum, solvers):
+    """The reference alone, or no reference among the runs: the overview alone, its x axis labelled."""
+    t = np.linspace(0.0, 1.0, 101)
+    res = {s: run(s, t, tip_deflection=1e-3 * np.sin(3 * t)) for s in solvers}
+    (top,) = axes_of(figures.channel_figure(pendulum, "tip_deflection", res, "exudyn-beam"))
+    assert top.get_xlabel() == "t [s]" and len(top.lines) == len(solvers)
+
+
+def test_every_solver_looks_different_on_one_figure_and_the_same_on_every_figure():
+    """The registered solvers keep their own colours; 40 further names on one figure are 48 distinct
+    looks; a name's look depends on its name only, unless a name sorted before it took it."""
+    others = [f"plug-in-{k}" for k in range(40)]
+    looks = figures.looks(list(figures.STYLE) + others)
+    assert len(set(looks.values())) == len(looks) == len(figures.STYLE) + 40
+    assert all(looks[s][:2] == figures.STYLE[s] for s in figures.STYLE)
+    assert {s: figures.looks(["flexmbd", s])[s] for s in others} == {s: figures.looks([s])[s] for s in others}
+    assert figures.looks(list(reversed(others))) == figures.looks(others)
+    assert not set(c for c, _, _ in looks.values() if c in figures.EXTRA_COLOURS) & {c for c, _ in figures.STYLE.values()}
+    alone = {s: figures.looks([s])[s] for s in (f"plug-in-{k}" for k in range(100))}
+    clash = [(a, b) for a in alone for b in alone if a < b and alone[a] == alone[b]]
+    assert clash                                              # 100 names in 192 looks: some hash alike
+    a, b = clash[0]                                           # on one figure, the later one moves on
+    both = figures.looks([a, b])
+    assert both[a] == figures.looks([a])[a] and both[b] != both[a] and both[b][0] != both[a][0]
+
+
+def test_a_failed_run_is_drawn_up_to_its_failure_and_named_so(pendulum):
+    """A run that diverged at t = 0.6 s keeps its samples before: drawn to 0.59 s, its difference
+    from the reference too, named 'diverged at t = 0.6 s' in both legends with a dotted line at
+    0.6 s; the overview's limits are the other runs', not its 100 m."""
+    from flexmbd import results
+    t = np.linspace(0.0, 1.0, 101)
+    y = 1e-3 * np.sin(2 * np.pi * t)
+    bad = Result(solver="exudyn-ffrf", case="pendulum", t=t[:60], channels={"tip_deflection": y[:60] + np.exp(t[:60] * 30) * 1e-6},
+                 status=results.failed("diverged (|tip_deflection| beyond 8 m, 2 beam lengths)", 0.6))
+    res = {"exudyn-beam": run("exudyn-beam", t, tip_deflection=y), "flexmbd": run("flexmbd", t, tip_deflection=1.01 * y),
+           "exudyn-ffrf": bad}
+    top, bottom = axes_of(figures.channel_figure(pendulum, "tip_deflection", res, "exudyn-beam"))
+    assert labels_of(top) == ["exudyn-beam (reference)", "flexmbd", "exudyn-ffrf (diverged at t = 0.6 s)"]
+    assert labels_of(bottom) == ["flexmbd - exudyn-beam (reference)", "exudyn-ffrf - exudyn-beam (reference)"]
+    drawn = {l.get_label(): l for l in top.lines}
+    assert drawn["exudyn-ffrf (diverged at t = 0.6 s)"].get_xdata()[-1] == pytest.approx(0.59)
+    assert max(bottom.lines[1].get_xdata()) == pytest.approx(0.59)
+    assert top.get_ylim()[1] < 1.2 * 1.01 * 1e3 * max(y)                       # mm: the ok runs' range
+    assert [l.get_xdata()[0] for a in (top, bottom) for l in a.lines if l.get_linestyle() == ":"] == [0.6, 0.6]
+    assert figures.drawable({**res, "none": Result(solver="none", case="pendulum",
+                                                   status=results.failed("no samples"))}).keys() == res.keys()
+
+
+def test_a_spectrum_marks_only_the_system_modes_near_its_peaks_within_its_band(pendulum):
+    """A vibration at 5 and 31 Hz against 160 system frequencies: two dotted lines, those nearest the
+    peaks; none beyond the band; the reference named in the legend."""
+    t = np.linspace(0.0, 4.0, 4001)
+    y = 1e-3 * np.sin(2 * np.pi * 5.0 * t) + 3e-4 * np.sin(2 * np.pi * 31.0 * t)
+    system = list(np.linspace(1.3, 800.0, 160)) + [5.02, 31.1]
+    res = {"exudyn-beam": run("exudyn-beam", t, tip_deflection=y), "flexmbd": run("flexmbd", t, tip_deflection=y)}
+    (ax,) = axes_of(figures.spectra_figure(pendulum, "tip_deflection", res, system, 500.0))
+    dotted = sorted(l.get_xdata()[0] for l in ax.lines if l.get_linestyle() == ":")
+    assert dotted == [5.02, 31.1]
+    assert labels_of(ax) == ["exudyn-beam (reference)", "flexmbd"]
+    assert figures.marked(system, [5.0, 31.0, 650.0], fmax=600.0) == [5.02, 31.1]
+    assert figures.marked(system, [2.6], fmax=600.0) == []                       # nearest 6 % away: none
+
+
+def test_a_deflection_that_is_only_round_off_draws_as_a_straight_line(pendulum):
+    """A rigid peer's tip deflection of 1e-14 m (round-off, alternating sign): the axis spans at least
+    NOISE times the beam's length (1 m: 1e-6 mm), so the noise is a straight line at 0."""
+    t = np.linspace(0.0, 1.0, 101)
+    y = 1e-14 * (-1.0) ** np.arange(t.size)
+    (top,) = axes_of(figures.channel_figure(pendulum, "tip_deflection", {"mujoco": run("mujoco", t, tip_deflection=y)},
+                                            "exudyn-beam"))
+    lo, hi = top.get_ylim()
+    assert hi - lo >= 1e-9 * 1e3 * (1 - 1e-9) and np.ptp(top.lines[0].get_ydata()) < 0.1 * (hi - lo)

@@ -183,7 +183,7 @@ def section(case, d: Path, warn=None) -> tuple[str, str] | None:
                      & df["solver"].isin([r["solver"] for r in rows if r["metric"] == metric])]
             sel = sel[sel["value"].astype(float) > 0]
             if not sel.empty:
-                fig = study.figure(sel, case.name, key, metric)
+                fig = study.figure(sel, case.name, key, metric, case.report.reference)
                 imgs.append(figures.save(fig, d / f"convergence_{name}_{metric}.png"))
         finest = _fmt_x(study._value(dict(st.vary)[key][-1]))
         head = ["solver", "channel", "error", *[_fmt_x(x) for x in (rows[0]["x"] if rows else [])], "rate b",

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from flexmbd import flexbody
 from flexmbd.fe import solid
-from flexmbd.report.figures import save
+from flexmbd.report.figures import label, save
 import matplotlib.pyplot as plt  # noqa: E402  (after figures, which chooses the Agg backend)
 import numpy as np  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
@@ -74,7 +74,7 @@ def figure(case, body: str, results: dict, path: Path, reference: str | None = N
             ax.add_collection(pc)
             ax.autoscale_view()
             ax.tick_params(labelsize=7)
-            ax.set_title(f"{s}{' (reference)' * (s == reference)}, t = {t:g} s, seen from {name}", fontsize=8)
+            ax.set_title(f"{label(s, results[s], reference)}, t = {t:g} s, seen from {name}", fontsize=8)
             ax.set_xlabel(f"{'xyz'[plane[0]]} [m]", fontsize=7)
             ax.set_ylabel(f"{'xyz'[plane[1]]} [m]", fontsize=7)
     fig.colorbar(pc, ax=axes, shrink=0.8, label="von Mises [MPa]")

@@ -1,10 +1,15 @@
 """Figures of the report (matplotlib; PNG and SVG, written atomically), one colour and marker per
-solver throughout: a case page's channels, spectra, flexible minus rigid angles and the retained
-modes of its flexible bodies; the index's work-precision figure of a benchmark run."""
+solver throughout (`looks`), the reference named in every legend, a failed run drawn up to its
+failure and named so (`label`), tick labels that carry their whole value (`Plain`: no offset): a
+case page's channels, spectra, flexible minus rigid angles and the retained modes of its flexible
+bodies; the index's work-precision figure of a benchmark run."""
 
 from __future__ import annotations
 
+import re
 import warnings
+import zlib
+from itertools import product
 from pathlib import Path
 
 import matplotlib
@@ -12,6 +17,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib import ticker  # noqa: E402
 
 from flexmbd import channels, metrics  # noqa: E402
 from flexmbd.files import atomic_write  # noqa: E402
@@ -25,22 +31,132 @@ def drawn_unit(case, name: str) -> tuple[str, float]:
     return DRAWN.get(u, (u, 1.0))
 
 
-# one colour and marker per solver on every figure and page (plug-ins: from a second palette)
+# one colour and marker per solver on every figure and page: the registered solvers' own, solid lines
 STYLE = {"flexmbd": ("#1f77b4", "o"), "fe-linear": ("#7f7f7f", "s"), "analytic": ("#8c564b", "D"),
          "exudyn-ffrf": ("#ff7f0e", "^"), "exudyn-beam": ("#2ca02c", "v"), "mujoco-rod": ("#d62728", "<"),
          "pinocchio": ("#9467bd", ">"), "mujoco": ("#e377c2", "P")}
-EXTRA = [("#17becf", "X"), ("#bcbd22", "*"), ("#393b79", "h"), ("#843c39", "d")]
+
+# any other name (a plug-in, an imported result): one of the (colour, marker, line style) combinations
+# of colours none of STYLE's, the colour changing fastest, chosen by a hash of the name (`looks`)
+EXTRA_COLOURS = ("#17becf", "#bcbd22", "#393b79", "#843c39", "#637939", "#7b4173", "#e6550d", "#3182bd")
+EXTRA_MARKERS = ("X", "*", "h", "d", "p", "8")
+EXTRA_LINES = ("--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)))
+EXTRA = [(c, m, ls) for ls, m, c in product(EXTRA_LINES, EXTRA_MARKERS, EXTRA_COLOURS)]
 
 
-def style(solver: str, n: int = 0) -> dict:
-    """Line colour and marker of a solver (markers every n / 12 samples when n is given)."""
-    color, marker = STYLE.get(solver) or EXTRA[sum(map(ord, solver)) % len(EXTRA)]
-    return {"color": color, "marker": marker, "markevery": max(n // 12, 1), "markersize": 4} if n else {"color": color}
+def looks(names) -> dict:
+    """{name: (colour, marker, line style)} of the solvers drawn on one figure: a registered
+    solver's own (STYLE, solid); any other's the EXTRA combination its name hashes to (CRC-32:
+    the same in every process), or, when a name sorted before it on the same figure holds that
+    one, the next free one (another colour first): never two solvers alike in one figure."""
+    out = {s: (*STYLE[s], "-") for s in names if s in STYLE}
+    used = set(out.values())
+    for s in sorted(set(names) - set(STYLE)):
+        k = zlib.crc32(s.encode())
+        look = next((EXTRA[(k + i) % len(EXTRA)] for i in range(len(EXTRA)) if EXTRA[(k + i) % len(EXTRA)] not in used),
+                    EXTRA[k % len(EXTRA)])                  # more names than combinations: the hashed one
+        out[s] = look
+        used.add(look)
+    return out
+
+
+def style(solver: str, n: int = 0, among=()) -> dict:
+    """Line colour, line style and (when n samples are drawn) marker every n / 12 samples of a
+    solver on a figure that also draws the solvers `among` (`looks`)."""
+    color, marker, ls = looks({solver, *among})[solver]
+    return {"color": color, "ls": ls, "marker": marker, "markevery": max(n // 12, 1), "markersize": 4} if n else \
+        {"color": color, "ls": ls}
+
+
+def label(solver: str, r=None, reference: str | None = None) -> str:
+    """A solver's name in a legend: '(reference)' after the reference, and after a failed run
+    '(diverged at t = T s)' (the divergence rule's failures: a bound passed, a value not finite)
+    or '(failed at t = T s)'."""
+    marks = ["reference"] if solver == reference else []
+    status = getattr(r, "status", None)
+    if status is not None and status.kind == "failed":
+        word = "diverged" if status.why.startswith(("diverged", "non-finite")) else "failed"
+        marks.append(word + (f" at t = {status.t:.4g} s" if status.t is not None else ""))
+    return f"{solver} ({', '.join(marks)})" if marks else solver
+
+
+def drawable(res: dict) -> dict:
+    """The results a case page draws: the ok runs, and the failed ones that kept samples (drawn up
+    to their failure)."""
+    return {s: r for s, r in res.items() if r.ok or (r.status.kind == "failed" and len(r.t))}
+
+
+class Plain(ticker.Formatter):
+    """Tick labels that each carry their whole value (no offset, no multiplier above the axis):
+    fixed-point between 1e-3 and 1e5, else scientific (1.5e-7), with as many digits as tell the
+    ticks apart: a near-constant signal's ticks read 40.0601270, 40.0601272."""
+
+    digits = (0, "f")
+
+    def __call__(self, x, pos=None) -> str:
+        d, kind = self.digits
+        text = f"{x:.{d}{kind}}"
+        text = re.sub(r"e([+-])0*(\d)", lambda m: "e" + m.group(1).replace("+", "") + m.group(2), text)
+        return "0" if re.fullmatch(r"-?0(\.0*)?(e-?0)?", text) else text
+
+    def format_ticks(self, values) -> list:
+        v = np.asarray(values, dtype=float)
+        v = v[np.isfinite(v)]
+        top = float(np.max(np.abs(v))) if v.size else 0.0
+        kind = "f" if top == 0 or 1e-3 <= top < 1e5 else "e"
+        steps = np.abs(np.diff(np.unique(v)))
+        step = float(steps.min()) if steps.size else top or 1.0
+        for d in range(17):                     # the fewest digits that give every tick back to 1e-6 of a step
+            if all(abs(float(f"{x:.{d}{kind}}") - x) <= 1e-6 * step for x in v):
+                break
+        self.digits = (d, kind)
+        return [self(x) for x in values]
+
+
+def plain_ticks(fig) -> None:
+    """Every linear axis of the figure whose labels are matplotlib's default (ScalarFormatter)
+    labelled by `Plain`: no offset label anywhere in the report."""
+    for ax in fig.axes:
+        for axis, scale in ((ax.xaxis, ax.get_xscale()), (ax.yaxis, ax.get_yscale())):
+            if scale == "linear" and type(axis.get_major_formatter()) is ticker.ScalarFormatter:
+                axis.set_major_formatter(Plain())
+
+
+def held_to(ax, held: list) -> None:
+    """Y limits of the axes 5 % beyond the range of the arrays `held` (the runs that did not fail:
+    a diverging run leaves the axes rather than flatten the others); unchanged without a finite
+    value in them."""
+    v = np.concatenate([np.asarray(y, dtype=float).ravel() for y in held]) if held else np.zeros(0)
+    v = v[np.isfinite(v)]
+    if v.size:
+        lo, hi = float(v.min()), float(v.max())
+        pad = 0.05 * (hi - lo) or 0.05 * max(abs(lo), abs(hi)) or 1.0
+        ax.set_ylim(lo - pad, hi + pad)
+
+
+SPAN = 1e-6     # the least y span of a history's axes, relative to its largest magnitude
+
+
+def least_span(ax, values, floor: float = 0.0) -> None:
+    """Widen the axes' y limits about their middle to at least SPAN times the largest |value|, and
+    at least `floor` (the channel's numerical noise: `metrics.NOISE` times its physical scale), so
+    that round-off on a constant signal, or a signal that is only round-off, draws as the straight
+    line it is, not as a square wave."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if not v.size:
+        return
+    lo, hi = ax.get_ylim()
+    need = max(SPAN * float(np.max(np.abs(v))), floor)
+    if hi - lo < need:
+        mid = 0.5 * (lo + hi)
+        ax.set_ylim(mid - 0.5 * need, mid + 0.5 * need)
 
 
 def save(fig, path: Path) -> str:
     """Write the figure atomically (`files.atomic_write`) as PNG, and as SVG beside it; return the
-    PNG's file name (pages link relatively)."""
+    PNG's file name (pages link relatively). Linear axes get plain tick labels (`plain_ticks`)."""
+    plain_ticks(fig)
     try:
         with warnings.catch_warnings():         # drawing: matplotlib's advice (a legend placed slowly over a
             warnings.simplefilter("ignore")     # long history) is no line of the command's on stderr
@@ -112,10 +228,26 @@ def drawn(kind: str, y, k: float) -> np.ndarray:
 
 def floor_of(diffs: dict, norm: float) -> float:
     """Lower clip of the |difference| panel: a hundredth of the smallest of the solvers' median
-    (non-zero) differences, so that every solver's usual level shows, while exact agreement (at
-    t = 0, at crossings) does not stretch the axis; at least 1e-15 norm (round-off)."""
-    medians = [np.median(d[d > 0]) for d in diffs.values() if np.any(d > 0)]
+    (non-zero) differences (`diffs`: solver -> (t, |difference|)), so that every solver's usual
+    level shows, while exact agreement (at t = 0, at crossings) does not stretch the axis; at least
+    1e-15 norm (round-off)."""
+    medians = [np.median(d[d > 0]) for _, d in diffs.values() if np.any(d > 0)]
     return max(0.01 * min(medians), 1e-15 * norm) if medians else 1e-15 * norm
+
+
+def differences(curves: dict, reference: str) -> dict:
+    """Solver -> (t, |y - y_ref|) on the reference's samples up to the solver's last sample (a
+    failed run's differences end where its samples do), of every drawn curve but the reference's;
+    {} without a reference curve."""
+    ref = curves.get(reference)
+    if ref is None:
+        return {}
+    out = {}
+    for s, (t, y) in curves.items():
+        inside = ref[0] <= t[-1] + 1e-9 * abs(t[-1])        # the reference's samples within the run's
+        if s != reference and inside.any():
+            out[s] = (ref[0][inside], np.abs(metrics.on_grid(ref[0][inside], t, y) - ref[1][inside]))
+    return out
 
 
 def channel(case, name: str, results: dict, reference: str, path: Path) -> str:
@@ -125,38 +257,55 @@ def channel(case, name: str, results: dict, reference: str, path: Path) -> str:
 
 def channel_figure(case, name: str, results: dict, reference: str):
     """Overlay of one channel for every solver (top), and the magnitude of each solver's difference
-    from the reference on a shared log scale (every solver readable, whatever the worst one does).
+    from the reference on a shared log scale (every solver readable, whatever the worst one does);
+    without another solver than the reference, the overlay alone. The reference is named so in
+    the legend.
 
-    A history holding more than ZOOM_ABOVE (20) periods of a visible vibration of the reference
-    (`vibration_hz`: the largest spectral peak at 10 periods or more, its amplitude at least 2 % of
-    the range) draws as a solid band: a third row then shows its first and its last ZOOM_PERIODS (4)
-    periods side by side, shaded on the overview. An energy is drawn as its change from t = 0 (each
-    solver's own E(0) removed) and is never zoomed. Returns the Figure (`channel` saves it)."""
+    A failed run that kept samples (`drawable`) is drawn up to its failure, named in the legend
+    with its failure time (`label`) and marked by a dotted line in its colour at that time; the
+    overlay's y limits are those of the runs that did not fail, so that a diverging run leaves the
+    axes rather than flatten every other curve. A history holding more than ZOOM_ABOVE (20) periods
+    of a visible vibration of the reference (`vibration_hz`: the largest spectral peak at 10
+    periods or more, its amplitude at least 2 % of the range) draws as a solid band: a third row
+    then shows its first and its last ZOOM_PERIODS (4) periods side by side, shaded on the
+    overview. An energy is drawn as its change from t = 0 (each solver's own E(0) removed) and is
+    never zoomed. Returns the Figure (`channel` saves it)."""
     kind = case.channels[name].kind
     unit, k = drawn_unit(case, name)
     curves = {s: (np.asarray(r.t, dtype=float), drawn(kind, r.channels[name], k)) for s, r in results.items()
               if name in r.channels and len(r.t)}
+    failed = {s: results[s].status for s in curves if results[s].status.kind == "failed"}
     ref = curves.get(reference)
-    diffs = {s: np.abs(metrics.on_grid(ref[0], t, y) - ref[1]) for s, (t, y) in curves.items()
-             if ref is not None and s != reference}
+    diffs = differences(curves, reference)
     kinetic = results[reference].extra.get("kinetic_max_J") if ref is not None else None
-    floor = floor_of(diffs, metrics.channel_norm(kind, ref[1], channels.physical_scale(case, name, kinetic) * k)
-                     if ref is not None else 1.0)
+    physical = channels.physical_scale(case, name, kinetic) * k
+    floor = floor_of(diffs, metrics.channel_norm(kind, ref[1], physical) if ref is not None else 1.0)
+    noise = metrics.NOISE * physical
     f = vibration_hz(*ref) if ref is not None and kind != "energy" else np.nan
     windows = zoom_windows(ref[0], f) if ref is not None else []
-    line = lambda s, n: {**style(s, n), **({"lw": 2.2, "alpha": 0.6} if s == reference else {"lw": 1.0})}
+    looks_of = lambda s, n: style(s, n, among=curves)
+    line = lambda s, n: {**looks_of(s, n), **({"lw": 2.2, "alpha": 0.6} if s == reference else {"lw": 1.0})}
+    name_of = lambda s: label(s, results[s], reference)
 
-    fig = plt.figure(figsize=(9, 8.4 if windows else 5.6), layout="constrained")
-    outer = fig.add_gridspec(2 if windows else 1, 1, height_ratios=[5, 2.6] if windows else [1])
-    over = outer[0].subgridspec(2, 1, height_ratios=[3, 2])
+    height = (5.6 if diffs else 3.6) + (2.8 if windows else 0.0)
+    fig = plt.figure(figsize=(9, height), layout="constrained")
+    outer = fig.add_gridspec(2 if windows else 1, 1, height_ratios=[5 if diffs else 3, 2.6] if windows else [1])
+    over = outer[0].subgridspec(2 if diffs else 1, 1, height_ratios=[3, 2] if diffs else [1])
     top = fig.add_subplot(over[0])
-    bottom = fig.add_subplot(over[1], sharex=top)
+    bottom = fig.add_subplot(over[1], sharex=top) if diffs else None
 
     # overview and differences
     for s, (t, y) in curves.items():
-        top.plot(t, y, label=s, **line(s, len(t)))
-    for s, d in diffs.items():
-        bottom.semilogy(ref[0], np.maximum(d, floor), lw=1.0, label=f"{s} - {reference}", **style(s, len(ref[0])))
+        top.plot(t, y, label=name_of(s), **line(s, len(t)))
+    for s, (t, d) in diffs.items():
+        bottom.semilogy(t, np.maximum(d, floor), lw=1.0, label=f"{s} - {name_of(reference)}", **looks_of(s, len(t)))
+    if failed:
+        held_to(top, [y for s, (_, y) in curves.items() if s not in failed])
+    least_span(top, np.concatenate([y for _, y in curves.values()]) if curves else [], noise)
+    for s, status in failed.items():
+        for ax in (top, bottom) if bottom else (top,):
+            if status.t is not None:
+                ax.axvline(status.t, color=looks_of(s, 0)["color"], ls=":", lw=1.0)
     if kind == "energy":
         ylabel = "energy change from t = 0 [J]"
         title = f"{case.name}: {name}, change of the total energy (kinetic + gravity + strain) from t = 0"
@@ -166,13 +315,16 @@ def channel_figure(case, name: str, results: dict, reference: str):
         ylabel, title = f"{name} [{unit}]", where(case, name)
     top.set_title(title, fontsize=10)
     top.set_ylabel(ylabel)
-    top.tick_params(labelbottom=False)
     legend(top, fontsize=8, ncol=3)
     top.grid(alpha=0.3)
-    bottom.set_ylabel(f"|difference| [{unit}]")
-    bottom.set_xlabel("t [s]")
-    bottom.grid(alpha=0.3, which="both")
-    legend(bottom, fontsize=8, ncol=3)
+    if bottom:
+        top.tick_params(labelbottom=False)
+        bottom.set_ylabel(f"|difference| [{unit}]")
+        bottom.set_xlabel("t [s]")
+        bottom.grid(alpha=0.3, which="both")
+        legend(bottom, fontsize=8, ncol=3)
+    else:
+        top.set_xlabel("t [s]")
 
     # zoom windows: the first and the last periods, shaded on the overview
     zoom = outer[1].subgridspec(1, 2) if windows else None
@@ -183,37 +335,68 @@ def channel_figure(case, name: str, results: dict, reference: str):
             inside = (t >= t0 - margin) & (t <= t1 + margin)
             ax.plot(t[inside], y[inside], **line(s, int(inside.sum())))
         ax.set_xlim(t0, t1)
-        for a in (top, bottom):
+        for a in (top, bottom) if bottom else (top,):
             a.axvspan(t0, t1, color="0.5", alpha=0.15, lw=0)
         ax.set_title(f"{which} {ZOOM_PERIODS} periods of {f:.3g} Hz (shaded above)", fontsize=9)
         ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)
+        least_span(ax, np.concatenate([y[(t >= t0) & (t <= t1)] for t, y in curves.values()]), noise)
         if i == 0:
             ax.set_ylabel(ylabel)
     return fig
 
 
-def spectra(case, name: str, results: dict, system_hz, nyquist: float, path: Path) -> str:
-    """Amplitude spectra (Hann window, zero-padded) up to the Nyquist frequency, with the system's
-    frequencies marked (dotted)."""
-    fig, ax = plt.subplots(figsize=(9, 4))
+MODE_TOL = 0.02     # a system mode is drawn on a spectrum when within 2 % of an identified peak
+
+
+def identified(results: dict, name: str, system_hz) -> list:
+    """The identified spectral peaks (Hz) of a channel over every drawn run, as the peak table
+    seeks them (`metrics.spectral_peaks`: the 8 largest, above half the lowest system frequency)."""
+    fmin = 0.5 * min(system_hz) if len(system_hz) else 0.0
+    return sorted(fp for r in results.values() if name in r.channels and len(r.t) >= 16 and np.any(r.channels[name])
+                  for fp, _ in metrics.spectral_peaks(r.t, r.channels[name], n=8, fmin=fmin))
+
+
+def marked(system_hz, peaks, fmax: float, tol: float = MODE_TOL) -> list:
+    """The system frequencies a spectrum marks: of those up to fmax, the nearest to each identified
+    peak when within tol of it (at most one per peak), sorted."""
+    f = np.asarray([x for x in system_hz if x <= fmax], dtype=float)
+    if not f.size:
+        return []
+    nearest = [(float(f[np.argmin(np.abs(f - p))]), p) for p in peaks]
+    return sorted({fs for fs, p in nearest if abs(fs / p - 1.0) <= tol})
+
+
+def spectra(case, name: str, results: dict, system_hz, nyquist: float, path: Path, peaks=None) -> str:
+    """`spectra_figure`, saved (`save`)."""
+    return save(spectra_figure(case, name, results, system_hz, nyquist, peaks), path)
+
+
+def spectra_figure(case, name: str, results: dict, system_hz, nyquist: float, peaks=None):
+    """Amplitude spectra (Hann window, zero-padded) up to the Nyquist frequency (or 1.15 times the
+    highest system frequency below it), with the system frequencies near an identified peak marked
+    (dotted, `marked`): `peaks` (Hz), those of the page's peak table, or else the runs' own
+    (`identified`). The reference is named in the legend. Returns the Figure, one axes."""
+    fig, ax = plt.subplots(figsize=(9, 4), layout="constrained")
     shown = [f for f in system_hz if f <= nyquist]
     fmax = min(nyquist, 1.15 * max(shown)) if shown else nyquist
-    for s, r in results.items():
-        if name not in r.channels or len(r.t) < 16 or not np.any(r.channels[name]):
-            continue
+    drawn_runs = {s: r for s, r in results.items()
+                  if name in r.channels and len(r.t) >= 16 and np.any(r.channels[name])}
+    for s, r in drawn_runs.items():
         f, A = metrics.spectrum(r.t, r.channels[name])
         keep = (f > 0) & (f <= fmax)
-        ax.semilogy(f[keep], np.maximum(A[keep] * 1e3, 1e-9), lw=1.0, label=s, **style(s))
-    for fs in shown:
+        ax.semilogy(f[keep], np.maximum(A[keep] * 1e3, 1e-9), lw=1.0, label=label(s, r, case.report.reference),
+                    **style(s, int(keep.sum()), among=drawn_runs))
+    lines = marked(system_hz, identified(drawn_runs, name, system_hz) if peaks is None else peaks, fmax)
+    for fs in lines:
         ax.axvline(fs, color="k", ls=":", lw=0.8)
-    ax.set_xlabel("frequency [Hz]  (dotted: the system's frequencies, linearized about the initial state)")
+    ax.set_xlabel("frequency [Hz]  (dotted: the system's frequencies near an identified peak, "
+                  "linearized about the initial state)")
     ax.set_ylabel(f"|FFT| of {name} [mm]")
     ax.set_title(f"spectrum of {where(case, name)}", fontsize=10)
     ax.grid(alpha=0.3)
     legend(ax, fontsize=8, ncol=3)
-    fig.tight_layout()
-    return save(fig, path)
+    return fig
 
 
 def angle_channels(case) -> list:
@@ -337,7 +520,7 @@ def work_precision_figure(rows: list):
                    and np.isfinite(r["error"]) and r["error"] > 0 and r["wall_s"] > 0]
             ls, marker = SCHEME_LOOK[schemes[s].index(scheme) % len(SCHEME_LOOK)]
             if pts:
-                ax.loglog(*zip(*pts), ls=ls, marker=marker, ms=4, lw=1.2, color=style(s)["color"],
+                ax.loglog(*zip(*pts), ls=ls, marker=marker, ms=4, lw=1.2, color=style(s, among=schemes)["color"],
                           label=f"{s} ({scheme})")
         ax.set_title(name, fontsize=10)
         ax.set_xlabel("wall time, solve only [s]")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from flexmbd.report.figures import save, style
+from flexmbd.report.figures import held_to, label, save, style
 import matplotlib.pyplot as plt  # noqa: E402  (after figures, which chooses the Agg backend)
 import numpy as np  # noqa: E402
 
@@ -40,8 +40,9 @@ def nearest(s: dict, instant: float, half: float) -> int | None:
 def snapshot(case, results: dict, path: Path, reference: str | None = None) -> str | None:
     """Figure of the deformed shapes: for each flexible beam and transverse component, one panel
     per instant of `report.snapshots` with every solver's displacement (mm) against the
-    undeformed position along the beam (m), the reference drawn wider. The PNG's file name, or
-    None when no result holds shapes."""
+    undeformed position along the beam (m), the reference drawn wider and named so; a failed
+    run's shapes up to its failure, named with its failure time, within the limits of the runs
+    that did not fail. The PNG's file name, or None when no result holds shapes."""
     panels = [(body, c) for body, comps in drawn(case, results).items() for c in comps]
     instants = case.report.snapshots
     if not panels:
@@ -55,14 +56,19 @@ def snapshot(case, results: dict, path: Path, reference: str | None = None) -> s
         frame = "chord" if case.bodies[body].modes.boundary == "hinged-hinged" else "root-node"
         for j, instant in enumerate(instants):
             ax = axes[p * rows_each + j // ncol, j % ncol]
+            held, failed = [], False                     # the runs that did not fail set a panel's limits
             for s, r in results.items():
                 shape = r.extra.get("shapes", {}).get(body)
                 k = nearest(shape, instant, half) if shape else None
                 if k is None:
                     continue
                 wide = {"lw": 2.4, "alpha": 0.55, "zorder": 1} if s == reference else {"lw": 1.0, "zorder": 2}
-                ax.plot(shape["x"], np.asarray(shape["u"][k])[:, c] * 1e3, label=s + " (reference)" * (s == reference),
-                        **style(s, len(shape["x"])), **wide)
+                u = np.asarray(shape["u"][k])[:, c] * 1e3
+                ax.plot(shape["x"], u, label=label(s, r, reference), **style(s, len(shape["x"]), among=results), **wide)
+                failed |= r.status.kind == "failed"
+                held += [] if r.status.kind == "failed" else [u]
+            if failed:
+                held_to(ax, held)
             ax.axhline(0.0, color="k", lw=0.5)
             ax.set_title(f"{body}, t = {instant:g} s", fontsize=9)
             ax.grid(alpha=0.3)

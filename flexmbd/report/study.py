@@ -335,9 +335,9 @@ def figures(st: Study, df: pd.DataFrame, where: Path) -> list:
     return names
 
 
-def figure(sel: pd.DataFrame, case: str, key: str, metric: str):
-    """One metric of the rows `sel` against `key`: a panel per channel, a curve per solver, the
-    channel's tolerance dashed (log scales)."""
+def figure(sel: pd.DataFrame, case: str, key: str, metric: str, reference: str | None = None):
+    """One metric of the rows `sel` against `key`: a panel per channel, a curve per solver (the
+    `reference` named so in the legend), the channel's tolerance dashed (log scales)."""
     import matplotlib.pyplot as plt
     from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
 
@@ -347,13 +347,15 @@ def figure(sel: pd.DataFrame, case: str, key: str, metric: str):
     fig, axes = plt.subplots(1, len(chans), figsize=(width, 3.6), squeeze=False)
     fig.subplots_adjust(left=0.55 / width + 0.04, right=0.98, bottom=0.2, top=0.83, wspace=0.38)   # fixed: quick
     numeric = pd.api.types.is_numeric_dtype(sel[key]) and not pd.api.types.is_bool_dtype(sel[key])
+    every = list(dict.fromkeys(sel["solver"]))
     for ax, ch in zip(axes[0], chans):
         part = sel[sel["channel"] == ch]
         order = list(dict.fromkeys(part[key]))
         for s in dict.fromkeys(part["solver"]):
             pts = part[part["solver"] == s]
             x = pts[key].to_numpy() if numeric else [order.index(v) for v in pts[key]]
-            ax.plot(x, pts["value"].to_numpy(dtype=float), marker="o", ms=4, lw=1.2, label=s, **figs.style(s))
+            ax.plot(x, pts["value"].to_numpy(dtype=float), lw=1.2, label=figs.label(s, reference=reference),
+                    **{**figs.style(s, len(x), among=every), "markevery": 1})
         tol = part["tolerance"].iloc[0]
         if np.isfinite(tol):
             ax.axhline(tol, ls="--", lw=0.8, color="k", label="tolerance")
