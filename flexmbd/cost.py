@@ -344,8 +344,8 @@ def solid_frequency(b) -> float:
 
 def system(case, about: str = "initial") -> list:
     """`flexmbd modes --system` (linearize.py) beyond the FE modes: the state matrix by central
-    differences, 4 evaluations per free coordinate and one energy per coordinate (`evaluation`
-    each), with progress shown; its dense eigenproblem, 2n x 2n, no progress (one LAPACK call:
+    differences, 4 evaluations per free coordinate and one more for the mass matrix of the labels
+    (`linearize.mass_matrix`; `evaluation` each), with progress shown; its dense eigenproblem, 2n x 2n, no progress (one LAPACK call:
     7e-9 (2n)^3 s, measured with numpy's eig of random 400^2 to 1600^2 matrices on 2 busy cores;
     the system's own matrices take 2-5e-9; A, its blocks, eigenvectors and workspace 80 B (2n)^2);
     and with `about` = 'equilibrium' the descent to it, about 2.5 n^2 energies (BFGS with

@@ -57,3 +57,20 @@ def test_a_peak_only_the_finer_system_explains_is_named_after_its_mode():
     got = accuracy.peak_table(CASE, {"x": r}, {"tip_deflection": modes}, 5e-4, others=[finer])
     assert [g["mode"] for g in got] == ["beam xy1", "beam xy5 (24 modes)"]
     assert got[1]["difference"] == pytest.approx(426.0 / 427.6 - 1, abs=1e-3)
+
+
+def test_a_run_holding_only_roundoff_has_no_identified_peaks():
+    """A solver that models no deflection and records 1e-14 m of roundoff (with a slow drift) has
+    largest peaks like any record; against the channel's 1e-3 m in the other run they lie 1e-11
+    below it, under the noise floor (`metrics.noise_floor`: 1e-6 of it), and so does the record
+    alone (under 1e-9 of the 1.5 m beam). A real vibration of 1e-5 of the channel is kept."""
+    t = np.arange(0.0, 2.0 + 5e-4, 1e-3)
+    rng = np.random.default_rng(3)
+    noise = 1e-14 * (rng.standard_normal(t.size) + np.sin(2 * np.pi * 1.21 * t))
+    runs = {"ref": Result(solver="ref", case=CASE.name, t=t, channels={"tip_deflection": 1e-3 * np.sin(2 * np.pi * 24.3 * t)}),
+            "rigid": Result(solver="rigid", case=CASE.name, t=t, channels={"tip_deflection": noise}),
+            "small": Result(solver="small", case=CASE.name, t=t, channels={"tip_deflection": 1e-8 * np.sin(2 * np.pi * 78.5 * t)})}
+    modes = {"tip_deflection": [(0.9, "joint pivot"), (24.23, "beam: bending xy 1"), (78.5, "beam: bending xy 2")]}
+    got = accuracy.peak_table(CASE, runs, modes, 1e-3)
+    assert [(g["solver"], g["mode"]) for g in got] == [("ref", "beam: bending xy 1"), ("small", "beam: bending xy 2")]
+    assert accuracy.peak_table(CASE, {"rigid": runs["rigid"]}, modes, 1e-3) == []

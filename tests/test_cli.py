@@ -77,6 +77,8 @@ def test_modes_system_json(capsys):
     inplane = [m for m in out["modes"] if "xy" in m["label"]]
     assert out["about"] == "initial" and inplane[0]["freq_hz"] == pytest.approx(24.23, abs=0.01)
     assert all(m["damping"] == 0.0 and 0.0 < m["damping_resolution"] < 1e-9 for m in out["modes"])   # undamped
+    named = {round(m["freq_hz"]): m["label"] for m in out["modes"]}      # the pinned-free beam's, not the hinge's
+    assert [named[f] for f in (79, 164, 281, 700)] == [f"beam: bending xy {k}" for k in (2, 3, 4, 5)]
 
 
 def test_version_and_help_text_for_every_option(capsys):

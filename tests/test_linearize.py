@@ -41,6 +41,79 @@ def test_pendulum_equilibrium_hangs_down_and_swings_at_the_compound_rate():
     assert modes[0].label == "joint pivot" and modes[0].freq_hz == pytest.approx(swing, rel=0.01)
 
 
+def test_pendulum_bending_modes_are_named_after_the_beam_not_the_hinge():
+    """Released horizontal, the pendulum's in-plane modes are the pinned-free beam's: the hinge
+    turns the beam while its clamped-free modes bend it back, so the diagonal energies
+    x_i^2 M_ii of hinge and modes are about half each (once labelled 'joint pivot, 49-50 %'),
+    while the hinge's momentum is nil and its row share of the kinetic energy 1e-8: every mode is
+    the beam's, to 1e-6, numbered in frequency order within its family."""
+    modes = linearize.for_case(cases.load("pendulum"))
+    inplane = [m for m in modes if "xy" in m.label]
+    assert [round(m.freq_hz, 1) for m in inplane] == [24.2, 78.5, 163.9, 281.5, 700.3]
+    assert [m.label for m in inplane] == [f"beam: bending xy {k}" for k in range(1, 6)]
+    assert [m.label for m in modes if "xz" in m.label] == [f"beam: bending xz {k}" for k in range(1, 8)]
+    assert len(modes) == 12 and all(m.share == pytest.approx(1.0, abs=1e-6) for m in modes)
+
+
+def test_the_mass_matrix_from_forward_dynamics_is_the_polarized_one():
+    """`mass_matrix` (n + 1 forward evaluations) against `dynamics.mass_matrix_system` (the kinetic
+    energy by polarization, checked against the Lagrangian oracle), swung away from the release."""
+    from flexmbd import dynamics
+    from flexmbd.model import make_data
+    model = linearize.model_of(cases.load("double_pendulum"))
+    q = model.q0.copy()
+    q[model.jnt_qadr[1:]] += [-0.7, 0.4]
+    q[model.body_madr[1]:model.body_madr[1] + 3] = [1e-3, -2e-3, 5e-4]
+    M = dynamics.mass_matrix_system(model, make_data(model), q)
+    np.testing.assert_allclose(linearize.mass_matrix(model, q), M, atol=1e-10 * np.abs(M).max())
+
+
+def test_energy_shares_split_by_velocity_times_momentum():
+    """Two masses on a lever, coordinates (a, b) with M = [[2, 1], [1, 1]]: a mode moving a alone
+    carries b along (its momentum (M x)_b = 1), yet b holds nothing: T_b = 1/2 x_b (M x)_b = 0."""
+    M = np.array([[2.0, 1.0], [1.0, 1.0]])
+    shares = lambda x: linearize.energy_shares(x, M @ x)
+    np.testing.assert_allclose(shares(np.array([1.0, 0.0])), [1.0, 0.0])
+    np.testing.assert_allclose(shares(np.array([1.0, -1.0])), [1.0, 0.0])
+    np.testing.assert_allclose(shares(np.array([1j, 1j])).sum(), 1.0)
+
+
+def test_a_mode_s_momenta_from_the_equations_are_the_refined_vector_s():
+    """The pendulum's 281 Hz mode: eig's vector gives the hinge a share of 0.7 through M x (its
+    momentum cancels to 1e-3 of its parts); the momenta from the linearized equations, and M x of
+    the vector refined by inverse iteration, give it 1e-7 at most."""
+    case = cases.load("pendulum")
+    model = linearize.model_of(case)
+    A = linearize.state_matrix(model, model.q0, model.v0)
+    M, n = linearize.mass_matrix(model, model.q0), A.shape[0] // 2
+    lam, vec = np.linalg.eig(A)
+    k = int(np.argmin(np.abs(lam - 2j * np.pi * 281.47)))
+    x = vec[:n, k]
+    assert abs(linearize.energy_shares(x, M @ x)[0]) > 0.1
+    assert abs(linearize.energy_shares(*linearize.momenta(A, M, lam[k], x))[0]) < 1e-7
+    xr = linearize.refined(A, lam[k], x)
+    assert abs(linearize.energy_shares(xr, M @ xr)[0]) < 1e-7
+
+
+def test_a_solid_s_system_modes_are_named_after_its_own_modes():
+    """The hinged block: its mode set's names ('mode 1 (y)'), never a beam's family; its in-plane
+    modes (401 and 1890 Hz) mix its clamped modes 1 (y) and 3 (y), and the larger names each."""
+    modes = linearize.for_case(cases.load("brick_pendulum"))
+    assert [(round(m.freq_hz), m.label) for m in modes] == [
+        (363, "block: mode 2 (z)"), (401, "block: mode 1 (y)"), (1227, "block: mode 4 (y)"), (1890, "block: mode 3 (y)")]
+    assert [round(m.share, 2) for m in modes] == [1.0, 0.56, 1.0, 0.56]
+
+
+def test_a_joint_is_named_only_where_its_coordinate_holds_the_energy():
+    """The double pendulum released at rest: its hinges have no stiffness there, so no mode is
+    theirs (its 849 Hz mode was once 'joint pivot2', 81 % of the diagonal energies); hanging at
+    its equilibrium, the pendulum's rigid swing is its hinge's."""
+    modes = linearize.for_case(cases.load("double_pendulum"))
+    assert not any(m.label.startswith("joint") for m in modes)
+    assert modes[-1].label == "beam2: bending xy 5" and modes[-1].freq_hz == pytest.approx(849.4, abs=0.1)
+    assert linearize.for_case(cases.load("pendulum"), "equilibrium")[0].label == "joint pivot"
+
+
 def test_equilibrium_refuses_prescribed_motion():
     with pytest.raises(InputError, match="--about initial"):
         linearize.for_case(cases.load("rotating_cantilever"), "equilibrium")
@@ -123,7 +196,7 @@ def test_a_closed_loop_is_linearized_along_a_run():
     rocker = np.array([angles(th, 0.15, 0.45, 0.40, 0.50)[1] for th in crank])
     sweep = linearize.along(case, t, {"crank_pivot": crank, "rocker_pivot": rocker}, [0.0, 0.1, 0.2])
     for at, modes in sweep:
-        assert modes[0].label == "coupler bending xy 1" and modes[0].freq_hz == pytest.approx(34.0, rel=0.15), at
+        assert modes[0].label == "coupler: bending xy 1" and modes[0].freq_hz == pytest.approx(34.0, rel=0.15), at
 
 
 def test_damping_resolution_is_the_eigenvalue_condition_number_times_round_off():

@@ -180,7 +180,9 @@ def peak_table(case, results: dict, modes: dict, output_dt: float, tol: float = 
     dicts tried in turn (the finer model's system, the same case with more retained modes: a mode
     the retained set truncates or places too high; the system frozen at instants of the run: a
     swinging system's shifting frequencies) is named after that; else 'none within 2 %', with the
-    truncation note (`truncation`) where the peak lies at the top of the retained modes."""
+    truncation note (`truncation`) where the peak lies at the top of the retained modes. A peak
+    below the channel's noise floor (`metrics.noise_floor`: 1e-6 of its largest magnitude over the
+    runs) is not identified, so a run that holds only roundoff in the channel has no rows."""
     fs = 1.0 / output_dt
     out = []
     for ch, chm in modes.items():
@@ -189,10 +191,12 @@ def peak_table(case, results: dict, modes: dict, output_dt: float, tol: float = 
             continue
         below, above = f_sys <= fs / 2, f_sys > fs / 2
         more = [[(f, lab) for f, lab in other.get(ch, []) if f <= fs / 2] for other in others]
+        floor = metrics.noise_floor([r.channels[ch] for r in results.values() if r.ok and ch in r.channels],
+                                    channels.physical_scale(case, ch))
         for name, r in results.items():
             if not r.ok or ch not in r.channels or not np.any(r.channels[ch]):
                 continue
-            for fp, _ in metrics.spectral_peaks(r.t, r.channels[ch], n=8, fmin=0.5 * f_sys.min()):
+            for fp, _ in metrics.spectral_peaks(r.t, r.channels[ch], n=8, fmin=0.5 * f_sys.min(), floor=floor):
                 row = {"case": case.name, "solver": name, "channel": ch, "f_identified": fp}
                 k = int(np.argmin(np.where(below, np.abs(f_sys - fp), np.inf))) if below.any() else 0
                 d = fp / f_sys[k] - 1.0

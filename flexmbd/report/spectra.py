@@ -99,11 +99,14 @@ def moving_modes(case) -> dict:
 
 
 def filtered(moving: dict, system: list) -> dict:
-    """Deflection channel -> the system modes [(Hz, label)] led by a joint or by a mode in the
-    channel's `moving` sets (labels 'joint pivot', 'beam1 bending xy 1', 'rod:3 axial 1')."""
+    """Deflection channel -> the system modes [(Hz, label)] led by a joint or by a body's family
+    of which the channel's `moving` sets hold a mode (labels 'joint pivot', 'beam1: bending xy 2',
+    'block: mode 1 (y)'; `linearize.labelled`)."""
+    from flexmbd.linearize import family
+
     def mine(label: str, sets: dict) -> bool:
-        head, _, mode = label.partition(" ")
-        return head == "joint" or mode in sets.get(head.split(":")[0], set())
+        body, led, fam = label.partition(": ")
+        return not led or family(fam) in {family(m) for m in sets.get(body, ())}
     return {ch: [(f, lab) for f, lab in system if mine(lab, sets)] for ch, sets in moving.items()}
 
 
