@@ -14,16 +14,19 @@ undeformed, moving rigidly with the joint rates.
 Joints (planar only), each between the two points it joins: on ground or a rigid body the point
 where the joint sits (a `MarkerBodyPosition`), on a flexible beam the node of this mesh nearest
 to it (`mesh_node`; a child's root node). A revolute joint about z is `ObjectJointRevolute2D` (a
-pin: the two positions coincide); a fixed joint to ground adds a `CoordinateConstraint` that
-clamps the child node's rotation; a prismatic joint in the plane is `ObjectJointPrismatic2D`
+pin: the two positions coincide); a fixed joint adds a `CoordinateConstraint` that holds the
+child's rotation coordinate equal to the rotation where it sits (`rotation_marker`: zero on
+ground, a beam node's, a rigid body's), so a rigid body fixed to a beam's node (a tip mass)
+turns with the node's cross-section; a prismatic joint in the plane is `ObjectJointPrismatic2D`
 (rotations equal, the child's origin on the axis line). A revolute joint to ground with
 prescribed motion (the hub of a spin-up or slewing beam, a driven crank) is the same pin plus a
 `CoordinateConstraint` that holds the child node's rotation on the profile: its offset user
 functions are `profiles.motion` (angle and rate), so the child turns exactly as flexmbd's joint
 does; written as Exudyn symbolic user functions (`exudyn_common.motion_expr`), Exudyn evaluates
 them in C++ (a table profile stays a Python function). Point loads are `LoadForceVector` on their
-node of this mesh (a body-frame load turns with the root node); gravity is `LoadMassProportional`
-on every element and m g at every rigid body's com.
+node of this mesh, or at their point of a rigid body (a body-frame load turns with the root node
+or the rigid body); gravity is `LoadMassProportional` on every element and m g at every rigid
+body's com.
 
 Closed loops (`LOOPS`): a cut joint (revolute) is one more `ObjectJointRevolute2D` between its
 two points (on a beam, its node, following the node's elastic motion). The mechanism starts
@@ -111,8 +114,6 @@ def applies(case) -> str:
     for jn, j in case.joints.items():
         if j.type not in ("revolute", "fixed", "prismatic"):
             return f"joint {jn!r}: only revolute (pin), prismatic and fixed joints"
-        if j.type == "fixed" and j.parent != "ground":
-            return f"joint {jn!r}: fixed joints only to ground"
         if j.motion is not None and (j.type != "revolute" or j.parent != "ground"):
             return f"joint {jn!r}: prescribed motion only on a revolute joint to ground"
     for jn, j in case.loops.items():
@@ -122,9 +123,6 @@ def applies(case) -> str:
             return f"loop joint {jn!r}: not a pin about z in the x-y plane"
         if len(free_joints(case, j)) < 2:
             return f"loop joint {jn!r}: its loop has fewer than two joints that are not driven or fixed"
-    for ln, ld in case.loads.items():
-        if not flexible(case.bodies[ld.body]):
-            return f"load {ln!r}: point loads only on flexible beams"
     for cname, c in case.channels.items():
         if out_of_plane(c):
             return f"channel {cname!r}: out-of-plane component in a planar model"
@@ -372,8 +370,9 @@ def marker(mbs, parts: dict, body: str, where: tuple, rigid: bool = False):
 
 def add_joint(mbs, case, parts: dict, j: cases.Joint) -> tuple:
     """The joint between its parent's and its child's sites (`parent_site`, `child_site`): a pin
-    (revolute about z; a fixed joint to ground also clamps the child node's rotation, a driven one
-    holds it on its profile) or a prismatic joint along the axis. Returns its Exudyn objects
+    (revolute about z; a fixed joint also holds the child's rotation to its parent's where it sits,
+    `rotation_marker`: ground's, a beam node's or a rigid body's; a driven one holds it on its
+    profile) or a prismatic joint along the axis. Returns its Exudyn objects
     (pin or prismatic joint, rotation constraint or None)."""
     n_el = mesh(parts)
     sites = (j.parent, parent_site(case, n_el, j)), (j.child, child_site(case, n_el, j))
@@ -386,12 +385,23 @@ def add_joint(mbs, case, parts: dict, j: cases.Joint) -> tuple:
                                                   visualization=eii.VObjectJointRevolute2D(show=False)))
     if j.type != "fixed" and j.motion is None:
         return pin, None
-    ng = mbs.AddNode(eii.NodePointGround(visualization=eii.VNodePointGround(show=False)))
-    mg = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=ng, coordinate=0))
+    mp = rotation_marker(mbs, parts, *sites[0])
     mr = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=root_node(parts[j.child]), coordinate=2))
     kw = hub_offset(mbs, j) if j.motion is not None else {}     # lock (or drive) the child's rotation
-    return pin, mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[mg, mr], **kw,
+    return pin, mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[mp, mr], **kw,
                                                        visualization=eii.VCoordinateConstraint(show=False)))
+
+
+def rotation_marker(mbs, parts: dict, body: str, where: tuple):
+    """A coordinate marker on the rotation where a joint sits on `body` (`site`: node, local): a
+    beam's node's, a rigid body's; on ground a ground coordinate (zero). Each counts from its
+    undeformed start, so a fixed joint holds the child's rotation coordinate equal to it."""
+    p = parts[body]
+    if p["kind"] == "ground":
+        node = mbs.AddNode(eii.NodePointGround(visualization=eii.VNodePointGround(show=False)))
+        return mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=node, coordinate=0))
+    node = p["nodes"][where[0]] if p["kind"] == "beam" else p["node"]
+    return mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=node, coordinate=2))
 
 
 def hub_offset(mbs, j: cases.Joint) -> dict:
@@ -417,16 +427,20 @@ def hub_offset(mbs, j: cases.Joint) -> dict:
 
 
 def add_loads(mbs, case, parts: dict) -> None:
-    """Point loads on their nodes of this mesh (`mesh_node`; body frame: turning with the root
-    node), gravity on every element and at every rigid body's com."""
+    """Point loads on a flexible beam at their node of this mesh (`mesh_node`), on a rigid body
+    at their point (body frame: turning with the beam's root node or the rigid body), gravity on
+    every element and at every rigid body's com."""
     for ld in case.loads.values():
         b = parts[ld.body]
-        node = b["nodes"][mesh_node(case.bodies[ld.body], len(b["elems"]), ld.point.x)]
-        m = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node))
+        if b["kind"] == "beam":
+            node = b["nodes"][mesh_node(case.bodies[ld.body], len(b["elems"]), ld.point.x)]
+            m = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node))
+        else:
+            m = marker(mbs, parts, ld.body, (-1, np.asarray(ld.offset[:2], dtype=float)))
         f = np.asarray(ld.force, dtype=float)
-        prof, body_frame, root = ld.profile, ld.frame == "body", b["nodes"][0]
+        prof, body_frame, root = ld.profile, ld.frame == "body", root_node(b)
         steady = prof["type"] == "constant" or (prof["type"] == "step" and prof["t0"] <= 0.0)
-        clamped = case.joint_of(ld.body).type == "fixed"
+        clamped = xc.fixed_to_ground(case, ld.body)
         if steady and (not body_frame or clamped):
             a0 = b["angle0"] if body_frame else 0.0
             mbs.AddLoad(eii.LoadForceVector(markerNumber=m, loadVector=list(rot2(a0) @ f)))

@@ -288,6 +288,21 @@ def is_planar(case) -> str:
     return ""
 
 
+def fixed_to_ground(case, name: str) -> bool:
+    """True when a chain of fixed joints ties the body frame to ground, each on its parent's frame
+    (ground, a rigid body, a flexible body's root node): a body fixed to a flexible node (a tip
+    mass) turns with the node's elastic rotation."""
+    while name != "ground":
+        j = case.joint_of(name)
+        if j.type != "fixed" or j.motion is not None:
+            return False
+        parent = case.bodies.get(j.parent)
+        if parent is not None and parent.type != "rigid" and not parent.rigid and j.node > 0:
+            return False
+        name = j.parent
+    return True
+
+
 def output_grid(case, t_end: float) -> np.ndarray:
     return common.sample_times(case, t_end)
 

@@ -30,7 +30,12 @@ Joints (body frame = the FFRF reference node, which is the beam's root node):
   parent a flexible node: `MarkerSuperElementPosition` on that node; the joint can only hold its
     position (Exudyn's rigid super-element marker needs non-collinear nodes, a beam's are
     collinear), so spherical joints are exact, and revolute joints about z are exact in a planar
-    case (the moments about x and y they would carry are zero there); other joints: not applicable.
+    case (the moments about x and y they would carry are zero there);
+  a fixed joint on a flexible node (a tip mass): an `ObjectJointGeneric` with all six axes held
+    from a `MarkerSuperElementRigid` on four massless nodes appended around the node (`anchors`,
+    `anchor_rows`: they move with it rigidly, theta x d for its elastic rotation theta = Phi_r
+    eta), whose position is the node's and whose rotation is exactly the node's elastic rotation,
+    as flexmbd's joint on the node takes it; other joints: not applicable.
 Prescribed joint motion: the generic joint's offset user function, a symbolic one that Exudyn
 evaluates in C++ (a table profile: a Python function). Loads: `LoadForceVector` on
 the node's super-element marker; gravity: `LoadMassProportional`.
@@ -112,8 +117,8 @@ def applies(case) -> str:
                 f"its rigid limit is what flexmbd, pinocchio and mujoco model")
     if case.segments:
         name = next(iter(case.segments))
-        return (f"body {name!r}: its segments are joined rigidly at a flexible node, whose rotation "
-                f"Exudyn's super-element markers cannot hold for a beam's collinear nodes")
+        return (f"body {name!r} is split into segments: exudyn-ffrf models unsplit beams only (a split beam's "
+                f"channels are measured on the whole beam, which it does not assemble from the segments)")
     planar = xc.is_planar(case)
     for jn, j in case.joints.items():
         parent = case.bodies.get(j.parent)
@@ -127,14 +132,15 @@ def applies(case) -> str:
             return (f"joint {jn!r}: a {j.type} joint at interface {j.point.x!r} of solid {j.parent!r} (not its "
                     f"frame's) needs the interface's rotation, which Exudyn's super-element marker on its reference "
                     f"node does not give (its position only: spherical joints)")
-        if j.type == "spherical" or (j.type == "revolute" and not planar):
+        if j.type == "spherical" or (j.type == "revolute" and not planar) or j.type == "fixed":
             continue
         if j.type == "revolute":
             return (f"joint {jn!r}: a revolute joint on a flexible node holds only the node's position "
                     f"in Exudyn (a beam's nodes are collinear: no rigid super-element marker), exact "
                     f"only in planar cases, and this one is not ({planar})")
-        return (f"joint {jn!r}: a {j.type} joint on a flexible node needs the node's rotation, "
-                f"which Exudyn's super-element markers cannot give for a beam's collinear nodes")
+        return (f"joint {jn!r}: a {j.type} joint on a flexible node is not modelled (a fixed one is, from the "
+                f"node's rigid anchor marker; a spherical one, and a revolute one about z in a planar case, "
+                f"hold the node's position)")
     return cuts_apply(case, planar)
 
 
@@ -186,9 +192,10 @@ def cut_off_plane(j: cases.Joint) -> str:
 class _FEM:
     """The FlexBody seen through the few FEMinterface calls ObjectFFRFreducedOrderInterface makes;
     `mass` (3N, 3N) its mass matrix (default: the lumped node masses, a beam's). With a mass (a
-    solid) one node is appended, after the FlexBody's N: its centre of mass (`mass_centre`), no mass."""
+    solid) one node is appended, after the FlexBody's N: its centre of mass (`mass_centre`), no mass.
+    Then, per node of `anchors`, the four massless nodes of its rigid marker (`anchor_rows`)."""
 
-    def __init__(self, fb: flexbody.FlexBody, mass: sp.spmatrix | None = None):
+    def __init__(self, fb: flexbody.FlexBody, mass: sp.spmatrix | None = None, anchors=()):
         self.x0 = np.asarray(fb.x0, dtype=float)
         self.modeBasis = {"matrix": translational_modes(fb)}
         self.postProcessingModes = {}
@@ -198,6 +205,11 @@ class _FEM:
             self.x0 = np.vstack([self.x0, c])
             self.modeBasis["matrix"] = np.vstack([self.modeBasis["matrix"], Pc])
             self.mass = sp.block_diag([self.mass, sp.csr_matrix((3, 3))], format="csr")
+        for k in anchors:
+            x, P = anchor_rows(fb, k)
+            self.x0 = np.vstack([self.x0, x])
+            self.modeBasis["matrix"] = np.vstack([self.modeBasis["matrix"], P])
+            self.mass = sp.block_diag([self.mass, sp.csr_matrix((3 * len(x), 3 * len(x)))], format="csr")
 
     def GetNodePositionsAsArray(self):
         return self.x0
@@ -229,12 +241,47 @@ def mass_centre(fb: flexbody.FlexBody) -> tuple:
     return w @ fb.x0, np.einsum("p,pik->ik", w, fb.Phi[:, 3:, :])
 
 
-def ffrf_interface(fb: flexbody.FlexBody, rotary: bool,
-                   mass: sp.spmatrix | None = None) -> ObjectFFRFreducedOrderInterface:
+# a node's rigid marker: four massless nodes around it at +-ANCHOR_ARM of the beam's length along
+# the body frame's y and z axes (`anchor_rows`)
+ANCHOR_ARM = 0.05
+ANCHOR_DIRECTIONS = np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+
+
+def anchor_rows(fb: flexbody.FlexBody, k: int) -> tuple:
+    """(x0 (4, 3), Phi (12, nm)) four nodes rigidly attached to node k (the `ANCHOR_DIRECTIONS`
+    arms d of length ANCHOR_ARM L): x0_k + d and the rigid fit of the node's motion, Phi_t,k -
+    skew(d) Phi_r,k (a small rotation theta moves the point by theta x d). A beam's nodes lie on
+    a line, so Exudyn's rigid super-element marker (which takes the position and rotation of a
+    node set) cannot use them; on these four, centred on node k, its position is node k's and its
+    linearised rotation (the weighted sum of d x u over the nodes, W^-1 times it) is exactly
+    Phi_r,k eta, the node's elastic rotation, as flexmbd's joints on a node take it."""
+    d = ANCHOR_ARM * fb.length * ANCHOR_DIRECTIONS
+    Pt, Pr = fb.Phi[k, 3:, :], fb.Phi[k, :3, :]
+    rows = [Pt - np.cross(a, Pr, axisa=0, axisb=0, axisc=0) for a in d]
+    return fb.x0[k] + d, np.vstack(rows)
+
+
+def anchor_nodes(fb: flexbody.FlexBody, solid: bool, anchors) -> dict:
+    """Node k of `anchors` -> the super element's node numbers of its four `anchor_rows` nodes
+    (after the FlexBody's N nodes and a solid's centre node, in the order of `anchors`)."""
+    first = fb.n_nodes + int(solid)
+    return {k: list(range(first + 4 * i, first + 4 * i + 4)) for i, k in enumerate(anchors)}
+
+
+def anchors(case, name: str, fbs: dict) -> list:
+    """The nodes of flexible body `name` that need a rigid marker: where a fixed joint sits on it
+    other than its root (the reference node is the frame's own rigid marker)."""
+    return sorted({j.node for j in case.joints.values() if j.parent == name and j.type == "fixed"
+                   and not on_root(j, fbs)})
+
+
+def ffrf_interface(fb: flexbody.FlexBody, rotary: bool, mass: sp.spmatrix | None = None,
+                   anchored=()) -> ObjectFFRFreducedOrderInterface:
     """Exudyn's FFRF invariants of the body; modal stiffness Km; rotary inertia added when asked.
     `mass`: a solid's consistent mass matrix (`solid_mass`), from which Exudyn's interface forms
-    every invariant itself (a solid has no rotary inertia: `rotary` is not used)."""
-    cms = ObjectFFRFreducedOrderInterface(_FEM(fb, mass), rigidBodyNodeType=NODE_TYPE,
+    every invariant itself (a solid has no rotary inertia: `rotary` is not used). `anchored`: the
+    nodes that get a rigid marker's four massless nodes (`anchor_rows`)."""
+    cms = ObjectFFRFreducedOrderInterface(_FEM(fb, mass, anchored), rigidBodyNodeType=NODE_TYPE,
                                           roundMassMatrix=0.0, roundStiffnessMatrix=0.0)
     cms.stiffnessMatrixReduced = np.array(fb.Km, dtype=float)
     if rotary and mass is None:
@@ -391,7 +438,7 @@ def add_joint(mbs, items, case, fbs, j: cases.Joint):
         return None
     child = j.child
     A = xc.axis_frame(j.axis)
-    if j.parent in fbs and not on_root(j, fbs):          # on a flexible node
+    if j.parent in fbs and not on_root(j, fbs) and j.type != "fixed":     # on a flexible node
         m0 = mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=items[j.parent]["obj"],
                                                           meshNodeNumbers=[j.node], weightingFactors=[1.0]))
         it = items[child]
@@ -409,7 +456,13 @@ def add_joint(mbs, items, case, fbs, j: cases.Joint):
         return sph, None
     # parent side: the input triad turned onto the axis (z of the joint frame is the axis)
     R0 = np.array(j.triad) @ A
-    m0 = body_marker_rigid(mbs, items, j.parent, case, fbs, triad_point(j, fbs), R0)
+    if j.parent in fbs and not on_root(j, fbs):          # a fixed joint on a flexible node: its anchor
+        m0 = mbs.AddMarker(eii.MarkerSuperElementRigid(
+            bodyNumber=items[j.parent]["obj"], meshNodeNumbers=items[j.parent]["anchors"][j.node],
+            weightingFactors=[0.25] * 4, localHT=exu.HT(rotation=R0, translation=np.zeros(3)),
+            visualization=eii.VMarkerSuperElementRigid(show=False)))
+    else:
+        m0 = body_marker_rigid(mbs, items, j.parent, case, fbs, triad_point(j, fbs), R0)
 
     # child side: the same joint frame at q0, in the child frame (coincident when driven)
     Rq, tq = joint_offset(j)
@@ -465,7 +518,7 @@ def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> Non
         f = np.asarray(ld.force, dtype=float)
         prof, body_frame, node = ld.profile, ld.frame == "body", it["node"]
         steady = prof["type"] == "constant" or (prof["type"] == "step" and prof["t0"] <= 0.0)
-        fixed_frame = fixed_to_ground(case, name)
+        fixed_frame = xc.fixed_to_ground(case, name)
         if steady and (not body_frame or fixed_frame):
             R0 = states[name][0] if body_frame else np.eye(3)
             mbs.AddLoad(eii.LoadForceVector(markerNumber=m, loadVector=list(R0 @ f)))
@@ -495,16 +548,6 @@ def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> Non
                 continue
             m = mbs.AddMarker(eii.MarkerBodyMass(bodyNumber=it["obj"]))
             mbs.AddLoad(eii.LoadMassProportional(markerNumber=m, loadVector=list(g)))
-
-
-def fixed_to_ground(case, name: str) -> bool:
-    """True when a chain of fixed joints ties the body frame to ground."""
-    while name != "ground":
-        j = case.joint_of(name)
-        if j.type != "fixed" or j.motion is not None:
-            return False
-        name = j.parent
-    return True
 
 
 # ---------------------------------------------------------------------------------------------
@@ -980,7 +1023,10 @@ def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
         R, p, v, w = states[name]
         if name in fbs:
             mass = solid_mass(body, fbs[name]) if body.type == "solid" else None
-            items[name] = add_ffrf(mbs, fbs[name], ffrf_interface(fbs[name], rotary, mass), R, p, v, w, fbs[name].Cm)
+            nodes = anchors(case, name, fbs)
+            items[name] = add_ffrf(mbs, fbs[name], ffrf_interface(fbs[name], rotary, mass, nodes), R, p, v, w,
+                                   fbs[name].Cm)
+            items[name]["anchors"] = anchor_nodes(fbs[name], mass is not None, nodes)
         elif body.type == "rigid":
             items[name] = add_rigid(mbs, body, R, p, v, w)
         else:                                    # a beam declared rigid: its undeformed mass properties

@@ -19,8 +19,11 @@ and how they are handled here (docs/peers.md has the evidence):
   Euler dissipation, damping ratio ~ w h / 2 per mode) or an explicit one with a tiny step.
 
 The parent body is the world (fixed joint) or a body with a hinge at the joint (revolute joint
-to ground). A box section of half-sizes (extent along y, extent along z) / 2 gives the rod the
-beam's two bending stiffnesses (checked: 23.29 mm / 52.4 mm static tip deflections).
+to ground). A rigid body joined to the rod (a tip mass) is not modelled: it would have to turn
+with the rod's material frame at a vertex, and a flexcomp rod's vertex bodies carry three slides
+and a twist hinge about the rod's x axis, so their frames do not turn as the rod bends. A box
+section of half-sizes (extent along y, extent along z) / 2 gives the rod the beam's two bending
+stiffnesses (checked: 23.29 mm / 52.4 mm static tip deflections).
 
 The trajectory (`flexmbd.channels`), from the rod's own vertex positions in the root frame (the
 parent body's frame, which holds the clamped first edge, i.e. the frame attached to the root and
@@ -62,6 +65,10 @@ def version() -> str:
 
 def applies(case) -> str:
     bodies, joints = case.bodies, case.joints
+    rigid = next((n for n, b in bodies.items() if b.type == "rigid" or b.rigid), None)
+    if rigid is not None and any(b.type == "beam" and not b.rigid for b in bodies.values()):
+        return (f"body {rigid!r}: a rigid body joined to a rod needs the rod's material frame at a vertex, which "
+                f"the flexcomp rod's vertex bodies (three slides and a twist hinge) do not turn with")
     if len(bodies) != 1 or len(joints) != 1:
         return "one beam on one joint only (a hinge on a rod vertex has no material frame to follow)"
     (name, body), (jname, j) = next(iter(bodies.items())), next(iter(joints.items()))
