@@ -251,6 +251,8 @@ class Report:
     snapshots: tuple    # instants of the deformed-shape snapshots, s
     shape_points: int   # evenly spaced points along each flexible beam drawn in them
     notes: str = ""     # shown on the case page beside its accuracy table
+    expected_failures: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))  # solver -> why its
+    # run fails, shown on the page
 
 
 @dataclass(frozen=True)
@@ -452,7 +454,8 @@ def resolve(data: dict, split: bool = True) -> Resolved:
         loads=MappingProxyType(loads), channels=MappingProxyType(channels), integrator=Integrator(**ig),
         report=Report(reference=rep["reference"], solvers=None if rep["solvers"] is None else tuple(rep["solvers"]),
                       tolerances=frozen(rep["tolerances"]), snapshots=tuple(rep["snapshots"]),
-                      shape_points=rep["shape_points"], notes=rep["notes"]),
+                      shape_points=rep["shape_points"], notes=rep["notes"],
+                      expected_failures=frozen(rep["expected_failures"])),
         solvers=frozen(data["solvers"]), tree=tuple(tree), nq=nq, nv=nv,
         segments=MappingProxyType(segments), whole=MappingProxyType(whole),
         split=None if expanded is data else dataclasses.replace(resolve(expanded, split=False),
