@@ -400,6 +400,32 @@ def unit(case, name: str) -> str:
     return SI_UNITS[c.kind]
 
 
+KIND_NAMES = {"deflection": "deflection", "stress_vm": "von Mises stress", "joint_angle": "angle",
+              "energy": "energy", "reaction_force": "reaction force", "reaction_moment": "reaction moment"}
+
+
+def label(case, name: str) -> str:
+    """Channel `name` as a reader names it, with its SI unit (`unit`): 'deflection y at 8 m [m]',
+    'von Mises stress at 0.05 m [Pa]', 'angle of hub [rad]' ('position' for a prismatic joint),
+    'energy [J]', 'reaction force x at hub [N]'; a body named where the case has more than one
+    flexible body."""
+    c, u = case.channels[name], unit(case, name)
+    if c.kind in ("deflection", "stress_vm"):
+        comp = f" {c.component}" if c.kind == "deflection" else ""
+        if c.where is not None:                         # a solid's stress point
+            at = "(" + ", ".join(f"{v:g}" for v in c.where) + ") m"
+        else:
+            at = str(c.at) if isinstance(c.at, str) else f"{c.at:g} m"
+        flexible = [b for b in case.bodies.values() if b.type in ("beam", "solid")]
+        of = f" of {c.body}" if len(flexible) > 1 else ""
+        return f"{KIND_NAMES[c.kind]}{comp}{of} at {at} [{u}]"
+    if c.kind == "joint_angle":
+        return f"{'position' if u == 'm' else 'angle'} of {c.joint} [{u}]"
+    if c.kind in ("reaction_force", "reaction_moment"):
+        return f"{KIND_NAMES[c.kind]} {c.component} at {c.joint} [{u}]"
+    return f"{KIND_NAMES[c.kind]} [{u}]"
+
+
 def physical_scale(case, name: str, kinetic_max: float | None = None) -> float:
     """The scale of channel `name` in the case, in its unit, that its differences are measured
     against where the reference's own magnitude can be noise (`metrics.channel_norm`):

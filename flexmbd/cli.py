@@ -253,7 +253,7 @@ def _show(args, what: str, page: Path, runs: list, acc: list) -> None:
         return
     print(line)
     for o in runs:
-        if o.verdict.kind in ("fail", "failed"):
+        if o.verdict.kind in ("fail", "diverged", "aborted"):
             print(f"  {o.case} / {o.solver}: {o.verdict}")
     print(f"{what}: {page}")
 

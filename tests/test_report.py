@@ -13,6 +13,7 @@ import pytest
 from flexmbd import cases, channels, flexbody, metrics, solvers
 from flexmbd.cli import main
 from flexmbd.report import regress, spectra, tables
+from tests.test_tables import compile_input
 
 FAST = "analytic,fe-linear"
 
@@ -75,7 +76,7 @@ def test_same_numbers_in_csv_markdown_latex_and_html(report):
         s = tables.fmt(float(r["value"]))
         assert s in md and s in page, (r, s)
         if r["metric"] in ("rms", "max"):
-            assert tables.tex_number(float(r["value"]), "e") in tex, r
+            assert tables.tex_number(float(r["value"])) in tex, r
 
 
 def test_accuracy_csv_is_tidy(report):
@@ -118,14 +119,12 @@ def test_every_markdown_page_renders_its_tables(report):
 
 
 @pytest.mark.skipif(shutil.which("pdflatex") is None, reason="no TeX engine on this machine")
-def test_accuracy_tex_compiles_and_fits_the_page(report, tmp_path):
-    import subprocess
-    shutil.copy(report / "accuracy.tex", tmp_path / "accuracy.tex")
-    r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "accuracy.tex"], cwd=tmp_path,
-                       capture_output=True, text=True, timeout=120)
-    log = (tmp_path / "accuracy.log").read_text(errors="replace")
-    assert r.returncode == 0, log[-2000:]
-    assert "Overfull \\hbox" not in log
+def test_accuracy_tex_compiles_in_a_two_column_article_and_fits(report, tmp_path):
+    """accuracy.tex, \\input into a two-column article loading booktabs and siunitx: it compiles
+    and no table is wider than its column or the text."""
+    tex = (report / "accuracy.tex").read_text()
+    assert "\\documentclass" not in tex and "adjustbox" not in tex
+    assert "Overfull \\hbox" not in compile_input(tmp_path, tex)
 
 
 def test_fft_peaks_match_fe_frequencies_on_cantilever_step():
@@ -254,7 +253,7 @@ def test_a_failing_solver_does_not_stop_the_report(tmp_path, monkeypatch):
     assert main(["report", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(tmp_path),
                  "--workers", "1"]) == 0
     index = (tmp_path / "index.html").read_text()
-    assert "failed: RuntimeError: boom" in index
+    assert "aborted: RuntimeError: boom" in index                  # a solver's error: aborted, not diverged
     assert "fe-linear" in index
 
 
@@ -305,17 +304,19 @@ def test_verdicts_of_a_run():
             row("b", "tip", 0.004, 0.01), row("c", "tip", np.nan, 0.01), row("d", "tip", 0.1, np.nan)]
     ok, out = results.Status(), results.outside_validity("deflection 12 % of length", 0.3)
     v = lambda st, s: accuracy.verdict(st, s, "ref", rows)
-    assert v(ok, "a") == ("fail", "fail: energy 0.5 > 0.1 (5 x tolerance) and 1 more")
-    assert v(ok, "b") == ("pass", "pass: 1 channel within tolerance")
+    assert v(ok, "a") == ("fail", "fail: energy RMS 0.5 = 5.0 × its tolerance 0.1 and 1 more", "")
+    assert v(ok, "b") == ("pass", "pass: 1 channel within tolerance", "")
     assert v(ok, "c").kind == "fail"                                    # a NaN difference is no pass
     assert v(ok, "d").kind == "not compared"
-    assert v(out, "b") == ("outside validity", "outside validity: deflection 12 % of length")
-    assert v(out, "a").text.endswith("(outside linear validity: deflection 12 % of length)")
-    assert v(results.failed("non-finite state", 0.2), "a") == ("failed", "failed: non-finite state at t = 0.2 s")
+    assert v(out, "b") == ("pass", "pass: 1 channel within tolerance", "deflection 12 % of length")   # the flag beside
+    assert v(out, "a").kind == "fail" and v(out, "a").outside == "deflection 12 % of length"
+    assert str(v(out, "a")).endswith("; outside linear validity: deflection 12 % of length")
+    assert v(results.failed("non-finite state", 0.2), "a") == ("diverged", "diverged: non-finite state at t = 0.2 s", "")
+    assert v(results.failed("step size too small", 0.2), "a").kind == "aborted"
     assert v(results.not_applicable("fixed base"), "a").kind == "not applicable"
     assert v(ok, "ref").kind == "reference"
     verdicts = [v(ok, "a"), v(ok, "b"), v(out, "b"), v(results.failed("x"), "a")]
-    assert accuracy.summary(verdicts) == "4 runs: 1 pass, 1 fail, 1 outside validity, 1 failed"
+    assert accuracy.summary(verdicts) == "4 runs: 2 pass, 1 fail, 1 aborted (1 outside linear validity)"
 
 
 def test_a_failing_channel_is_a_fail_on_the_index_and_with_strict_exit_1(tmp_path, capsys):
@@ -330,10 +331,14 @@ def test_a_failing_channel_is_a_fail_on_the_index_and_with_strict_exit_1(tmp_pat
     args = ["report", "--cases", str(path), "--solvers", "analytic,fe-linear", "--out", str(out)]
     assert main(args) == 0
     printed = capsys.readouterr().out
-    assert "2 runs: 1 fail, 1 reference" in printed and "tight / analytic: fail: tip_deflection" in printed
+    assert "2 runs: 1 fail, 1 reference" in printed and "tight / analytic: fail: tip_deflection RMS" in printed
     index = (out / "index.html").read_text()
     assert "<b>2 runs: 1 fail, 1 reference</b>" in index
-    assert re.search(r"<td class='fail'>fail: tip_deflection [0-9.e-]+ &gt; 1e-09 \([0-9.e+]+ x tolerance\)</td>", index)
+    assert re.search(r"<td class='fail'>fail: tip_deflection RMS [0-9.e-]+ = [0-9.e]+ × its tolerance 1e-9</td>", index)
+    assert "td.fail::before{content:'✗\\a0'}" in index                  # its icon beside its colour
+    # the case x solver matrix above the table of every run
+    assert index.index("<table class='matrix'>") < index.index("<h2>Every run</h2>")
+    assert re.search(r"<tr><td><a href='tight/index.html'>tight</a></td><td class='fail'[^>]*>fail</td>", index)
     assert main(args[:1] + ["--no-run", "--strict"] + args[1:]) == 1
     capsys.readouterr()
     assert main(args[:1] + ["--no-run", "--json"] + args[1:]) == 0
@@ -454,16 +459,19 @@ def test_report_runs_the_reference_it_compares_against(tmp_path, capsys):
     assert out.startswith("2 runs: 1 pass, 1 reference"), out
     text = (cases.find("cantilever_step")).read_text()
     tight = re.sub(r"(?m)^tolerances = .*$", "tolerances = { tip_deflection = 1e-12, stress_vm = 1e-12 }", text)
-    none = re.sub(r"(?m)^tolerances = .*$", "", text)
-    for name, body, want in (("tight", tight, "1 fail"), ("none", none, "1 not compared")):
+    none = re.sub(r"(?m)^tolerances = .*$", "tolerances = {}", text)        # an empty table grades nothing
+    default = re.sub(r"(?m)^tolerances = .*$", "", text)                   # no table: each kind's default
+    for name, body, want, code in (("tight", tight, "1 fail", 1), ("none", none, "1 not compared", 1),
+                                   ("default", default, "1 pass", 0)):
         path = tmp_path / name / "cantilever_step.toml"
         path.parent.mkdir()
         path.write_text(body)
         assert main(["report", "--cases", str(path), "--solvers", "analytic", "--strict",
-                     "--out", str(tmp_path / name)]) == 1, name
+                     "--out", str(tmp_path / name)]) == code, name
         out, err = capsys.readouterr()
         assert want in out.splitlines()[0], (name, out)
-    assert "--strict: nothing was compared" in err
+        if name == "none":
+            assert "--strict: nothing was compared" in err
 
 
 def test_a_page_whose_inputs_are_unchanged_is_kept_and_any_change_draws_it_again(tmp_path, capsys):
@@ -535,3 +543,26 @@ def test_pages_drawn_side_by_side_are_the_pages_drawn_one_after_another(report, 
         assert len(set(pids)) == drawers, pids
         pages[drawers] = {c.name: (stage / c.name / "index.md").read_text() for c in both}
     assert pages[1] == pages[2]
+
+
+def test_a_diverged_run_s_page_says_why_with_the_case_s_explanation():
+    """slewing_beam's exudyn-ffrf: its status and the case's physical explanation
+    (report.expected_failures) under the page's verdicts."""
+    from flexmbd import results
+    from flexmbd.report import accuracy, pages
+    case = cases.load("slewing_beam")
+    st = results.failed("diverged (|tip_deflection| beyond 16 m, 2 beam lengths)", 10.58)
+    runs = [accuracy.Outcome(case.name, "exudyn-ffrf", st, accuracy.verdict(st, "exudyn-ffrf", "exudyn-beam", []),
+                             np.nan, 9.0)]
+    page, md = pages.runs_section(case, runs)
+    assert "<td class='diverged'>" in page
+    assert "<p class='why'><b>exudyn-ffrf</b>: diverged (|tip_deflection| beyond 16 m" in page
+    assert "at t = 10.58 s. A linear floating frame" in page and "loses the in-plane stiffness" in md
+
+
+def test_provenance_settings_are_whole():
+    from flexmbd import results
+    from flexmbd.report import pages
+    settings = {f"key{k}": "x" * 20 for k in range(30)}
+    r = results.Result(solver="flexmbd", case="c", status=results.Status(), settings=settings)
+    assert pages.provenance_rows({"flexmbd": r})[0][-1] == json.dumps(settings, sort_keys=True)

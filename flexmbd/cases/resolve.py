@@ -252,6 +252,8 @@ class Report:
     shape_points: int   # evenly spaced points along each flexible beam drawn in them
     notes: str = ""     # shown on the case page beside its accuracy table
     defaults: tuple = ()    # which of "reference", "tolerances" are defaults, not the case file's
+    expected_failures: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))  # solver -> why its
+    # run fails, shown on the page
 
 
 @dataclass(frozen=True)
@@ -454,7 +456,8 @@ def resolve(data: dict, split: bool = True) -> Resolved:
         report=Report(reference=rep["reference"], solvers=None if rep["solvers"] is None else tuple(rep["solvers"]),
                       tolerances=frozen(tolerances(rep["tolerances"], data["channels"])),
                       snapshots=tuple(rep["snapshots"]), shape_points=rep["shape_points"], notes=rep["notes"],
-                      defaults=("tolerances",) * (rep["tolerances"] is None)),
+                      defaults=("tolerances",) * (rep["tolerances"] is None),
+                      expected_failures=frozen(rep["expected_failures"])),
         solvers=frozen(data["solvers"]), tree=tuple(tree), nq=nq, nv=nv,
         segments=MappingProxyType(segments), whole=MappingProxyType(whole),
         split=None if expanded is data else dataclasses.replace(resolve(expanded, split=False),

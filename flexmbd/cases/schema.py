@@ -161,6 +161,7 @@ REPORT = {
     "snapshots": ("vec", None),         # s: instants of the deformed-shape snapshots (default `snapshot_instants`)
     "shape_points": ("int0+", 11),      # evenly spaced points along each flexible beam drawn in them (0: none)
     "notes": ("str", ""),               # what a reader of the case page should know of its reference and verdicts
+    "expected_failures": ("explanations", {}),   # solver = why its run is expected to fail (shown on the page)
 }
 
 # the relative tolerance of each channel kind in a case that gives no report.tolerances (the RMS

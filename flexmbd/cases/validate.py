@@ -228,6 +228,10 @@ def _check_value(v, kind, where: str, key: str):
         if not isinstance(v, dict):
             _fail(where, key, "expected a table channel = relative tolerance")
         return {ch: _check_value(t, "float+", where, f"{key}.{ch}") for ch, t in v.items()}
+    if kind == "explanations":
+        if not isinstance(v, dict):
+            _fail(where, key, "expected a table solver = explanation")
+        return {s: _check_value(text, "str", where, f"{key}.{s}") for s, text in v.items()}
     if kind == "solver_settings":
         if not isinstance(v, dict):
             _fail(where, key, "expected a table of solver names")

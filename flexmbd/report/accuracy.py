@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -62,6 +63,7 @@ def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
             k = metrics.channel_norm(case.channels[ch].kind, x,
                                      channels.physical_scale(case, ch, ref.extra.get("kinetic_max_J")))
             row = {"case": case.name, "solver": name, "reference": ref_name, "channel": ch,
+                   "label": channels.label(case, ch),
                    "rms": metrics.rms_diff(x, y, k), "max": metrics.max_diff(x, y, k),
                    "peak": metrics.peak_diff(x, y, k),
                    "f_ref": np.nan, "f_solver": np.nan, "envelope": np.nan, "slow": np.nan,
@@ -79,46 +81,96 @@ def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
     return out
 
 
+def number(x, digits: int = 3) -> str:
+    """A number with `digits` significant digits, its notation chosen by its magnitude: decimal
+    from 1e-3 to 1e5 (0.0378, 12.5, 401, 12345), else scientific (1.27e-6, 2.5e5); trailing
+    zeros dropped, 0 as '0', never '0.0' for a value that is not 0. NaN as 'nan', +-inf as 'inf'."""
+    x = float(x)
+    if not math.isfinite(x):
+        return "nan" if math.isnan(x) else ("-inf" if x < 0 else "inf")
+    if x == 0:
+        return "0"
+    m, e = f"{x:.{digits - 1}e}".split("e")           # rounded first: 9.996e-4 is 1.00e-3
+    e = int(e)
+    if -3 <= e < 5:
+        s = f"{x:.{max(digits - 1 - e, 0)}f}"
+        return s.rstrip("0").rstrip(".") if "." in s else s
+    return f"{m.rstrip('0').rstrip('.') if '.' in m else m}e{e}"
+
+
+def factor(x: float) -> str:
+    """How many times its tolerance a difference is, with two significant digits kept (2.0, 15,
+    0.50): 'inf' for an infinite or NaN difference."""
+    if not math.isfinite(x):
+        return "inf"
+    return f"{x:.0f}" if x >= 99.5 else f"{x:#.2g}".rstrip(".")
+
+
 class Verdict(NamedTuple):
-    """One case x solver at a glance: `kind` one of VERDICTS, `text` the one line shown (str())."""
+    """One case x solver at a glance: `kind` one of VERDICTS, `text` the one line shown (str()),
+    `outside` what an ok run's model exceeded of its linear validity ('' when it stayed within):
+    the validity flag, shown beside the verdict, never instead of it."""
 
     kind: str
     text: str
+    outside: str = ""
 
     def __str__(self) -> str:
-        return self.text
+        return self.text + (f"; outside linear validity: {self.outside}" if self.outside else "")
 
 
-VERDICTS = ("pass", "fail", "outside validity", "failed", "not applicable", "unavailable", "reference",
-            "not compared")
+# one word per meaning: pass / fail (a channel beyond its tolerance), diverged (the run broke the
+# divergence rule or its state went non-finite), aborted (the run stopped for another reason: a
+# step size too small, Newton, a solver's error), not applicable, unavailable, and the reference
+# and runs with nothing to compare; "outside validity" is a flag beside a verdict (Verdict.outside)
+VERDICTS = ("pass", "fail", "diverged", "aborted", "not applicable", "unavailable", "reference", "not compared")
+DIVERGENCE = ("diverged", "non-finite")     # how the divergence rule's whys begin (results, integrate)
+
+
+def run_word(status) -> str:
+    """The word of a run's Status: ok, diverged or aborted (a failed run, by its why), not
+    applicable, unavailable."""
+    if status.kind != "failed":
+        return status.kind
+    return "diverged" if status.why.startswith(DIVERGENCE) else "aborted"
+
+
+def status_text(status) -> str:
+    """A run's Status as its one line, with its word (`run_word`): 'diverged: ... at t = 10.58 s';
+    'aborted: step size too small at t = 0.2 s'; a why that begins with its word not said twice
+    ('diverged (|tip| beyond 16 m, 2 beam lengths) at t = 10.58 s'); an ok run outside its linear
+    validity: 'ok, outside linear validity (...)'."""
+    text, word = str(status), run_word(status)
+    if status.kind != "failed":
+        return text
+    return text[len("failed: "):] if status.why.startswith(word) else word + text[len(status.kind):]
 
 
 def verdict(status, solver: str, reference: str, rows_: list[dict]) -> Verdict:
-    """The verdict of a solver's run (`status`: its results.Status) from its accuracy rows: failed /
-    not applicable / unavailable from the status; else fail when a channel's RMS difference exceeds
-    its tolerance (the worst one and by how much), outside validity when the run left its model's
-    linear validity, pass when every compared channel is within tolerance; the reference solver is
-    `reference`, a run with nothing compared `not compared`."""
+    """The verdict of a solver's run (`status`: its results.Status) from its accuracy rows:
+    diverged / aborted / not applicable / unavailable from the status; else fail when a channel's
+    RMS difference exceeds its tolerance (the worst one and how many times its tolerance), pass
+    when every compared channel is within tolerance; the reference solver is `reference`, a run
+    with nothing compared `not compared`. An ok run outside its model's linear validity carries
+    that beside its verdict (`Verdict.outside`)."""
     if not status.ok:
-        return Verdict(status.kind, str(status))
-    outside = f" (outside linear validity: {status.why})" if status.outside else ""
+        return Verdict(run_word(status), status_text(status))
+    outside = status.why if status.outside else ""
     if solver == reference:
-        return Verdict("reference", "reference" + outside)
+        return Verdict("reference", "reference", outside)
     if reference is None:
-        return Verdict("not compared", "not compared: the case names no reference solver (report.reference)"
-                       + outside)
+        return Verdict("not compared", "not compared: the case names no reference solver (report.reference)",
+                       outside)
     mine = [r for r in rows_ if r["solver"] == solver and np.isfinite(r["tolerance"])]
     bad = [r for r in mine if not r["rms"] <= r["tolerance"]]
     if bad:
         w = max(bad, key=lambda r: r["rms"] / r["tolerance"] if np.isfinite(r["rms"]) else np.inf)
         more = f" and {len(bad) - 1} more" if len(bad) > 1 else ""
-        return Verdict("fail", f"fail: {w['channel']} {w['rms']:.3g} > {w['tolerance']:.3g} "
-                               f"({w['rms'] / w['tolerance']:.2g} x tolerance){more}{outside}")
-    if status.outside:
-        return Verdict("outside validity", f"outside validity: {status.why}")
+        return Verdict("fail", f"fail: {w['channel']} RMS {number(w['rms'])} = {factor(w['rms'] / w['tolerance'])} "
+                               f"× its tolerance {number(w['tolerance'])}{more}", outside)
     if not mine:
-        return Verdict("not compared", "not compared: no channel with a tolerance against the reference")
-    return Verdict("pass", f"pass: {len(mine)} channel{'s' * (len(mine) != 1)} within tolerance")
+        return Verdict("not compared", "not compared: no channel with a tolerance against the reference", outside)
+    return Verdict("pass", f"pass: {len(mine)} channel{'s' * (len(mine) != 1)} within tolerance", outside)
 
 
 class Outcome(NamedTuple):
@@ -135,9 +187,12 @@ class Outcome(NamedTuple):
 
 
 def summary(verdicts: list) -> str:
-    """One line: how many runs of each verdict, e.g. '36 runs: 20 pass, 5 fail, 2 failed'."""
+    """One line: how many runs of each verdict and how many outside linear validity, e.g.
+    '36 runs: 20 pass, 5 fail, 2 diverged (3 outside linear validity)'."""
     counts = [(k, sum(v.kind == k for v in verdicts)) for k in VERDICTS]
-    return f"{len(verdicts)} runs: " + ", ".join(f"{n} {k}" for k, n in counts if n)
+    outside = sum(bool(v.outside) for v in verdicts)
+    return (f"{len(verdicts)} runs: " + ", ".join(f"{n} {k}" for k, n in counts if n)
+            + (f" ({outside} outside linear validity)" if outside else ""))
 
 
 def worst(rows_: list[dict], solver: str) -> float:

@@ -90,7 +90,7 @@ def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None, reu
         runs += got["runs"]
     if progress:
         progress(len(chosen_cases) + 1, len(chosen_cases) + 1, "index and reviewer tables")
-    tables.write_accuracy(stage, all_acc)
+    tables.write_accuracy(stage, all_acc, runs)
     pages.write_index(out, stage, runs, warn)
     return all_acc, runs
 
@@ -240,7 +240,7 @@ def _record(out: Path, case, key: str) -> dict | None:
 def record(key: str, got: dict, said: list) -> str:
     """The page's record (RECORD): its key, accuracy rows, runs' outcomes and warnings, as JSON."""
     runs = [{"case": o.case, "solver": o.solver, "status": [o.status.kind, o.status.why, o.status.t],
-             "verdict": [o.verdict.kind, o.verdict.text], "worst": o.worst, "wall_s": o.wall_s} for o in got["runs"]]
+             "verdict": list(o.verdict), "worst": o.worst, "wall_s": o.wall_s} for o in got["runs"]]
     return json.dumps({"key": key, "accuracy": got["accuracy"], "runs": runs, "warnings": said}, default=float) + "\n"
 
 

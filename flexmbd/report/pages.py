@@ -15,13 +15,20 @@ import numpy as np
 
 from flexmbd import cases, metrics, results, solvers
 from flexmbd.files import atomic_write
-from flexmbd.report import accuracy, convergence, fields, figures, loading, shapes, spectra, tables
+from flexmbd.report import accuracy, animation, convergence, fields, figures, loading, shapes, spectra, tables
 
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
-table{border-collapse:collapse;margin:0.6em 0;font-size:13px}th,td{border:1px solid #bbb;padding:3px 7px;text-align:right}
-th{background:#eee}td:first-child,th:first-child{text-align:left}.pass,.ok{background:#dfd;text-align:left}.fail{background:#fdd;text-align:left}
-.bad{background:#fcc;text-align:left}.outside{background:#ffe9a8;text-align:left}.na{color:#777;text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}"""
+table{border-collapse:collapse;margin:0.6em 0;font-size:13px}th,td{border:1px solid #bbb;padding:3px 7px;text-align:right;overflow-wrap:break-word}
+th{background:#eee}td:first-child,th:first-child{text-align:left}img{max-width:100%}code{background:#f4f4f4}h2{border-bottom:1px solid #ccc}
+td.pass,td.fail,td.diverged,td.aborted,td.na,td.unavailable,td.notcompared,td.ref,td.outside{text-align:left}
+.pass{background:#e3f5e1;color:#11561b}.fail{background:#fde2e1;color:#8f1414}
+.diverged{background:#ece3fb;color:#4b1f8f}.aborted{background:#dddddd;color:#222}
+.ref{background:#e1ecfb;color:#163f7a}.na,.unavailable,.notcompared{color:#666}.outside{background:#fff4d1}
+.flag{display:inline-block;margin-left:0.4em;padding:0 4px;border:1px solid #b57f00;border-radius:3px;color:#6b4a00;background:#fff4d1;font-size:12px}
+table.matrix td{text-align:center;white-space:nowrap}table.matrix td:first-child{text-align:left}
+table.matrix a{color:inherit}.left2 :is(td,th):nth-child(-n+2),.left3 :is(td,th):nth-child(-n+3),
+.left4 :is(td,th):nth-child(-n+4),.left9 :is(td,th){text-align:left}.why{border-left:4px solid #4b1f8f;padding-left:0.6em}""" + tables.icon_css()
 
 
 def plain(text: str) -> str:
@@ -82,7 +89,8 @@ def timing_rows(res: dict, t_end: float) -> list[list]:
 
 def provenance_rows(res: dict) -> list[list]:
     """Per solver: version, case hash, commit, date, machine, Python and numba (flexmbd's compiler),
-    the --set overrides, where an imported result came from, and the settings."""
+    the --set overrides, where an imported result came from, and the settings, whole (the page
+    wraps them)."""
     rows = []
     for s, r in res.items():
         e = r.extra
@@ -91,7 +99,7 @@ def provenance_rows(res: dict) -> list[list]:
         came = f"imported: {e['imported'].get('file', '')} (sha256 {e['imported'].get('sha256', '')[:16]})" \
             if isinstance(e.get("imported"), dict) else " ".join(f"--set {o}" for o in e.get("overrides") or [])
         rows.append([s, r.solver_version, r.case_sha256[:16], e.get("git_commit", ""), e.get("date", ""),
-                     e.get("machine", ""), python, came, json.dumps(r.settings, sort_keys=True)[:300]])
+                     e.get("machine", ""), python, came, json.dumps(r.settings, sort_keys=True)])
     return rows
 
 
@@ -105,6 +113,55 @@ def defaults_note(case) -> str:
         said.append("the tolerances are the defaults of each channel's kind ("
                     + ", ".join(f"{k} {v:g}" for k, v in cases.TOLERANCES.items()) + ")")
     return "Defaults, not the case file's choices: " + "; ".join(said) + " (cases/README.md, [report])."
+
+
+def runs_section(case, runs: list) -> tuple[str, str]:
+    """The "Runs" section (html, markdown) of a case page: each run's verdict (`runs`:
+    accuracy.Outcome) with its validity flag, and for each run that diverged or was aborted why
+    (its status), with the case's explanation of it where the case gives one
+    (report.expected_failures)."""
+    head = ["solver", "verdict"]
+    rows = [[o.solver, o.verdict] for o in runs]
+    why_html, why_md = [], []
+    for o in runs:
+        if o.verdict.kind not in ("diverged", "aborted"):
+            continue
+        said = case.report.expected_failures.get(o.solver, "")
+        text = f"**{o.solver}**: {accuracy.status_text(o.status)}."
+        why_html.append(f"<p class='why'><b>{html.escape(o.solver)}</b>: {html.escape(accuracy.status_text(o.status))}."
+                        + (f" {html.escape(' '.join(said.split()))}" if said else "") + "</p>")
+        why_md.append(text + (f" {' '.join(said.split())}" if said else "") + "\n")
+    return (tables.html_table(head, rows, left=2) + "".join(why_html),
+            tables.markdown(head, rows) + ("\n" + "\n".join(why_md) if why_md else ""))
+
+
+def matrix(runs: list) -> tuple[str, str]:
+    """The index's case x solver matrix (html, markdown): each run's verdict word with its icon
+    and validity flag, each case linked to its page; '' where a solver did not run a case."""
+    cases = list(dict.fromkeys(o.case for o in runs))
+    names = list(dict.fromkeys(o.solver for o in runs))
+    got = {(o.case, o.solver): o.verdict for o in runs}
+
+    def word(v) -> str:                                     # markdown: no CSS, the icons written
+        return f"{tables.ICONS.get(v.kind, '')} {v.kind}" + (f" {tables.FLAG}" if v.outside else "")
+    rows_html, rows_md = [], []
+    for c in cases:
+        cells = []
+        for s in names:
+            v = got.get((c, s))
+            cls = f" class='{tables.css_class(v)}'" if v else ""
+            title = f" title='{html.escape(str(v), quote=True)}'" if v else ""
+            flag = " <span class='flag'></span>" if v and v.outside else ""    # its icon; the cell's title says it
+            cells.append(f"<td{cls}{title}>{html.escape(v.kind)}{flag}</td>" if v else "<td></td>")
+        rows_html.append(f"<tr><td><a href='{c}/index.html'>{html.escape(c)}</a></td>{''.join(cells)}</tr>")
+        rows_md.append([f"[{c}]({c}/index.md)"] + [word(got[(c, s)]) if (c, s) in got else ""
+                                                   for s in names])
+    head = "".join(f"<th>{html.escape(s)}</th>" for s in ["case"] + names)
+    legend = ("Each case on each solver: " + ", ".join(f"{tables.ICONS[k]} {k}" for k in accuracy.VERDICTS)
+              + f"; {tables.FLAG} the run left its model's linear validity (beside its verdict).")
+    return (f"<p>{html.escape(legend)}</p><table class='matrix'><thead><tr>{head}</tr></thead>"
+            f"<tbody>{''.join(rows_html)}</tbody></table>",
+            legend + "\n\n" + tables.markdown(["case"] + names, rows_md))
 
 
 def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) -> dict:
@@ -127,8 +184,11 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     frozen = spectra.frozen_modes(case, ok)
     peaks = accuracy.peak_table(case, ok, own, dt,
                                 others=[fine] + ([spectra.frozen_channel_modes(case, frozen[1])] if frozen else []))
+    runs = [accuracy.Outcome(case.name, s, r.status, accuracy.verdict(r.status, s, ref, acc),
+                             accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s if loading.ran(r) else np.nan)
+            for s, r in res.items()]
     d = stage / case.name
-    sections = []                                             # (title, html, markdown)
+    sections = [("Runs", *runs_section(case, runs))]          # (title, html, markdown)
 
     # channels, grouped as a reader looks for them
     groups = [("Deflection", ("deflection",)), ("Stress (von Mises at the stress points)", ("stress_vm",)),
@@ -137,20 +197,25 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
         chans = [n for n, c in case.channels.items() if c.kind in kinds]
         if not chans:
             continue
-        shown = lambda n: {s: r for s, r in ok.items() if accuracy.comparable(case, mods[s], n)}
+        shown = lambda n: {s: r for s, r in figures.drawable(res).items() if accuracy.comparable(case, mods[s], n)}
         imgs = [figures.channel(case, n, shown(n), ref, d / f"{n}.png") for n in chans]
         sections.append((title, "".join(f"<p><img src='{i}' alt='{i}'></p>" for i in imgs),
                          "".join(f"![{i}]({i})\n\n" for i in imgs)))
-    shape = shapes.section(case, ok, d, ref)                # the deformed shapes, right after the deflections
+    shape = shapes.section(case, figures.drawable(res), d, ref)     # the deformed shapes, after the deflections
     if shape:
         sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0] == "Deflection"), 0), shape)
     field = fields.section(case, ok, d, ref)                # a solid's stress field, after its stress channels
     if field:
         sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0].startswith("Stress")), len(sections)),
                         field)
+    movie = animation.section(out, case)                    # the animation `flexmbd animate` wrote, if any
+    if movie:
+        sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0] == "Deformed shape at chosen instants"),
+                             len(sections)), movie)
 
     # spectra of the deflection channels, with the identified peaks and the system's modes
-    spec = [figures.spectra(case, n, ok, [f for f, _ in system], 0.5 / dt, d / f"fft_{n}.png")
+    spec = [figures.spectra(case, n, ok, [f for f, _ in system], 0.5 / dt, d / f"fft_{n}.png",
+                            peaks=[p["f_identified"] for p in peaks if p["channel"] == n])
             for n, c in case.channels.items() if c.kind == "deflection" and system]
     if spec:
         head = ["solver", "channel", "identified [Hz]", "system mode", "system [Hz]", "difference"]
@@ -204,7 +269,7 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     head = ["solver", "status", "wall [s] (solve)", "set-up [s]", "compile [s]", "steps", "RHS evals",
             "wall / simulated s"]
     rows = timing_rows(res, case.duration)
-    sections.append(("Timing", tables.html_table(head, rows), tables.markdown(head, rows)))
+    sections.append(("Timing", tables.html_table(head, rows, left=2), tables.markdown(head, rows)))
 
     # accuracy
     head, rows = tables.accuracy_rows(acc)
@@ -219,7 +284,7 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     notes = case.report.notes.strip()
     if notes:                                               # the case file's notes on its reference and verdicts
         note += "".join(f"<p>{html.escape(' '.join(par.split()))}</p>" for par in notes.split("\n\n"))
-    sections.append(("Accuracy", note + tables.html_table(head, rows),
+    sections.append(("Accuracy", note + tables.html_table(head, rows, left=4),
                      (defaults_note(case) + "\n\n" if case.report.defaults else "")
                      + ("\n\n".join(" ".join(par.split()) for par in notes.split("\n\n")) + "\n\n" if notes else "")
                      + tables.markdown(head, rows)))
@@ -233,7 +298,7 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     head = ["solver", "version", "case sha256", "git commit", "date", "machine", "Python, numba", "overrides / source",
             "settings"]
     rows = provenance_rows(res)
-    sections.append(("Provenance", tables.html_table(head, rows), tables.markdown(head, rows)))
+    sections.append(("Provenance", tables.html_table(head, rows, left=len(head)), tables.markdown(head, rows)))
 
     title = f"{case.name}: {case.title}"
     build_index = f"no index yet: flexmbd report --no-run --out {out} builds it from the stored results"
@@ -248,9 +313,6 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     page.append("</body></html>")
     atomic_write(d / "index.html", "".join(page) + "\n")
     atomic_write(d / "index.md", "\n".join(md))
-    runs = [accuracy.Outcome(case.name, s, r.status, accuracy.verdict(r.status, s, ref, acc),
-                             accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s if loading.ran(r) else np.nan)
-            for s, r in res.items()]
     return {"accuracy": acc, "runs": runs}
 
 
@@ -311,8 +373,8 @@ def bench_section(stage: Path, warn=None) -> tuple[str, str]:
 
 
 def write_index(out: Path, stage: Path, runs: list, warn=None) -> None:
-    """The report's index (index.html, index.md) into `stage`: the summary line and table of every
-    run (`runs`: accuracy.Outcome), links to every case page and the reviewer tables, and the
+    """The report's index (index.html, index.md) into `stage`: the summary line, the case x solver
+    matrix of verdicts (`matrix`), the table of every run (`runs`: accuracy.Outcome), links to every case page and the reviewer tables, and the
     latest work-precision run (`bench_section`)."""
     head = ["case", "solver", "verdict", "worst RMS diff / max|ref|", "wall [s]"]
     summary = [[o.case, o.solver, o.verdict, o.worst, o.wall_s] for o in runs]
@@ -327,14 +389,17 @@ def write_index(out: Path, stage: Path, runs: list, warn=None) -> None:
              f"{results.git_commit() or 'unknown'}. Reviewer tables: ")
     pages = ["accuracy.csv", "accuracy.md", "accuracy.tex"]
     bench_html, bench_md = bench_section(stage, warn)
+    grid_html, grid_md = matrix(runs)
     page = (f"<!doctype html><html><head><meta charset='utf-8'><title>flexmbd report</title><style>{CSS}</style>"
             f"</head><body><h1>flexmbd report</h1><p class='summary'><b>{html.escape(line)}</b></p>"
             f"<p>{html.escape(intro)}"
             + ", ".join(f"<a href='{f}'>{f}</a>" for f in pages) + "."
             + (" Benchmarks: <a href='bench/index.html'>bench</a>." if (out / "bench" / "index.html").exists() else "")
             + (" Across commits: <a href='history.html'>history</a>." if (out / "history").is_dir() else "")
-            + "</p>" + tables.html_table(head, links_html, raw_cols=(0,)) + bench_html + "</body></html>")
+            + "</p>" + grid_html + "<h2>Every run</h2>" + tables.html_table(head, links_html, raw_cols=(0,), left=3)
+            + bench_html + "</body></html>")
     atomic_write(stage / "index.html", page + "\n")
     atomic_write(stage / "index.md", "# flexmbd report\n\n**" + line + "**\n\n" + intro + ", ".join(f"[{f}]({f})" for f in pages)
                  + "." + (" Across commits: [history](history.md)." if (out / "history").is_dir() else "")
-                 + "\n\n" + tables.markdown(head, links_md) + ("\n" + bench_md if bench_md else ""))
+                 + "\n\n" + grid_md + "\n## Every run\n\n" + tables.markdown(head, links_md)
+                 + ("\n" + bench_md if bench_md else ""))
