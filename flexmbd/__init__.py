@@ -104,7 +104,7 @@ def compare(case, solvers=None, t_end: float | None = None):
     ok = {n: r for n, r in res.items() if r.ok}
     rows = accuracy.rows(case, ok, {n: registry.module(n) for n in ok}, spectra.fe_frequencies(case))
     ref = case.report.reference
-    df = pd.DataFrame(rows, columns=[k for k, _ in tables.ACCURACY_COLUMNS])
+    df = pd.DataFrame(rows, columns=[k for k, *_ in tables.ACCURACY_COLUMNS])
     runs = []
     for n, r in res.items():
         v = accuracy.verdict(r.status, n, ref, rows)
@@ -113,7 +113,7 @@ def compare(case, solvers=None, t_end: float | None = None):
                      "wall_s": r.wall_s if loading.ran(r) else np.nan})
     df.attrs.update({"case": case.name, "reference": ref, "runs": runs,
                      "status": {n: str(r.status) for n, r in res.items()},
-                     "not_graded": accuracy.ungraded(case), "headers": dict(tables.ACCURACY_COLUMNS),
+                     "not_graded": accuracy.ungraded(case), "headers": {k: h for k, h, _ in tables.ACCURACY_COLUMNS},
                      "units": {k: u for k, u in tables.TIDY_METRICS if u}})
     return df
 
