@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from flexmbd import flexbody
+from flexmbd import flexbody, results
 from flexmbd.fe.solid import von_mises as solid_von_mises
 from flexmbd.fe.stress import section_stresses, von_mises
 from flexmbd.spatial import expm_so3
@@ -86,20 +86,25 @@ class Trajectory:
 
 def points_needed(case, body: str) -> list:
     """Positions x (m) whose points a Beam must hold: the root, the tip, every deflection
-    channel's point and the shape points (`shape_positions`), in that order, without repeats (a
-    shape point within 1e-9 L of a listed position is that position)."""
-    b = case.bodies[body]
-    if b.type == "solid":                               # the frame's interface, then the channels'
-        return list(dict.fromkeys([b.frame] + [c.at for c in case.channels.values()
-                                               if c.kind == "deflection" and c.body == body]))
-    L = float(b.length)
-    xs = [0.0, L]
-    xs += [c.at for c in case.channels.values() if c.kind == "deflection" and c.body == body]
-    xs = list(dict.fromkeys(xs))
+    channel's point (`deflection_points`) and the shape points (`shape_positions`), in that
+    order, without repeats (a shape point within 1e-9 L of a listed position is that position)."""
+    xs = deflection_points(case, body)
+    if case.bodies[body].type == "solid":
+        return xs
+    L = float(case.bodies[body].length)
     for x in evenly_spaced(case, body):
         if not any(abs(x - y) <= 1e-9 * L for y in xs):
             xs.append(x)
     return xs
+
+
+def deflection_points(case, body: str) -> list:
+    """Positions x (m) whose points the deflection channels read: the root and the tip (the chord)
+    and every deflection channel's point; a solid's frame interface and its channels' points."""
+    b = case.bodies[body]
+    ends = [b.frame] if b.type == "solid" else [0.0, float(b.length)]
+    return list(dict.fromkeys(ends + [c.at for c in case.channels.values()
+                                      if c.kind == "deflection" and c.body == body]))
 
 
 def evenly_spaced(case, body: str) -> list:
@@ -141,6 +146,14 @@ def modal_root(fb: flexbody.FlexBody, eta) -> np.ndarray | None:
     if fb.boundary == "hinged-hinged":
         return None
     return np.array([expm_so3(w) for w in eta @ fb.Phi[0, :3, :].T]).reshape(-1, 3, 3)
+
+
+def modal_shape(fb: flexbody.FlexBody, xs, eta, nodes: dict | None = None, origin=0.0) -> Beam:
+    """The Beam of a modal body with only the points at xs (`modal_points`; `nodes` {x: p} where
+    known) and the root rotation, from modal coordinates eta (n, nm): what the divergence rule
+    reads (`failure`) while a modal solver runs. origin: a solid's frame interface."""
+    points, x0 = modal_points(fb, xs, eta, nodes)
+    return Beam(length=fb.length, points=points, x0=x0, root=modal_root(fb, eta), origin=origin)
 
 
 def modal_strains(fb: flexbody.FlexBody, eta) -> dict:
@@ -465,6 +478,29 @@ def gravity_energy(case) -> float:
         return b.material.rho * b.geometry.A * b.length if b.type == "beam" else b.mass
 
     return g * sum(mass(b) * reach(n) for n, b in case.bodies.items())
+
+
+# the divergence rule on channels (`results.first_failure`), after a run and while it runs
+
+
+def bounds(case) -> dict:
+    """Channel -> largest plausible magnitude (the divergence rule): a deflection,
+    DIVERGED_LENGTHS times its beam's length; other channels need only be finite."""
+    return {name: results.DIVERGED_LENGTHS * case.bodies[c.body].length
+            for name, c in case.channels.items() if c.kind == "deflection"}
+
+
+def failure(case, traj: Trajectory) -> tuple[int, results.Status] | None:
+    """The first sample of `traj` at which the divergence rule fails a run, and why
+    (`results.first_failure`), judged on the channels that have a bound (`bounds`): what a solver
+    checks while it runs, at each output sample, to stop there instead of integrating a run that
+    has already failed. Its beams need only their points and root rotation; a beam `traj` has no
+    Beam for is rigid (its deflections zero). The whole rule is applied again to every channel
+    once the run has ended (`solvers.run`)."""
+    bound = bounds(case)
+    chans = {name: deflection(traj.beams[c.body], c.at, "xyz".index(c.component))
+             for name, c in case.channels.items() if name in bound and c.body in traj.beams}
+    return results.first_failure(traj.t, chans, bound) if chans else None
 
 
 def channels(case, traj: Trajectory) -> dict:

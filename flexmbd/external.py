@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, results, solvers
+from flexmbd import cases, channels, results, solvers
 from flexmbd.errors import InputError
 from flexmbd.results import Result
 
@@ -124,7 +124,7 @@ def load(case, name: str, path: Path, meta_path: Path | None = None) -> Result:
     meta = metadata(meta_path)
     status = results.Status.parse(meta.get("status", "ok"))
     t, chans, digest = table(case, Path(path), status.kind == "failed")
-    cut = results.first_failure(t, chans, solvers.channel_bounds(case))
+    cut = results.first_failure(t, chans, channels.bounds(case))
     r = Result(solver=name, case=case.name, t=t, channels=chans, status=status,
                solver_version=meta.get("solver_version", ""), settings=meta.get("settings", {}),
                wall_s=float(meta.get("wall_s", np.nan)), setup_s=float(meta.get("setup_s", np.nan)),

@@ -13,7 +13,10 @@ Methods (the case's `[integrator] method`):
   rk4     classical fixed-step Runge-Kutta, step `dt`
 A state or acceleration that is not finite, or a velocity beyond DIVERGED (results.DIVERGED_V,
 the divergence rule's bound on a velocity state), ends the run with a failed status at the time
-it happened; every output instant reached before it is kept.
+it happened; every output instant reached before it is kept. A caller's `check` of the output
+samples (the divergence rule on the channels: `solver.watch`) ends it too, at the first sample it
+fails (kept, for the rule after the run to cut), judged as the samples come: after each chunk of
+the compiled integrators, at each sample of the Python loops (adams, rk4).
 """
 
 from __future__ import annotations
@@ -165,8 +168,10 @@ def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
 
 def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e-8, atol: float = 1e-10,
              max_step: float = 1e-3, dt: float = 1e-4, output_dt: float = 1e-3, progress: bool = True,
-             label: str = "") -> Simulation:
-    """Integrate from (model.q0, model.v0) over [0, t_end]; states sampled every output_dt."""
+             label: str = "", check=None) -> Simulation:
+    """Integrate from (model.q0, model.v0) over [0, t_end]; states sampled every output_dt.
+    check(t (m,), Q (m, nq), V (m, nv)) -> (i, Status) | None: the first of new output samples at
+    which the run has failed (`judge`); the run ends there, that sample its last."""
     n = int(round(t_end / output_dt))
     t_out = np.linspace(0.0, n * output_dt, n + 1)
     f, count = rhs_function(model)
@@ -181,19 +186,21 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
     Y[0] = y0
     start = time.perf_counter()
     status, steps, k = results.Status(), 0, 0
+    judged = None if check is None else lambda k0, k1: judge(check, t_out, Y, model.nq, k0, k1)
     try:
         if y0.size == 0:                # nothing moves (every joint fixed, no modes): every sample is the start
             k = t_out.size - 1
         elif method == "fox-goodwin":
-            k, steps, evals, status = _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar)
+            k, steps, evals, status = _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, judged=judged)
             count[0] += evals
         elif method == "dopri5":
-            k, steps, evals, status = _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar)
+            k, steps, evals, status = _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, judged=judged)
             count[0] += evals
         elif method == "adams":         # the bar moves with every evaluation: VODE's steps may collapse
-            k, steps, status = _adams(bar.tracking(f) if bar else f, y0, t_out, Y, rtol, atol, max_step, bar, model.nq)
+            k, steps, status = _adams(bar.tracking(f) if bar else f, y0, t_out, Y, rtol, atol, max_step, bar, model.nq,
+                                      judged)
         elif method == "rk4":
-            k, steps, status = _rk4(bar.tracking(f) if bar else f, y0, t_out, Y, dt, bar, model.nq)
+            k, steps, status = _rk4(bar.tracking(f) if bar else f, y0, t_out, Y, dt, bar, model.nq, judged)
         else:
             k, steps, status = _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step)
     except Stop as e:
@@ -309,7 +316,7 @@ def fox_goodwin(ev, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
     return t_out.size - 1, OK, t
 
 
-def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50):
+def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50, judged=None):
     """Drive the compiled `fox_goodwin` over chunks of output instants."""
     if model.nq != model.nv:
         raise Stop(results.failed("fox-goodwin needs q and v aligned (no spherical or free joints)", 0.0))
@@ -322,7 +329,7 @@ def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50):
     Jinv = np.ascontiguousarray(newmark_matrix(ev, nq, 0.0, y0, dt, 1.0 / 12.0, 0.5))
     counts[2] += y0.size + 2
     return _in_chunks(lambda k, k1: fox_goodwin(ev, nq, y, acc, t_out[k:k1 + 1], Y[k:k1 + 1], dt, rtol, atol,
-                                                Jinv, counts), t_out, counts, bar, chunk)
+                                                Jinv, counts), t_out, counts, bar, chunk, judged)
 
 
 def warm_up(model: Model, method: str | None = None) -> None:
@@ -340,7 +347,7 @@ def warm_up(model: Model, method: str | None = None) -> None:
         fox_goodwin(ev, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
 
 
-def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
+def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50, judged=None):
     """Drive the compiled `dopri5` over chunks of output instants (progress and failures between)."""
     b, nq = bind(model, make_data(model)), model.nq
     ev = handle(b)
@@ -358,7 +365,7 @@ def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50):
                                      counts)
         return j, code, t
 
-    return _in_chunks(advance, t_out, counts, bar, chunk)
+    return _in_chunks(advance, t_out, counts, bar, chunk, judged)
 
 
 WHY = {NONFINITE: "non-finite state", DIVERGING: f"diverged (|v| > {DIVERGED:g})", TOO_SMALL: "step size too small",
@@ -366,20 +373,30 @@ WHY = {NONFINITE: "non-finite state", DIVERGING: f"diverged (|v| > {DIVERGED:g})
 NON_FINITE = (WHY[NONFINITE], "non-finite acceleration")     # the whys of a run that ended in non-finite values
 
 
-def _in_chunks(advance, t_out, counts, bar, chunk):
+def _in_chunks(advance, t_out, counts, bar, chunk, judged=None):
     """Run a compiled integrator, `advance(k, k1) -> (instants done, status code, t)` over
-    t_out[k:k1+1], chunk by chunk, with progress and failures in between: (k, steps, evaluations,
-    status)."""
+    t_out[k:k1+1], chunk by chunk, with progress and failures in between (the state's, and
+    `judged`'s of the chunk's samples: `judge`): (k, steps, evaluations, status)."""
     k = 0
     while k < t_out.size - 1:
         k1 = min(k + chunk, t_out.size - 1)
         j, code, t = advance(k, k1)
-        k += j
+        k0, k = k, k + j
         if code != OK:
             return k, int(counts[0]), int(counts[2]), results.failed(WHY[code], t)
+        hit = judged(k0 + 1, k) if judged and k > k0 else None
+        if hit is not None:
+            return hit[0], int(counts[0]), int(counts[2]), hit[1]
         if bar:
             bar.update(t_out[k])
     return k, int(counts[0]), int(counts[2]), results.Status()
+
+
+def judge(check, t_out, Y, nq, k0, k1):
+    """`check` (simulate's) of the output samples k0..k1 (rows of Y): (the first failed sample's
+    index, its Status) or None."""
+    hit = check(t_out[k0:k1 + 1], Y[k0:k1 + 1, :nq], Y[k0:k1 + 1, nq:])
+    return None if hit is None else (k0 + hit[0], hit[1])
 
 
 def reached(Y) -> int:
@@ -395,7 +412,7 @@ def _check(y, t, nq):
         raise Stop(results.failed(WHY[code], t))
 
 
-def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq):
+def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq, judged=None):
     """VODE, Adams family (method flag MF = 10: functional iteration, no Jacobian)."""
     r = ode(f).set_integrator("vode", method="adams", with_jacobian=False, rtol=rtol, atol=atol,
                               order=12, max_step=max_step, nsteps=10 ** 8)
@@ -416,10 +433,13 @@ def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq):
         Y[k] = y
         if bar:
             bar.update(t_out[k])
+        hit = judged(k, k) if judged else None
+        if hit is not None:
+            return k, int(r._integrator.iwork[10]), hit[1]
     return k, int(r._integrator.iwork[10]), results.Status()
 
 
-def _rk4(f, y0, t_out, Y, dt, bar, nq):
+def _rk4(f, y0, t_out, Y, dt, bar, nq, judged=None):
     """Classical Runge-Kutta with the largest step <= dt that divides each output interval:
     (last instant reached, steps, status)."""
     y, steps = y0.copy(), 0
@@ -429,6 +449,9 @@ def _rk4(f, y0, t_out, Y, dt, bar, nq):
             Y[k] = y
             if bar:
                 bar.update(t_out[k])
+            hit = judged(k, k) if judged else None
+            if hit is not None:
+                return k, steps, hit[1]
     except Stop as e:
         return k - 1, steps, e.args[0]
     return t_out.size - 1, steps, results.Status()

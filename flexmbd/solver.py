@@ -53,7 +53,7 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
     else:
         sim = integrate.simulate(model, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
                                  max_step=ig.max_step, dt=ig.dt, output_dt=ig.output_dt,
-                                 progress=progress, label=label)
+                                 progress=progress, label=label, check=watch(case, model))
     E = energies(model, sim.q, sim.v)
     traj = trajectory(case, model, sim.t, sim.q, sim.v, E, loops)
     status = sim.status
@@ -66,6 +66,30 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
                   wall_s=sim.wall_s, setup_s=setup_s, steps=sim.steps, rhs_evals=sim.rhs_evals,
                   settings={**sim.settings, "modes": modes},
                   extra={"compile_s": compile_s, "kinetic_max_J": kinetic_max}, trajectory=traj)
+
+
+def watch(case, model: Model):
+    """The divergence rule checked while the run goes (`integrate.simulate`'s check): the
+    deflection channels of new output samples (`channels.failure`) from the modal coordinates of
+    the flexible bodies they name (`shape`); None when there is nothing to check. A beam split
+    into segments is judged after the run only (`solvers.run`)."""
+    bound = channels.bounds(case)
+    bodies = list(dict.fromkeys(c.body for n, c in case.channels.items() if n in bound and c.body in model.bodies))
+    if not bodies:
+        return None
+    return lambda t, Q, V: channels.failure(case, channels.Trajectory(t=t, beams={b: shape(case, model, b, Q)
+                                                                                 for b in bodies}))
+
+
+def shape(case, model: Model, name: str, Q) -> channels.Beam:
+    """The Beam of flexible body `name` with the points of its deflection channels and its root
+    rotation only (as `trajectory` forms them), from states Q (n, nq): what the divergence rule reads."""
+    fb, i, body = model.bodies[name], model.index(name), case.modelled.bodies[name]
+    eta = Q[:, model.body_madr[i]:model.body_madr[i] + model.body_nm[i]]
+    xs = channels.deflection_points(case.modelled, name)
+    if body.type == "solid":
+        return channels.modal_shape(fb, xs, eta, {x: body.node(x) for x in xs}, body.frame)
+    return channels.modal_shape(fb, xs, eta)
 
 
 SINGULAR = 0.1     # smallest eigenvalue of M at the last sample, relative to the start: M is singular

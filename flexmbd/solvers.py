@@ -14,9 +14,10 @@ as unavailable. Other packages add solvers through the entry-point group `flexmb
 A solver reports what it computed as a `channels.Trajectory`; `run` is the one place where a
 solver's exception becomes a result, and where, the same for every solver (plug-ins included),
 the channels are formed from the trajectory, the model's linear validity becomes a status, the
-divergence rule (`results.first_failure`) cuts a run (a failed run keeps the samples before its
-failure), and the deformed-shape snapshots (`channels.shapes`) of the samples kept go into the
-sidecar's `shapes`. A run uses one thread of linear algebra (threadpoolctl): a multi-threaded
+divergence rule (`results.first_failure`, bounds `channels.bounds`) cuts a run (a failed run keeps
+the samples before its failure; the solvers also check it while they run, `channels.failure`, and
+stop at the first sample beyond it), and the deformed-shape snapshots (`channels.shapes`) of the
+samples kept go into the sidecar's `shapes`. A run uses one thread of linear algebra (threadpoolctl): a multi-threaded
 BLAS sums in an order that depends on its thread count, and a result must be the same bytes in
 this process, on a pool's worker and on a cluster's (the full-order FE transient of
 cantilever_step moves by 7e-6 of its largest value between one and two OpenBLAS threads). A plug-in may instead fill a Result's `channels` itself (no trajectory: no
@@ -235,13 +236,6 @@ def _key(case, name: str, mod, chosen: dict) -> str:
     return hashlib.sha256(json.dumps(parts, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def channel_bounds(case) -> dict:
-    """Channel -> largest plausible magnitude (the divergence rule): a deflection,
-    DIVERGED_LENGTHS times its beam's length; other channels need only be finite."""
-    return {name: results.DIVERGED_LENGTHS * case.bodies[c.body].length
-            for name, c in case.channels.items() if c.kind == "deflection"}
-
-
 def run(case, name: str, t_end: float | None = None) -> Result:
     """Run one solver on one case, and form what every solver's run is judged by, once: the
     channels from the trajectory the solver reports (`channels.channels`), its model's linear
@@ -270,7 +264,7 @@ def run(case, name: str, t_end: float | None = None) -> Result:
         traj = dataclasses.replace(traj, t=np.asarray(r.t, dtype=float))
         r.channels = channels.channels(case, traj)
         judged(r, traj)
-    cut = results.first_failure(r.t, r.channels, channel_bounds(case)) if len(r.t) else None
+    cut = results.first_failure(r.t, r.channels, channels.bounds(case)) if len(r.t) else None
     if cut is not None and (r.ok or r.status.t is None or cut[1].t <= r.status.t):
         r.truncate(cut[0])
         r.status = cut[1]

@@ -166,6 +166,38 @@ def test_ffrf_sensor_writes_around_every_output_step(every):
     assert seen == want
 
 
+# a run that diverges stops at the first output sample beyond the divergence rule
+
+DIVERGING = {   # a linear floating frame spun past its first bending frequency (exudyn-ffrf) and a
+                # geometrically exact cantilever stretched to twice its length (exudyn-beam)
+    "exudyn-ffrf": ("slewing_beam", ["joints.hub.motion.W=12", "joints.hub.motion.T=1", "duration=3",
+                                     "solvers.exudyn-ffrf.dt=1e-3", "bodies.beam.elements=20"]),
+    "exudyn-beam": ("cantilever_step", ["loads.tip_force.force=[4e7, 0.0, 0.0]",
+                                        'channels.tip_deflection.component="x"', "duration=0.005",
+                                        "integrator.output_dt=1e-4", "solvers.exudyn-beam.dt=1e-5",
+                                        "solvers.exudyn-beam.elements=8"]),
+}
+
+
+@pytest.mark.parametrize("name", list(DIVERGING))
+def test_a_diverging_run_stops_at_its_first_sample_beyond_the_rule(name, monkeypatch):
+    """The watch (`exudyn_common.watch`) stops the solve at the first output sample the rule fails:
+    the status is the full run's cut, at that sample, and the kept samples are the full run's."""
+    case = cases.load(*DIVERGING[name])
+    r = solvers.run(case, name)
+    monkeypatch.setattr(exudyn_common, "watch", lambda *a: {})      # the same run, integrated to its end
+    full = solvers.run(case, name)
+    assert r.status.kind == "failed" and "diverged" in r.status.why, r.status
+    assert full.status == r.status                                  # the rule after the run cuts there too
+    k = len(full.t)                                                 # full.t[k]: the first sample beyond the rule
+    assert r.status.t == pytest.approx(k * case.integrator.output_dt, abs=1e-12)
+    assert len(r.t) == k and 0 < k                                  # no later sample stored
+    for c in full.channels:
+        np.testing.assert_array_equal(r.channels[c], full.channels[c])
+    out_steps = round(case.integrator.output_dt / r.settings["dt"])
+    assert r.steps <= (k + 1) * out_steps < full.steps / 2         # stopped within one output interval
+
+
 def test_exudyn_progress_line_moves_the_bar():
     """Exudyn's own progress line ('STEP.., t = ..s', every 2 s and at the end of a solve) is read for
     the simulated time; Exudyn's other console output is dropped."""

@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 from scipy.integrate import solve_ivp
 
-from flexmbd import cases, dynamics, flexbody, integrate, solvers
+from flexmbd import cases, dynamics, flexbody, integrate, results, solver, solvers
 from flexmbd.adapters import pinocchio_model
 from flexmbd.build import from_case
 from flexmbd.model import make_data
@@ -68,6 +68,38 @@ def test_divergence_is_a_failed_result_keeping_the_samples():
     assert r.status.kind == "failed" and r.status.t is not None
     assert 1 < len(r.t) < 51 and np.all(np.isfinite(r.channels["tip_deflection"]))
     assert r.status.t == pytest.approx(r.t[-1] + 0.01)
+
+
+@pytest.mark.parametrize("method,last", [("adams", 3), ("rk4", 3), ("dopri5", 3), ("fox-goodwin", 3)])
+def test_a_check_of_the_samples_ends_the_run_at_the_first_it_fails(method, last):
+    """simulate's check sees every output sample once, in order (each chunk of a compiled
+    integrator, each sample of a Python loop), and the run ends at the first it fails, keeping it."""
+    model, seen = from_case(cases.load("cantilever_step")), []
+
+    def check(t, Q, V):
+        seen.extend(t)
+        bad = np.flatnonzero(t >= 0.03 - 1e-12)
+        return (int(bad[0]), results.failed("past 0.03 s", t[bad[0]])) if bad.size else None
+    sim = integrate.simulate(model, 0.1, method=method, dt=1e-4, output_dt=0.01, progress=False, check=check)
+    assert str(sim.status) == "failed: past 0.03 s at t = 0.03 s" and len(sim.t) == last + 1
+    assert seen[:last] == pytest.approx([0.01, 0.02, 0.03]) and np.all(np.isfinite(sim.q))
+    full = integrate.simulate(model, 0.1, method=method, dt=1e-4, output_dt=0.01, progress=False)
+    np.testing.assert_array_equal(sim.q, full.q[:last + 1])
+
+
+def test_flexmbd_stops_at_the_first_sample_beyond_the_divergence_rule(monkeypatch):
+    """A linear floating frame spun past its first bending frequency diverges: the run stops at the
+    sample the rule after the run cuts at (`solver.watch`), with the full run's samples before it."""
+    case = cases.load("slewing_beam", ["joints.hub.motion.W=12", "joints.hub.motion.T=1", "duration=3",
+                                       "bodies.beam.elements=20", "bodies.beam.stiffening=false"])
+    r = solvers.run(case, "flexmbd")
+    monkeypatch.setattr(solver, "watch", lambda case, model: None)      # the same run, integrated to its end
+    full = solvers.run(case, "flexmbd")
+    k = len(full.t)                                                     # full.t[k]: the first sample beyond
+    assert r.status == full.status and "diverged (|tip_deflection| beyond 16 m" in r.status.why
+    assert r.status.t == pytest.approx(k * 0.01) and len(r.t) == k and r.rhs_evals < full.rhs_evals / 2
+    for c in full.channels:
+        np.testing.assert_array_equal(r.channels[c], full.channels[c])
 
 
 def test_fixed_step_rk4_agrees_with_adams():

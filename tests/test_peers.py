@@ -403,6 +403,21 @@ def test_rod_static_tip_deflection_matches_euler_bernoulli():
     assert abs(r.channels["stress_vm"][-1] / sigma - 1.0) < 0.01
 
 
+def test_rod_stops_at_the_first_sample_beyond_the_divergence_rule(monkeypatch):
+    """The rule checked at every output sample (`channels.failure`), here with a 1 cm bound on the tip
+    deflection (the rod reaches 2.3 cm): the run stops at the sample the rule after the run cuts at,
+    and keeps the full run's samples before it."""
+    case = cases.load("cantilever_step", ["integrator.output_dt=0.01", "solvers.mujoco-rod.dt=0.01"])
+    monkeypatch.setattr(channels, "bounds", lambda case: {"tip_deflection": 0.01})
+    r = solvers.run(case, "mujoco-rod", 1.0)
+    monkeypatch.setattr(channels, "failure", lambda case, traj: None)   # the same run, integrated to its end
+    full = solvers.run(case, "mujoco-rod", 1.0)
+    k = len(full.t)                                                      # the first sample beyond the bound
+    assert r.status == full.status and "beyond 0.01 m" in r.status.why and 0 < k < 100
+    assert r.status.t == pytest.approx(k * 0.01) and r.steps == k < full.steps
+    np.testing.assert_array_equal(r.channels["tip_deflection"], full.channels["tip_deflection"])
+
+
 def first_frequency(t, y):
     """Frequency (Hz) of the largest spectral peak of y - mean, refined by parabolic interpolation."""
     n = 16 * t.size

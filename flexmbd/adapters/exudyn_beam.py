@@ -508,7 +508,25 @@ def add_sensors(mbs, case, parts: dict, joints: dict) -> dict:
     for jn in reactions_needed(case):
         pin, lock = joints[jn]
         J[jn] = {"F": force(pin), **({"M": force(lock)} if lock is not None else {})}
+    watch_divergence(mbs, case, parts, S)
     return {"bodies": S, "joints": J}
+
+
+def watch_divergence(mbs, case, parts: dict, S: dict) -> None:
+    """The divergence watch (`xc.watch`) on the flexible beams with a deflection channel: their
+    nodes' positions and the root node's rotation (`beam_shape`). S: the bodies' sensors."""
+    bound = channels.bounds(case)
+    bodies = list(dict.fromkeys(c.body for n, c in case.channels.items() if n in bound and c.body in beams(parts)))
+
+    xs = {b: channels.deflection_points(case, b) for b in bodies}
+
+    def sensors(b):                                  # the nodes of those points and the root's rotation
+        nodes = {mesh_node(case.bodies[b], len(parts[b]["elems"]), x) for x in xs[b]}
+        return {"r": {k: S[b]["r"][k] for k in sorted(nodes)}, "rot": {0: S[b]["rot"][0]}}
+    read = {b: sensors(b) for b in bodies}
+    if bodies:
+        xc.watch(mbs, case, lambda mbs_: {b: beam_shape(case, parts[b], b, xc.values(mbs_, read[b]), xs[b])
+                                         for b in bodies})
 
 
 def stress_elements(b: dict, x: float) -> tuple:
@@ -535,16 +553,23 @@ def trajectory(case, parts: dict, X: dict, t: np.ndarray) -> channels.Trajectory
     for jname, XJ in X["joints"].items():
         traj.reactions[jname] = reaction(case, parts, XB, jname, XJ)
     for name, b in beams(parts).items():
-        body, Xb = case.bodies[name], XB[name]
-        nodes = {x: mesh_node(body, len(b["elems"]), x) for x in channels.points_needed(case, name)}
-        hinged = body.modes.boundary == "hinged-hinged"
-        traj.beams[name] = channels.Beam(
-            length=body.length, points={x: Xb["r"][k] for x, k in nodes.items()},
-            x0={x: np.array([k * b["l"], 0.0, 0.0]) for x, k in nodes.items()},
-            root=None if hinged else rot_z(node_angle(Xb, 0)),
-            strains={float(c.at): strains(c.at, b, Xb) for c in case.channels.values()
-                     if c.kind == "stress_vm" and c.body == name})
+        Xb = XB[name]
+        traj.beams[name] = beam_shape(case, b, name, Xb, channels.points_needed(case, name))
+        traj.beams[name].strains = {float(c.at): strains(c.at, b, Xb) for c in case.channels.values()
+                                    if c.kind == "stress_vm" and c.body == name}
     return traj
+
+
+def beam_shape(case, b: dict, name: str, Xb: dict, xs: list) -> channels.Beam:
+    """The Beam of beam `name` (b: its Exudyn items) without strains: the global positions of its
+    nodes at the positions xs and the root node's rotation (or the chord, hinged-hinged), from
+    its sensor data Xb."""
+    body = case.bodies[name]
+    nodes = {x: mesh_node(body, len(b["elems"]), x) for x in xs}
+    hinged = body.modes.boundary == "hinged-hinged"
+    return channels.Beam(length=body.length, points={x: Xb["r"][k] for x, k in nodes.items()},
+                         x0={x: np.array([k * b["l"], 0.0, 0.0]) for x, k in nodes.items()},
+                         root=None if hinged else rot_z(node_angle(Xb, 0)))
 
 
 def reactions_needed(case) -> list:
@@ -739,6 +764,7 @@ def run(case, t_end, settings):
     r = results.Result(solver="exudyn-beam", case=case.name, status=status, wall_s=wall_s, setup_s=setup_s,
                        steps=steps, rhs_evals=newton, settings=recorded, solver_version=version(),
                        extra={"newton_iterations": newton, "dofs": int(dofs)})
+    xc.stopped(r, mbs)
     n = xc.reached(r, t, xc.completed(mbs, clock(S), t), t_end)
     if n == 0:
         return r

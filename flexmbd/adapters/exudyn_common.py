@@ -8,7 +8,9 @@ error text.
 A solve runs as Exudyn's own users run one: no Python function is called at every step. The
 progress bar reads Exudyn's own progress line (one every 2 s, `ConsoleProgress`), a signal is
 noticed by Exudyn itself, which runs Python's signal handlers between steps, and prescribed joint
-motion is a symbolic user function Exudyn evaluates in C++ (`motion_expr`, `symbolic`).
+motion is a symbolic user function Exudyn evaluates in C++ (`motion_expr`, `symbolic`). The
+divergence rule is checked at each output sample by a sensor user function (`watch`), which stops
+a run that has failed.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import exudyn as exu                     # ImportError here: the adapters are 'u
 import exudyn.itemInterface as eii       # noqa: F401  (used by the adapters)
 from exudyn.advancedUtilities import CreateSymbolicUserFunction
 
-from flexmbd import files, results
+from flexmbd import channels, files, results
 from flexmbd.adapters import common
 from flexmbd.progress import Progress
 
@@ -168,6 +170,46 @@ def solve(mbs, settings, solver_type: str, label: str = "exudyn"):
     steps = max(int(it.currentStepIndex) - 1, 0) if it is not None else 0   # index counts from 1
     newton = int(it.newtonStepsCount) if it is not None else 0
     return status, wall_s, steps, newton
+
+
+def watch(mbs, case, beams) -> dict:
+    """Stop the solve at the first output sample at which the divergence rule fails the run
+    (`channels.failure`), judged on `beams(mbs)`: {body: its `channels.Beam` at that instant, read
+    from the sensors' current values (`values`) as the channels will be after the run}. A run
+    that has failed is not integrated further: a linear floating frame that lost its stiffness
+    would otherwise integrate its growing oscillation to the end. A sensor user function: Exudyn
+    calls it only when it writes the sensors (no Python runs at the steps between); it looks at
+    output samples only and raises the system's stop flag (`SetRenderEngineStopFlag`), which ends
+    the solve after that step, so the failed sample is the last one stored. Returns (and keeps as
+    mbs.variables["divergence"]) {"status": the rule's failed Status}, filled when it stops."""
+    out_dt = case.integrator.output_dt
+    seen = mbs.variables.setdefault("divergence", {})
+
+    def check(mbs_, t, sensor_numbers, factors, configuration):
+        if seen or abs(t / out_dt - round(t / out_dt)) > 1e-6:
+            return [0.0]
+        hit = channels.failure(case, channels.Trajectory(t=np.array([t]), beams=beams(mbs_)))
+        if hit is not None:
+            seen["status"] = hit[1]
+            mbs_.SetRenderEngineStopFlag(True)
+        return [0.0]
+    mbs.AddSensor(eii.SensorUserFunction(sensorUserFunction=check, writeToFile=False, storeInternal=False))
+    return seen
+
+
+def values(mbs, S):
+    """The current values of the sensors S (a sensor or nested dicts of sensors): the same nesting
+    of (1, k) arrays, one sample of what `sensor_series` reads after the run."""
+    if isinstance(S, dict):
+        return {k: values(mbs, x) for k, x in S.items()}
+    return np.asarray(mbs.GetSensorValues(S), dtype=float)[None, :]
+
+
+def stopped(r, mbs) -> None:
+    """A run the divergence watch stopped (`watch`) fails as the rule says, at that sample."""
+    seen = mbs.variables.get("divergence", {})
+    if "status" in seen:
+        r.status = seen["status"]
 
 
 def error_string(mbs) -> str:

@@ -772,40 +772,29 @@ def write_around_outputs(mbs, sim, dt: float, out_dt: float) -> bool:
     return True
 
 
-def watched_nodes(case, name: str, fb: flexbody.FlexBody, tracked) -> list:
-    """The nodes `watch_divergence` reads of body `name` (`tracked`: those with position sensors):
-    all of a beam's; a solid's interfaces' reference points (its tracked nodes are all of its
-    mesh's when the energy is asked: reading them at every write would cost more than the solve)."""
-    if case.bodies[name].type == "solid":
-        return [k for k in tracked_nodes(case, name, fb) if k in tracked]
-    return list(tracked)
+def watch_divergence(mbs, S: dict, fbs: dict, case) -> None:
+    """The divergence watch (`xc.watch`) on the flexible bodies with a deflection channel, from
+    their modal coordinates alone (one sensor each): the points of the deflection channels in the
+    body frame, x0_p + Phi_t,p eta, and the root rotation (`channels.modal_shape`), which are
+    `trajectory`'s body-frame points to rounding (those come from Exudyn's global node positions
+    and frame pose, p + R (x0_p + Phi_t,p eta))."""
+    bound = channels.bounds(case)
+    bodies = list(dict.fromkeys(c.body for n, c in case.channels.items() if n in bound and c.body in fbs))
+    nodes = {b: watched_nodes(case, b, fbs[b]) for b in bodies}
+    origin = {b: case.bodies[b].frame if case.bodies[b].type == "solid" else 0.0 for b in bodies}
+    for b in bodies:                 # once before the solve's clock: numba loads the rotation's exponential
+        channels.modal_shape(fbs[b], list(nodes[b]), np.zeros((1, fbs[b].n_modes)), nodes[b], origin[b])
+    if bodies:
+        xc.watch(mbs, case, lambda mbs_: {b: channels.modal_shape(fbs[b], list(nodes[b]), xc.values(mbs_, S[b]["eta"]),
+                                                                  nodes[b], origin[b]) for b in bodies})
 
 
-def watch_divergence(mbs, S: dict, fbs: dict, case) -> dict:
-    """Stop the solve at the first sensor write at which a node of a flexible body lies farther
-    from its body frame than (1 + DIVERGED_LENGTHS) beam lengths: its deflection then exceeds
-    DIVERGED_LENGTHS lengths (an undeformed node is within one length of the frame), which the
-    divergence rule cuts at anyway (`results.first_failure`), and a linear floating frame that
-    lost its stiffness would otherwise integrate its growing oscillation to the end. Exudyn calls
-    the watch only when it writes the sensors (once or three times per output step); it raises
-    the system's stop flag (`SetRenderEngineStopFlag`), which ends the solve after that step.
-    Returns {"body": the body whose node left, "t": when}, filled when it stops."""
-    seen = {}
-    watched = [(b, S[b]["p"], [S[b]["r"][k] for k in watched_nodes(case, b, fb, S[b]["r"])],
-                (1.0 + results.DIVERGED_LENGTHS) * fb.length) for b, fb in fbs.items() if S.get(b, {}).get("r")]
-
-    def watch(mbs_, t, sensor_numbers, factors, configuration):
-        for b, frame, nodes, far in watched:
-            p = np.asarray(mbs_.GetSensorValues(frame))
-            if any(not np.linalg.norm(np.asarray(mbs_.GetSensorValues(k)) - p) <= far for k in nodes):  # NaN too
-                if not seen:
-                    seen.update(body=b, t=float(t))
-                    mbs_.SetRenderEngineStopFlag(True)
-                break
-        return [0.0]
-    if watched:
-        mbs.AddSensor(eii.SensorUserFunction(sensorUserFunction=watch, writeToFile=False, storeInternal=False))
-    return seen
+def watched_nodes(case, name: str, fb: flexbody.FlexBody) -> dict:
+    """{x: node} of the points the deflection channels of body `name` read (`channels.deflection_points`):
+    a beam's nearest nodes, a solid's interfaces' reference points (as `tracked_nodes`)."""
+    body = case.bodies[name]
+    node = body.node if body.type == "solid" else fb.node_at
+    return {x: node(x) for x in channels.deflection_points(case, name)}
 
 
 def next_write(n: int, every: int) -> int:
@@ -1096,7 +1085,7 @@ def run(case, t_end, settings):
     with xc.quiet():
         SC, mbs, items, S, joints = build(model, fbs, opt["rotary_inertia"], opt["gravity"])
         means = bool(step_sensors(S)) and write_around_outputs(mbs, sim, dt, case.integrator.output_dt)
-        stopped = watch_divergence(mbs, S, fbs, model)
+        watch_divergence(mbs, S, fbs, model)
         mbs.Assemble()
     setup_s = time.perf_counter() - t_start
 
@@ -1109,10 +1098,7 @@ def run(case, t_end, settings):
     r = results.Result(solver="exudyn-ffrf", case=case.name, status=status, wall_s=wall_s, setup_s=setup_s,
                steps=steps, rhs_evals=newton, settings=recorded, solver_version=version(),
                extra={"newton_iterations": newton})
-    if stopped:
-        r.status = results.failed(f"diverged (a node of {stopped['body']} beyond "
-                                  f"{1 + results.DIVERGED_LENGTHS:g} beam lengths from its frame: stopped there)",
-                                  stopped["t"])
+    xc.stopped(r, mbs)
     first = next(iter(S.values()))["p"]
     n = xc.reached(r, t, xc.completed(mbs, first, t), t_end)
     if n == 0:

@@ -284,6 +284,10 @@ def run(case, t_end, settings):
         mujoco.mj_fwdPosition(m, d)                             # kinematics and inertia of the new state
         rows.append(sample(case, m, d, ne, l))
         bar.update(t_out[k])
+        hit = channels.failure(case, trajectory(case, rows[-1:], t_out[k:k + 1], s))
+        if hit is not None:                                     # the divergence rule: stop at this sample
+            status = hit[1]
+            break
     wall_s = time.perf_counter() - t1
     bar.close()
 
