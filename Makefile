@@ -6,10 +6,11 @@ STAMP  := $(VENV)/.installed
 
 .PHONY: report test test-slow convergence clean
 
-$(STAMP): pyproject.toml examples/plugin_solver/pyproject.toml examples/plugin_solver/flexmbd_example_solver.py
+$(STAMP): pyproject.toml constraints.txt
+	rm -rf $(VENV)                       # exactly the tested set, nothing left from before
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet --no-compile -e . ./examples/plugin_solver   # with the example plug-in (docs/plugins.md)
+	$(BIN)/python -m pip install --quiet --upgrade pip -c constraints.txt
+	$(BIN)/python -m pip install --quiet --no-compile -c constraints.txt -e '.[test]'   # the tested versions (constraints.txt)
 	@# byte-code on every core (pip compiles on one), but not of what flexmbd never imports (Exudyn's
 	@# OpenGL renderer, the installers, the packages' own test suites); files some packages ship
 	@# that do not compile (pip skips them too) set the exit status, so it is not checked

@@ -19,7 +19,6 @@ Wall times are solve-only (`Result.wall_s`) for both solvers. Nothing here asser
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys
@@ -31,6 +30,7 @@ import numpy as np
 
 from flexmbd import cases, metrics, solvers
 from flexmbd.build import from_case
+from flexmbd.files import json_text
 from flexmbd.kernel.entry import forward
 from flexmbd.model import make_data
 
@@ -278,8 +278,8 @@ def plots(result: dict, folder: Path) -> list[str]:
     page = ("<!doctype html><html><head><meta charset='utf-8'><title>flexmbd bench</title></head><body>"
             "<p><a href='../index.html'>report</a></p><h1>flexmbd bench</h1>"
             + "".join(f"<p><img src='{n}' alt='{n}'></p>" for n in names)
-            + f"<pre>{json.dumps(result, indent=1, default=float)}</pre></body></html>")
+            + f"<pre>{json_text(result, indent=1)}</pre></body></html>")
     from flexmbd.files import atomic_write
     atomic_write(folder / "index.html", page + "\n")
-    atomic_write(folder / "bench.json", json.dumps(result, indent=1, default=float) + "\n")
+    atomic_write(folder / "bench.json", json_text(result, indent=1) + "\n")
     return names + ["index.html", "bench.json"]

@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import functools
-import json
 import math
 import os
 import signal
@@ -22,7 +21,7 @@ import time
 import traceback
 from pathlib import Path
 
-from flexmbd import cases, cost, files, solvers
+from flexmbd import cases, cost, files, resources, solvers
 from flexmbd.errors import InputError
 from flexmbd.progress import job, jobs_done
 from flexmbd.version import __version__
@@ -84,7 +83,7 @@ def cmd_list(args) -> int:
         rows.append({"case": name, "title": c.title, "bodies": list(c.bodies),
                      "solvers": {s: solvers.status_for(c, s) or "ok" for s in (*solvers.NAMES, *solvers.REFUSED)}})
     if args.json:
-        print(json.dumps(rows, indent=2))
+        print(files.json_text(rows, indent=2))
         return 0
     for r in rows:
         usable = [s for s, st in r["solvers"].items() if st == "ok"]
@@ -122,7 +121,7 @@ def cmd_modes(args) -> int:
         if args.save:
             flexbody.save(fb, Path(args.save) / f"{case.name}_{name}.npz")
     if args.json:
-        print(json.dumps(out, indent=2))
+        print(files.json_text(out, indent=2))
         return 0
     for name, b in out["bodies"].items():
         print(f"{case.name} / {name}: {b['boundary']}, {b['nodes']} nodes")
@@ -144,7 +143,7 @@ def system_modes(case, about: str, as_json: bool) -> int:
     rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping, "damping_resolution": m.damping_resolution,
              "label": m.label, "share": m.share} for k, m in enumerate(modes)]
     if as_json:
-        print(json.dumps({"case": case.name, "about": about, "modes": rows}, indent=2))
+        print(files.json_text({"case": case.name, "about": about, "modes": rows}, indent=2))
         return 0
     print(f"{case.name}: system modes about the {'initial state' if about == 'initial' else 'static equilibrium'}")
     for r in rows:
@@ -248,29 +247,13 @@ def _show(args, what: str, page: Path, runs: list, acc: list) -> None:
     if getattr(args, "json", False):
         entries = [{"case": o.case, "solver": o.solver, "verdict": o.verdict.kind, "text": o.verdict.text,
                     "worst_rms": o.worst, "wall_s": o.wall_s} for o in runs]
-        print(json.dumps(_jsonable({what: str(page), "summary": line, "runs": entries, "accuracy": acc}),
-                         allow_nan=False, indent=1))
+        print(files.json_text({what: str(page), "summary": line, "runs": entries, "accuracy": acc}, indent=1))
         return
     print(line)
     for o in runs:
         if o.verdict.kind in ("fail", "diverged", "aborted"):
             print(f"  {o.case} / {o.solver}: {o.verdict}")
     print(f"{what}: {page}")
-
-
-def _jsonable(x):
-    """x with numbers as floats and NaN and +-inf as None, for json.dumps(allow_nan=False)."""
-    if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, (str, bool, int)) or x is None:
-        return x
-    try:
-        f = float(x)
-    except (TypeError, ValueError):
-        return str(x)
-    return f if math.isfinite(f) else None
 
 
 def cmd_report(args) -> int:
@@ -380,7 +363,7 @@ def cmd_regress(args) -> int:
     if args.update:
         return OK
     if args.json:
-        print(json.dumps(_jsonable({"moved": sum(r["moved"] for r in rows), "rows": rows}), allow_nan=False, indent=1))
+        print(files.json_text({"moved": sum(r["moved"] for r in rows), "rows": rows}, indent=1))
         return DIFFERENT if any(r["moved"] for r in rows) else OK
     head = ["case", "solver", "channel", "RMS diff / norm", "tolerance", "moved", "note"]
     body = [[r["case"], r["solver"], r["channel"], r["rms"], r["tolerance"], "MOVED" if r["moved"] else "ok",
@@ -456,7 +439,7 @@ def cmd_bench(args) -> int:
         from flexmbd.report import history
         history.keep_bench(Path(args.out).parent, result)
     if args.json:
-        print(json.dumps(result, default=float))
+        print(files.json_text(result))
         return 0
     c = result["compile_s"]
     print(f"compile: {c['cold_s']:.1f} s first time, {c['cached_s']:.1f} s from the cache")
@@ -718,8 +701,8 @@ def parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("regress", help="compare fresh results with stored baselines (exit 1 if anything moved)",
                        parents=[debug, executors])
-    s.add_argument("--baseline", default=str(Path(__file__).resolve().parent.parent / "references" / "baselines"),
-                   help="folder of baselines BASELINE/CASE/SOLVER.csv")
+    s.add_argument("--baseline", default=str(resources.BASELINES),
+                   help="folder of baselines BASELINE/CASE/SOLVER.csv (default: the shipped references/baselines)")
     s.add_argument("--results", default=None, metavar="DIR",
                    help="compare the results stored in the report folder DIR (DIR/results/CASE/SOLVER.json) instead "
                         "of running the solvers; needed for imported results")

@@ -11,6 +11,10 @@ stretches `signals_held`, `signals_exit` and `signals_kept` only change what it 
 signal is lost between two handlers. Temporaries and staging folders are made with the signals
 held and removed on every path, a signal's included. A signal ignored when the process starts
 (SIG_IGN, as a background job inherits SIGINT) stays ignored everywhere.
+
+Every JSON text flexmbd writes or prints is strict JSON (`json_text`): a number that is not finite
+is null, never NaN or Infinity (which JSON does not have); readers take null where a number may be
+unknown.
 """
 
 from __future__ import annotations
@@ -18,6 +22,8 @@ from __future__ import annotations
 import _thread
 import errno
 import functools
+import json
+import math
 import os
 import secrets
 import shutil
@@ -42,6 +48,29 @@ REASONS = {
     errno.EISDIR: "a folder is there, not a file",
     errno.ENOENT: "no such file or folder",
 }
+
+
+def json_text(x, **kw) -> str:
+    """Strict JSON text of x (`jsonable`, then json.dumps(allow_nan=False, **kw))."""
+    return json.dumps(jsonable(x), allow_nan=False, **kw)
+
+
+def jsonable(x):
+    """x with numpy numbers and arrays as Python's, every number that is not finite as None, and
+    any other object that is not a number by its str()."""
+    if hasattr(x, "tolist"):                                 # a numpy number or array
+        x = x.tolist()
+    if isinstance(x, dict):
+        return {k: jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if x is None or isinstance(x, (str, bool, int)):
+        return x
+    try:
+        f = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    return f if math.isfinite(f) else None
 
 
 def unusable(path, e: OSError, what: str = "") -> InputError:

@@ -27,8 +27,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from flexmbd import resources
 from flexmbd.errors import InputError
-from flexmbd.files import swap, temporary, unusable
+from flexmbd.files import json_text, swap, temporary, unusable
 
 DEPENDENCIES = ("numpy", "scipy", "pandas", "matplotlib", "numba", "exudyn", "pin", "mujoco")
 
@@ -178,9 +179,11 @@ class Result:
 @functools.cache
 def git_commit() -> str:
     """The commit of the source tree, with '+dirty' when the code or the case files (flexmbd/,
-    cases/, pyproject.toml: what a result depends on) have uncommitted changes ('' outside git);
-    read once per process."""
-    root = Path(__file__).resolve().parent.parent
+    cases/, pyproject.toml: what a result depends on) have uncommitted changes ('' outside a git
+    checkout, `resources.CHECKOUT`: an installed package); read once per process."""
+    root = resources.CHECKOUT
+    if root is None:
+        return ""
     try:
         rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True,
                              text=True, timeout=5).stdout.strip()
@@ -274,7 +277,7 @@ def write(r: Result, out_dir: Path) -> tuple[Path, Path]:
     base = Path(out_dir) / r.case
     csv, js = base / f"{r.solver}.csv", base / f"{r.solver}.json"
     table = r.table().to_csv(index=False, float_format="%.10g") if len(r.t) else None
-    meta = json.dumps(sidecar(r, sha256(table) if table is not None else None), indent=2) + "\n"
+    meta = json_text(sidecar(r, sha256(table) if table is not None else None), indent=2) + "\n"
     with temporary(js, meta) as new_js:
         if table is None:
             swap([(None, csv), (new_js, js)])
@@ -377,10 +380,18 @@ def _real(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+def _unknown(v) -> bool:
+    """A sidecar's number that is not known: null (as written), or NaN (as older sidecars hold)."""
+    return v is None or (_real(v) and v != v)
+
+
+# the sidecar keys whose unknown value (null) reads as NaN
+UNKNOWN_NAN = ("wall_s", "setup_s", "compile_s", "kinetic_max_J")
+
 _TEXT = ("a string", lambda v: isinstance(v, str))
 _TABLE = ("a JSON object", lambda v: isinstance(v, dict))
 _COUNT = ("a whole number >= 0", lambda v: type(v) is int and 0 <= v <= LARGEST)
-_SECONDS = ("a number >= 0 (s), or NaN when not known", lambda v: _real(v) and (v != v or 0 <= v <= LARGEST))
+_SECONDS = ("a number >= 0 (s), or null when not known", lambda v: _unknown(v) or (_real(v) and 0 <= v <= LARGEST))
 _NAMES = ("a list of strings", lambda v: isinstance(v, list) and all(isinstance(c, str) for c in v))
 
 # a sidecar key -> (what it must be, a check), for every key a page, a table or a comparison uses:
@@ -389,7 +400,7 @@ SIDECAR = {
     "solver": _TEXT, "case": _TEXT, "status": _TEXT, "channels": _NAMES, "samples": _COUNT,
     "steps": _COUNT, "rhs_evals": _COUNT, "wall_s": _SECONDS, "setup_s": _SECONDS, "compile_s": _SECONDS,
     "failed_at_s": ("a finite number (s), or null", lambda v: v is None or (_real(v) and abs(v) <= LARGEST)),
-    "kinetic_max_J": ("a number >= 0 (J), or NaN when not known", lambda v: _real(v) and (v != v or 0 <= v <= LARGEST)),
+    "kinetic_max_J": ("a number >= 0 (J), or null when not known", lambda v: _unknown(v) or (_real(v) and 0 <= v <= LARGEST)),
     "csv_sha256": ("a SHA-256 in hex, or null", lambda v: v is None or isinstance(v, str)),
     "solver_version": _TEXT, "case_sha256": _TEXT, "python": _TEXT, "git_commit": _TEXT, "date": _TEXT,
     "machine": _TEXT, "settings": _TABLE, "versions": _TABLE, "imported": _TABLE, "overrides": _NAMES,
@@ -416,6 +427,7 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
             raise InputError(f"{js}: {key}: expected {what}, got {json.dumps(meta[key])[:40]}")
     if (meta["case"], meta["solver"]) != (case, solver):
         raise InputError(f"{js}: holds {meta['solver']} on {meta['case']}, not {solver} on {case}")
+    meta.update({k: float("nan") for k in UNKNOWN_NAN if k in meta and meta[k] is None})
     try:
         status = Status.parse(meta["status"])
     except ValueError:

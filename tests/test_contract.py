@@ -29,8 +29,8 @@ import pandas as pd
 import pytest
 
 import flexmbd
-from flexmbd import cases, cost, integrate, linearize, results, solvers
-from flexmbd.cli import _jsonable, main
+from flexmbd import cases, cost, files, integrate, linearize, results, solvers
+from flexmbd.cli import main
 from flexmbd.errors import InputError
 from flexmbd.report import spectra
 from tests.test_faults import BASE, CASE, ENV, ONE, SOLVER, check, cli, edit_result, no_leftovers
@@ -246,7 +246,7 @@ def test_report_json_with_values_near_the_largest_magnitude(report, own_case, pa
 
 
 def test_jsonable_maps_every_non_finite_number_to_null():
-    assert _jsonable([math.inf, -math.inf, math.nan, np.float64("inf"), 1.5, 10 ** 400, "x"]) == \
+    assert files.jsonable([math.inf, -math.inf, math.nan, np.float64("inf"), 1.5, 10 ** 400, "x"]) == \
         [None, None, None, None, 1.5, 10 ** 400, "x"]
 
 

@@ -25,9 +25,9 @@ from pathlib import Path
 import pytest
 
 import flexmbd
+from flexmbd import resources
 from flexmbd.cli import main
 from flexmbd.errors import Interrupted
-from flexmbd.report import regress
 
 ROOT = Path(flexmbd.__file__).resolve().parent.parent
 # One OpenBLAS thread: on a loaded two-core machine OpenBLAS's threads make the 600-DOF eigen
@@ -122,7 +122,7 @@ def base(tmp_path) -> Path:
     """A copy of the stored baseline of analytic on cantilever_step."""
     b = tmp_path / "baselines"
     (b / CASE).mkdir(parents=True)
-    shutil.copy(regress.BASELINES / CASE / f"{SOLVER}.csv", b / CASE)
+    shutil.copy(resources.BASELINES / CASE / f"{SOLVER}.csv", b / CASE)
     return b
 
 

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from flexmbd import results, solvers
+from flexmbd import files, resources, results, solvers
 from flexmbd.cli import main
-from flexmbd.report import accuracy, history, pages
+from flexmbd.report import accuracy, history
 from flexmbd.version import __version__
 
 FAST = "analytic,fe-linear"
@@ -186,11 +186,11 @@ def test_another_machine_s_records_are_added_and_drawn_beside_ours(tmp_path, mon
 
 
 def test_the_stored_bench_runs_are_read_and_a_bench_run_kept_beside_them(tmp_path, monkeypatch):
-    stored = history.stored_bench(pages.HISTORY)
+    stored = history.stored_bench(resources.HISTORY)
     got = {history.label(r): r for r in stored}
     assert "9af03fa" in got and got["9af03fa"]["machine"]["name"] == history.PROJECT
     assert got["9af03fa"]["recorded"] == "2026-12-01" and "b5ab8cc" in got       # DATE_COMMIT_NOTE.json
-    raw = json.loads((pages.HISTORY / "2026-12-01_9af03fa.json").read_text())
+    raw = json.loads((resources.HISTORY / "2026-12-01_9af03fa.json").read_text())
     series = history.bench_series(stored)
     assert series["exponent"][("flexible chain", history.PROJECT)]["9af03fa"] == raw["flexible_chain_exponent"]
     assert series["compile"][("first (empty cache)", history.PROJECT)]["9af03fa"] == raw["compile_s"]["cold_s"]
@@ -214,12 +214,12 @@ def test_the_stored_bench_runs_are_read_and_a_bench_run_kept_beside_them(tmp_pat
 
 def test_a_bench_run_written_to_a_report_folder_is_kept_in_its_history(tmp_path, monkeypatch, capsys):
     from flexmbd import bench
-    raw = json.loads((pages.HISTORY / "2026-12-01_9af03fa.json").read_text())
+    raw = json.loads((resources.HISTORY / "2026-12-01_9af03fa.json").read_text())
     monkeypatch.setattr(bench, "run", lambda **k: raw)
     monkeypatch.setattr(bench, "plots", lambda result, folder: [])
     fake(monkeypatch, "abc1234", "2026-12-02T10:00:00+00:00")
     assert main(["bench", "--out", str(tmp_path / "rep" / "bench")]) == 0
     kept = tmp_path / "rep" / "history" / "box-000000" / "abc1234-bench.json"
-    assert history.read(kept)["bench"] == history.finite(raw)                  # NaN (a diverged run) as null
+    assert history.read(kept)["bench"] == files.jsonable(raw)                  # NaN (a diverged run) as null
     assert main(["bench", "--out", str(tmp_path / "elsewhere")]) == 0          # not a report folder's bench
     assert [p.name for p in tmp_path.rglob("*-bench.json")] == [kept.name]

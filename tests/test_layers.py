@@ -16,7 +16,7 @@ ROOT = Path(flexmbd.__file__).resolve().parent
 # module or package (its first dotted part, under flexmbd) -> layer, bottom to top (docs/architecture.md)
 LAYERS = {
     "errors": 1, "files": 1, "version": 1, "jit": 1, "dense": 1, "progress": 1, "spatial": 1, "fe": 1,
-    "results": 1, "profiles": 1, "metrics": 1,
+    "results": 1, "profiles": 1, "metrics": 1, "resources": 1,
     "cases": 2, "flexbody": 2,
     "invariants": 3, "joints": 3, "model": 3, "build": 3, "dynamics": 3,
     "kernel": 4, "integrate": 4, "constraints": 4,

@@ -1,5 +1,6 @@
-"""Solver plug-ins: the example in examples/plugin_solver, installed as pip installs it (a
-dist-info with its entry points on the path), runs beside the built-in solvers."""
+"""Solver plug-ins: the example in examples/plugin_solver, installed by pip into a folder of its
+own (flexmbd's environment holds no plug-in), runs beside the built-in solvers; entry points
+planted as pip installs them (a dist-info on the path) load, or are unavailable, as they should."""
 
 import os
 import shutil
@@ -31,8 +32,19 @@ def flexmbd(args, env):
     return subprocess.run([sys.executable, "-m", "flexmbd.cli", *args], capture_output=True, text=True, env=env)
 
 
-def test_example_plugin_runs_beside_the_built_in_solvers(tmp_path):
-    env = install(tmp_path / "site", "[flexmbd.solvers]\nexample-pendulum = flexmbd_example_solver\n")
+@pytest.fixture(scope="module")
+def example(tmp_path_factory) -> dict:
+    """The example plug-in installed by pip (from a copy of examples/plugin_solver, so that the
+    build leaves nothing in the checkout) into a folder of its own; the environment to use it."""
+    tmp = tmp_path_factory.mktemp("example")
+    shutil.copytree(PLUGIN, tmp / "src", ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
+    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
+                    "--no-index", "--target", str(tmp / "site"), str(tmp / "src")], check=True, capture_output=True)
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp / "site"), os.environ.get("PYTHONPATH", "")])}
+
+
+def test_example_plugin_runs_beside_the_built_in_solvers(tmp_path, example):
+    env = example
     listed = flexmbd(["list"], env)
     assert "example-pendulum" in listed.stdout.split("pendulum ")[-1]
     r = flexmbd(["run", "pendulum", "--solver", "example-pendulum", "--out", str(tmp_path / "out")], env)

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flexmbd import cases, channels, flexbody, metrics, solvers
+from flexmbd import cases, channels, flexbody, metrics, resources, solvers
 from flexmbd.cli import main
 from flexmbd.report import regress, spectra, tables
 from tests.test_tables import compile_input
@@ -152,7 +152,7 @@ def test_peak_interpolation_beats_the_bin_width():
 
 
 def test_regress_flags_a_perturbed_baseline_and_passes_the_real_one(tmp_path, capsys):
-    real = regress.BASELINES
+    real = resources.BASELINES
     args = ["--cases", "cantilever_step", "--solvers", FAST]
     assert main(["regress", "--baseline", str(real)] + args) == 0
     capsys.readouterr()
@@ -208,7 +208,7 @@ def test_regress_measures_a_rigid_peer_s_energy_noise_against_the_case_s_scale(t
     assert channels.gravity_energy(case) == pytest.approx(9.81 * 7820.0 * 0.01 * 0.015 * 1.5 * 1.5, rel=1e-12)
     [row] = regress.compare(case, fresh, stored, None)
     assert row["rms"] < 1e-10 and not row["moved"], row
-    shutil.copy(regress.BASELINES / "pendulum" / f"{case.report.reference}.csv", tmp_path / "pendulum")
+    shutil.copy(resources.BASELINES / "pendulum" / f"{case.report.reference}.csv", tmp_path / "pendulum")
     kinetic = regress.reference_kinetic(tmp_path, case)
     assert 12.0 < kinetic < 14.0                                  # m g L / 2 = 12.9 J released horizontally
     [row] = regress.compare(case, fresh, stored, kinetic)
@@ -229,8 +229,8 @@ def test_a_reference_of_roundoff_is_measured_against_the_physical_scale():
 
 
 def test_baselines_carry_provenance():
-    for c, s in regress.listing(regress.BASELINES):
-        head = [l for l in (regress.BASELINES / c / f"{s}.csv").read_text().splitlines()[:8] if l.startswith("#")]
+    for c, s in regress.listing(resources.BASELINES):
+        head = [l for l in (resources.BASELINES / c / f"{s}.csv").read_text().splitlines()[:8] if l.startswith("#")]
         keys = {l[2:].split(":")[0] for l in head}
         assert {"source", "solver", "settings", "date", "units", "columns"} <= keys, (c, s)
 
@@ -392,7 +392,6 @@ def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(repor
     """With benchmark runs in the history folder the index shows the newest one's work-precision
     figure, naming its file, commit and machine and saying its times are not this report's; a
     broken file is passed over with a warning. Without any, the index says nothing about it."""
-    from flexmbd.report import pages
     out = tmp_path / "rep"
     shutil.copytree(report / "results", out / "results")
     history = tmp_path / "history"
@@ -400,7 +399,7 @@ def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(repor
     bench_run(history, "2026-11-22_aaaaaaa.json", "old machine")
     bench_run(history, "2026-12-01_bbbbbbb.json", "new machine")
     (history / "2026-12-02_ccccccc.json").write_text("{not json")
-    monkeypatch.setattr(pages, "HISTORY", history)
+    monkeypatch.setattr(resources, "HISTORY", history)
     args = ["report", "--no-run", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(out)]
     assert main(args) == 0
     assert "2026-12-02_ccccccc.json: benchmark run not shown" in capsys.readouterr().err
@@ -412,7 +411,7 @@ def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(repor
     assert "![work_precision.png](work_precision.png)" in md
     assert (out / "work_precision.png").is_file() and (out / "work_precision.svg").is_file()
 
-    monkeypatch.setattr(pages, "HISTORY", tmp_path / "no-history")
+    monkeypatch.setattr(resources, "HISTORY", tmp_path / "no-history")
     assert main(args) == 0
     for page in (out / "index.html", out / "index.md"):
         text = page.read_text()

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbd import results
+from flexmbd import files, results
 from flexmbd.errors import InputError
 from flexmbd.results import Result, Status
 
@@ -112,6 +112,34 @@ def test_pair_round_trip(tmp_path):
     meta = json.loads((tmp_path / "c" / "s.json").read_text())
     assert meta["csv_sha256"] == results.sha256((tmp_path / "c" / "s.csv").read_text())
     assert "numba" in meta["versions"]
+
+
+def test_a_sidecar_is_strict_json_with_null_for_what_is_not_known(tmp_path):
+    """NaN and infinities are written as null (JSON has no NaN) and read back as NaN; a sidecar
+    holding NaN (as written before) is still read."""
+    r = _result(2)
+    r.wall_s = np.nan
+    r.extra.update({"kinetic_max_J": np.float64("nan"), "compile_s": np.inf,
+                    "validity": {"largest": {"beam": {"deflection": np.float32(0.25)}}}})
+    results.write(r, tmp_path)
+    text = (tmp_path / "c" / "s.json").read_text()
+
+    def refuse(constant):
+        raise ValueError(f"not JSON: {constant}")
+    meta = json.loads(text, parse_constant=refuse)                  # NaN, Infinity, -Infinity refused
+    assert meta["wall_s"] is None and meta["kinetic_max_J"] is None and meta["compile_s"] is None
+    assert meta["validity"]["largest"]["beam"]["deflection"] == 0.25
+    back = results.read(tmp_path, "c", "s")
+    assert np.isnan(back.wall_s) and np.isnan(back.extra["kinetic_max_J"]) and np.isnan(back.extra["compile_s"])
+    assert text.count('"wall_s": null') == 1
+    (tmp_path / "c" / "s.json").write_text(text.replace('"wall_s": null', '"wall_s": NaN'))
+    assert np.isnan(results.read(tmp_path, "c", "s").wall_s)
+
+
+def test_json_text_holds_python_numbers_and_null_for_non_finite_ones():
+    text = files.json_text({"a": np.array([1.0, np.nan]), "b": np.int64(3), "c": -np.inf, "p": Path("x"),
+                            "t": (1, None, True)})
+    assert json.loads(text) == {"a": [1.0, None], "b": 3, "c": None, "p": "x", "t": [1, None, True]}
 
 
 def test_a_csv_of_another_run_is_refused(tmp_path):

@@ -19,8 +19,7 @@ from flexmbd import flexbody
 from flexmbd.cases.schema import (BEAM, CASE, CHANNEL_KEYS, DERIVED, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS,
                                   MAX_SNAPSHOTS, NAME_CHARS, REQUIRED, RIGID, SOLID)
 from flexmbd.errors import InputError, printable
-
-CASES_DIR = Path(__file__).resolve().parent.parent.parent / "cases"
+from flexmbd.resources import CASES as CASES_DIR      # the shipped cases (resources.py)
 
 # ---------------------------------------------------------------------------------------------
 # finding and reading

@@ -241,7 +241,7 @@ def record(key: str, got: dict, said: list) -> str:
     """The page's record (RECORD): its key, accuracy rows, runs' outcomes and warnings, as JSON."""
     runs = [{"case": o.case, "solver": o.solver, "status": [o.status.kind, o.status.why, o.status.t],
              "verdict": list(o.verdict), "worst": o.worst, "wall_s": o.wall_s} for o in got["runs"]]
-    return json.dumps({"key": key, "accuracy": got["accuracy"], "runs": runs, "warnings": said}, default=float) + "\n"
+    return files.json_text({"key": key, "accuracy": got["accuracy"], "runs": runs, "warnings": said}) + "\n"
 
 
 def reused(out: Path, stage: Path, case, key: str, warn) -> dict | None:
@@ -251,10 +251,11 @@ def reused(out: Path, stage: Path, case, key: str, warn) -> dict | None:
     rec = _record(out, case, key)
     if rec is None:
         return None
+    nan = lambda v: float("nan") if v is None else v                   # written as null (files.json_text)
     try:
         runs = [accuracy.Outcome(o["case"], o["solver"], results.Status(*o["status"]), accuracy.Verdict(*o["verdict"]),
-                                 o["worst"], o["wall_s"]) for o in rec["runs"]]
-        got = {"accuracy": rec["accuracy"], "runs": runs}
+                                 nan(o["worst"]), nan(o["wall_s"])) for o in rec["runs"]]
+        got = {"accuracy": [{k: nan(v) for k, v in row.items()} for row in rec["accuracy"]], "runs": runs}
     except (OSError, ValueError, KeyError, TypeError):
         return None
     shutil.copytree(Path(out) / case.name, stage / case.name)

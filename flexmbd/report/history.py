@@ -35,10 +35,9 @@ import subprocess
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-import numpy as np
 from matplotlib.ticker import FuncFormatter
 
-from flexmbd import files, results, solvers
+from flexmbd import files, resources, results, solvers
 from flexmbd.errors import InputError
 from flexmbd.report import accuracy, figures, pages, tables
 from flexmbd.version import __version__
@@ -48,7 +47,6 @@ PAGE = "history-page"           # in OUT: the page's figures and its key (page.j
 BENCH = "-bench.json"           # the name ending of a bench record
 PROJECT = "project machine"     # the machine of the stored runs in benchmarks/history
 NAME = re.compile(r"[A-Za-z0-9][\w.-]*")            # a machine name or commit id: a safe file name
-ROOT = Path(__file__).resolve().parent.parent.parent  # the source tree git is asked about
 LINES = ["-", "--", ":", "-."]                     # one line style per machine
 
 
@@ -100,9 +98,12 @@ def commit() -> dict:
 
 
 def git(*args) -> str:
-    """What git says (stdout, stripped) about the source tree; '' when it cannot."""
+    """What git says (stdout, stripped) about the source checkout; '' when it cannot or there is
+    none (an installed package: `resources.CHECKOUT`)."""
+    if resources.CHECKOUT is None:
+        return ""
     try:
-        done = subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=10)
+        done = subprocess.run(["git", *args], cwd=resources.CHECKOUT, capture_output=True, text=True, timeout=10)
     except (OSError, subprocess.SubprocessError):
         return ""
     return done.stdout.strip() if done.returncode == 0 else ""
@@ -161,18 +162,7 @@ def keep_bench(out, result: dict) -> Path:
 
 def dumps(rec: dict) -> str:
     """A record as JSON text, NaN and inf as null."""
-    return json.dumps(finite(rec), indent=1, allow_nan=False) + "\n"
-
-
-def finite(x):
-    """x with every non-finite number as None and numpy numbers as Python's."""
-    if isinstance(x, dict):
-        return {k: finite(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [finite(v) for v in x]
-    if isinstance(x, (np.floating, float)):
-        return float(x) if math.isfinite(x) else None
-    return x.item() if isinstance(x, np.generic) else x
+    return files.json_text(rec, indent=1) + "\n"
 
 
 def number(v) -> bool:
@@ -248,12 +238,12 @@ def records(out, warn=None) -> list[dict]:
     return got
 
 
-def stored_bench(where: Path, warn=None) -> list[dict]:
-    """The project's stored bench runs (benchmarks/history/DATE_COMMIT[_NOTE].json) as bench
-    records of machine PROJECT, their commit from the file name, recorded at their date; a file
-    that cannot be read is passed over (`warn` is told)."""
+def stored_bench(where: Path | None, warn=None) -> list[dict]:
+    """The project's stored bench runs (benchmarks/history/DATE_COMMIT[_NOTE].json; where None: an
+    installed package, which has none) as bench records of machine PROJECT, their commit from the
+    file name, recorded at their date; a file that cannot be read is passed over (`warn` is told)."""
     got = []
-    for path in sorted(Path(where).glob("*.json")):
+    for path in sorted(Path(where).glob("*.json") if where else []):
         date, _, rest = path.stem.partition("_")
         rev = rest.split("_")[0]
         try:
@@ -512,12 +502,12 @@ def latest_rows(series: dict, labels: list) -> list[list]:
 
 def page(out, warn=None) -> Path:
     """Draw OUT/history.html and history.md (figures in OUT/history-page/) from the records under
-    OUT/history and the stored bench runs (`pages.HISTORY`), swapped in together
+    OUT/history and the stored bench runs (`resources.HISTORY`), swapped in together
     (`files.generation`); kept as it is when drawn from the same records (`page_key`). A record
     that cannot be read is an InputError naming it, or with `warn` left out (`warn` is told)."""
     out = Path(out)
     known = topology()
-    recs = described(records(out, warn) + stored_bench(pages.HISTORY, warn), known)
+    recs = described(records(out, warn) + stored_bench(resources.HISTORY, warn), known)
     labels = ordered(recs, known)
     key = page_key(recs, labels)
     try:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, metrics, results, solvers
+from flexmbd import cases, metrics, resources, results, solvers
 from flexmbd.files import atomic_write
 from flexmbd.report import accuracy, animation, convergence, fields, figures, loading, shapes, spectra, tables
 
@@ -316,17 +316,14 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     return {"accuracy": acc, "runs": runs}
 
 
-# `flexmbd bench` runs, one JSON file each, named DATE_COMMIT[_NOTE].json
-HISTORY = Path(__file__).resolve().parent.parent.parent / "benchmarks" / "history"
-
-
-def latest_bench(folder: Path, warn=None) -> tuple[Path, dict] | None:
-    """The newest benchmark run in `folder` with work-precision rows: (its file, its contents), or
-    None. Newest by file name (DATE_COMMIT[_NOTE].json, the date first; a day's runs in name
-    order); a file that cannot be read or whose rows lack a key is passed over (`warn` is told)."""
+def latest_bench(folder: Path | None, warn=None) -> tuple[Path, dict] | None:
+    """The newest benchmark run in `folder` (None: an installed package, which has none) with
+    work-precision rows: (its file, its contents), or None. Newest by file name
+    (DATE_COMMIT[_NOTE].json, the date first; a day's runs in name order); a file that cannot be
+    read or whose rows lack a key is passed over (`warn` is told)."""
     keys = {"case", "solver", "scheme", "error", "wall_s"}
     number = lambda v: v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
-    for path in sorted(Path(folder).glob("*.json"), reverse=True):
+    for path in sorted(Path(folder).glob("*.json") if folder else [], reverse=True):
         try:
             run = json.loads(path.read_text())
             rows = run.get("work_precision") if isinstance(run, dict) else None
@@ -347,9 +344,9 @@ def latest_bench(folder: Path, warn=None) -> tuple[Path, dict] | None:
 
 def bench_section(stage: Path, warn=None) -> tuple[str, str]:
     """The index's work-precision figure (`figures.work_precision`, into stage) and its caption
-    from the newest benchmark run in HISTORY (`latest_bench`), as (html, markdown); ('', '') when
-    there is none."""
-    got = latest_bench(HISTORY, warn)
+    from the newest benchmark run in `resources.HISTORY` (`latest_bench`), as (html, markdown);
+    ('', '') when there is none."""
+    got = latest_bench(resources.HISTORY, warn)
     if got is None:
         return "", ""
     path, run = got

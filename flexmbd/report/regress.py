@@ -25,7 +25,6 @@ from flexmbd.files import atomic_write
 from flexmbd.progress import job, jobs_done
 from flexmbd.results import Result
 
-BASELINES = Path(__file__).resolve().parent.parent.parent / "references" / "baselines"
 DEFAULT_TOLERANCE = 1e-3          # channels without a tolerance in the case file
 
 
