@@ -97,7 +97,7 @@ def list_solvers(args) -> int:
     from flexmbd import capabilities
     tab = capabilities.table()
     if args.json:
-        print(json.dumps(tab, indent=2))
+        print(files.json_text(tab, indent=2))
     else:
         print(capabilities.markdown(tab), end="")
     return 0

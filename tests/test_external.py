@@ -75,7 +75,7 @@ def test_an_imported_result_appears_in_the_report_and_the_tables(tmp_path, refer
     assert main(["report", "--no-run", "--cases", case, "--solvers", "fe-linear", "--out", str(out), "--strict"]) == 1
     assert "myfe: fail: tip_deflection" in capsys.readouterr().out
     index = (out / "index.md").read_text()
-    assert "| myfe | fail: tip_deflection" in index
+    assert "| myfe | ✗ fail: tip_deflection RMS" in index
     acc = pd.read_csv(out / "accuracy.csv")
     row = acc[(acc.solver == "myfe") & (acc.metric == "rms")]
     y = table(reference).tip_deflection
