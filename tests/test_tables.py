@@ -92,6 +92,17 @@ def test_a_diverged_run_has_a_row_in_every_table():
     assert "exudyn-beam-2 & \\multicolumn{7}{l}{diverged (\\textbar{}tip\\_deflection\\textbar{} beyond 16 m" in tex
 
 
+def test_each_table_is_also_a_file_of_its_own(tmp_path):
+    """tex/summary.tex and tex/CASE.tex: the tables of accuracy.tex, one to a file."""
+    tables.write_accuracy(tmp_path, ROWS, RUNS)
+    whole = (tmp_path / "accuracy.tex").read_text()
+    files = sorted(p.name for p in (tmp_path / "tex").iterdir())
+    assert files == sorted(["summary.tex"] + [f"{c}.tex" for c in {r["case"] for r in ROWS}])
+    for p in (tmp_path / "tex").iterdir():
+        part = p.read_text()
+        assert part.count("\\toprule") == 1 and part in whole
+
+
 def test_accuracy_md_defines_every_column(tmp_path):
     tables.write_accuracy(tmp_path, ROWS, RUNS)
     md = (tmp_path / "accuracy.md").read_text()

@@ -311,11 +311,17 @@ def legend() -> str:
 
 def write_accuracy(out: Path, rows_: list[dict], runs: list = ()) -> None:
     """reports/accuracy.csv (tidy, full precision), accuracy.md (with a legend of its columns) and
-    accuracy.tex (3 significant digits; \\input-able tables: `latex_document`); the runs that
-    diverged or were aborted (`runs`: accuracy.Outcome) have a row in each."""
+    accuracy.tex (3 significant digits; \\input-able tables: `latex_document`), and the same tables
+    one to a file, tex/summary.tex and tex/CASE.tex; the runs that diverged or were aborted
+    (`runs`: accuracy.Outcome) have a row in each."""
     full = with_failed(rows_, list(runs))
     atomic_write(out / "accuracy.csv", tidy_csv(full))
     head, body = accuracy_rows(full)
     atomic_write(out / "accuracy.md", "# Accuracy against each case's reference solver\n\nColumns:\n\n" + legend()
                  + "\n" + markdown(head, body))
     atomic_write(out / "accuracy.tex", latex_document(full, list(runs)))
+    tex_dir = out / "tex"                       # the same tables one to a file, to \input one of them
+    tex_dir.mkdir(exist_ok=True)
+    atomic_write(tex_dir / "summary.tex", latex_summary(list(runs)))
+    for c in dict.fromkeys(r["case"] for r in full):
+        atomic_write(tex_dir / f"{c}.tex", latex_case(c, [r for r in full if r["case"] == c]))
