@@ -1,10 +1,18 @@
 """`flexmbd bench`: timing measured against peers in the same process, on the same machine.
 
-    work_precision    flexmbd (dopri5 and Adams tolerances, fox-goodwin steps) and exudyn-ffrf (time steps of its
-                      generalized-alpha and Fox-Goodwin schemes) on each paper case:
-                      error = RMS of the deflection channels' difference from a reference run
-                      (flexmbd at rtol 1e-12), over the reference's maximum magnitude (worst channel)
-    matched_accuracy  for error targets 1e-3 and 1e-4: the fastest setting of each that meets it
+    work_precision    on each paper case: flexmbd (with geometric stiffening, its default) and
+                      flexmbd-linear (without: the linear floating frame) over dopri5 and Adams
+                      tolerances and fox-goodwin steps, exudyn-ffrf (the same linear floating frame)
+                      over the steps of its generalized-alpha and Fox-Goodwin schemes; each row's
+                      error = the worst deflection channel's RMS difference over the largest magnitude,
+                      `error` against the converged run of the same model (CONVERGED) and
+                      `error_reference` against the case's reference (its report.reference)
+    models            per case: how far the converged runs lie from each other and from the reference
+    matched_accuracy  the same model compared: for error targets 1e-3 and 1e-4 the fastest setting of
+                      flexmbd-linear and of exudyn-ffrf meeting it (each against its own converged run)
+                      and their ratio
+    against_reference each solver against the case's reference: its smallest error over the sweep and
+                      its fastest setting meeting each target
     rigid_chain       one forward-dynamics evaluation of an n-link revolute chain, flexmbd vs
                       Pinocchio, median of many calls from Python
     flexible_chain    one evaluation for n flexible beams (12 modes) in a chain, each on its
@@ -165,41 +173,95 @@ def compile_seconds() -> dict:
 
 def deflection_error(case, ref, r) -> float:
     """Worst deflection channel's RMS difference from the reference over its maximum magnitude."""
-    if not r.ok:
+    if not r.ok or ref is None or not ref.ok:
         return np.nan
     errs = [metrics.rms_diff(ref.channels[c], metrics.on_grid(ref.t, r.t, r.channels[c]))
-            for c, ch in case.channels.items() if ch.kind == "deflection" and c in r.channels]
+            for c, ch in case.channels.items() if ch.kind == "deflection" and c in r.channels and c in ref.channels]
     return float(max(errs)) if errs else np.nan
 
 
-def work_precision(names, flexmbd_settings, exudyn_settings, progress=None) -> tuple[list[dict], dict]:
-    """Rows {case, solver, scheme, setting, error, wall_s}: flexmbd over (method, rtol) pairs,
-    exudyn-ffrf over (solver, dt) pairs; and, per case and Exudyn scheme, whether its error falls
-    steadily as the step shrinks."""
-    rows, converges = [], {}
+# The converged run of each model, against which its own settings are graded: flexmbd (with
+# geometric stiffening, its default) and flexmbd-linear (without: the linear floating frame) at
+# rtol 1e-12 with dopri5; exudyn-ffrf (the same linear floating frame) with Fox-Goodwin at half the
+# smallest step of the sweep (its error falls as (w h)^4, docs/exudyn.md).
+CONVERGED = {"flexmbd": ["integrator.method=dopri5", "integrator.rtol=1e-12", "integrator.atol=1e-14"],
+             "exudyn-ffrf": ['solvers.exudyn-ffrf.solver="fox-goodwin"', "solvers.exudyn-ffrf.dt=1.25e-5"]}
+
+
+def linear(name: str) -> list[str]:
+    """Overrides that turn geometric stiffening off on every flexible beam of case `name`: flexmbd's
+    model is then the linear floating frame of exudyn-ffrf (docs/formulation.md §4b)."""
+    case = cases.load(name)
+    return [f"bodies.{b}.stiffening=false" for b, body in case.bodies.items()
+            if body.type == "beam" and body.flexible]
+
+
+def reference_run(name: str, stored: Path | None = None):
+    """(solver, Result) of case `name`'s own reference (report.reference, or the default one) at
+    the case's settings: the stored result in `stored` (a report's results folder) when it belongs
+    to the current case, else a run of it."""
+    case = solvers.graded(cases.load(name))
+    ref = case.report.reference
+    if ref is None:
+        return None, None
+    if stored is not None:
+        from flexmbd.errors import InputError
+        from flexmbd import results
+        try:
+            r = results.read(stored, name, ref)
+            if not results.stale(r, case.sha256, case.channels) and r.ok:
+                return ref, r
+        except InputError:
+            pass
+    return ref, solvers.run(case, ref)
+
+
+def work_precision(names, flexmbd_settings, exudyn_settings, progress=None, stored: Path | None = None
+                   ) -> tuple[list[dict], dict]:
+    """Rows {case, solver, scheme, setting, error, error_reference, wall_s}: flexmbd (with geometric
+    stiffening) and flexmbd-linear (without) over (method, setting) pairs, exudyn-ffrf over
+    (scheme, dt) pairs. `error` is against the converged run of the same model (CONVERGED: flexmbd's
+    own for flexmbd, flexmbd-linear's for flexmbd-linear, exudyn-ffrf's for exudyn-ffrf),
+    `error_reference` against the case's reference (`reference_run`). Also, per case: the
+    reference's solver and how far the converged runs of the linear floating frame lie from each
+    other (`models`: flexmbd-linear's against exudyn-ffrf's, the same model solved twice) and from
+    the reference; and per case and Exudyn scheme whether its error falls steadily as the step
+    shrinks."""
+    rows, info = [], {"convergence": {}, "models": {}}
     for name in names:
-        ref = solvers.run(cases.load(name, ["integrator.rtol=1e-12", "integrator.atol=1e-14"]), "flexmbd")
-        for method, value in flexmbd_settings:
-            if method == "fox-goodwin":                 # fixed step dt, Newton tolerance 1e-6
-                setting, over = f"dt={value:g}", [f"integrator.dt={value}", "integrator.rtol=1e-6"]
-            else:
-                setting, over = f"rtol={value:g}", [f"integrator.rtol={value}", f"integrator.atol={value * 1e-2}"]
-            case = cases.load(name, [f"integrator.method={method}"] + over)
-            r = solvers.run(case, "flexmbd")
-            rows.append({"case": name, "solver": "flexmbd", "scheme": method, "setting": setting,
-                         "error": deflection_error(case, ref, r), "wall_s": r.wall_s})
+        lin = linear(name)
+        case = cases.load(name)
+        ref_solver, ref = reference_run(name, stored)
+        own = {"flexmbd": solvers.run(cases.load(name, CONVERGED["flexmbd"]), "flexmbd"),
+               "flexmbd-linear": solvers.run(cases.load(name, CONVERGED["flexmbd"] + lin), "flexmbd"),
+               "exudyn-ffrf": solvers.run(cases.load(name, CONVERGED["exudyn-ffrf"]), "exudyn-ffrf")}
+        info["models"][name] = {
+            "reference": ref_solver,
+            "exudyn_ffrf_vs_flexmbd_linear": deflection_error(case, own["flexmbd-linear"], own["exudyn-ffrf"]),
+            **{f"{s}_vs_reference".replace("-", "_"): deflection_error(case, ref, r) for s, r in own.items()}}
+
+        def add(solver, scheme, setting, over, runs_as):
+            c = cases.load(name, over)
+            r = solvers.run(c, runs_as)
+            rows.append({"case": name, "solver": solver, "scheme": scheme, "setting": setting,
+                         "error": deflection_error(c, own[solver], r), "error_reference": deflection_error(c, ref, r),
+                         "wall_s": r.wall_s})
             if progress:
                 progress(rows[-1])
+
+        for solver, extra in (("flexmbd", []), ("flexmbd-linear", lin)):
+            for method, value in flexmbd_settings:
+                if method == "fox-goodwin":                 # fixed step dt, Newton tolerance 1e-6
+                    setting, over = f"dt={value:g}", [f"integrator.dt={value}", "integrator.rtol=1e-6"]
+                else:
+                    setting, over = f"rtol={value:g}", [f"integrator.rtol={value}", f"integrator.atol={value * 1e-2}"]
+                add(solver, method, setting, [f"integrator.method={method}"] + over + extra, "flexmbd")
         for scheme, dt in exudyn_settings:
-            case = cases.load(name, [f"solvers.exudyn-ffrf.dt={dt}", f'solvers.exudyn-ffrf.solver="{scheme}"'])
-            r = solvers.run(case, "exudyn-ffrf")
-            rows.append({"case": name, "solver": "exudyn-ffrf", "scheme": scheme, "setting": f"dt={dt:g}",
-                         "error": deflection_error(case, ref, r), "wall_s": r.wall_s})
-            if progress:
-                progress(rows[-1])
+            add("exudyn-ffrf", scheme, f"dt={dt:g}",
+                [f"solvers.exudyn-ffrf.dt={dt}", f'solvers.exudyn-ffrf.solver="{scheme}"'], "exudyn-ffrf")
         for scheme in dict(exudyn_settings):
-            converges[f"{name} / {scheme}"] = convergence(rows, name, scheme)
-    return rows, converges
+            info["convergence"][f"{name} / {scheme}"] = convergence(rows, name, scheme)
+    return rows, info
 
 
 def convergence(rows: list[dict], name: str, scheme: str) -> dict:
@@ -212,19 +274,42 @@ def convergence(rows: list[dict], name: str, scheme: str) -> dict:
             "smallest": min(fin) if fin else np.nan}
 
 
-def matched_accuracy(rows: list[dict], targets=(1e-3, 1e-4)) -> list[dict]:
+def fastest(rows: list[dict], name: str, solver: str, target: float, key: str = "error") -> tuple:
+    """(wall_s, "scheme setting") of `solver`'s fastest row on case `name` whose `key` error meets
+    `target`; (nan, "") when none does."""
+    ok = [(r["wall_s"], f"{r['scheme']} {r['setting']}") for r in rows if r["case"] == name
+          and r["solver"] == solver and np.isfinite(r.get(key, np.nan)) and r[key] <= target]
+    return min(ok) if ok else (np.nan, "")
+
+
+def matched_accuracy(rows: list[dict], targets=(1e-3, 1e-4), ours: str = "flexmbd-linear") -> list[dict]:
+    """The same model compared: for each case and error target, the fastest setting of `ours`
+    (flexmbd without stiffening, the linear floating frame) and of exudyn-ffrf, each graded against
+    its own converged run (`error`), and the ratio of their wall times."""
     out = []
     for name in sorted({r["case"] for r in rows}):
         for target in targets:
-            best = {}
-            for s in ("flexmbd", "exudyn-ffrf"):
-                ok = [(r["wall_s"], f"{r['scheme']} {r['setting']}") for r in rows if r["case"] == name
-                      and r["solver"] == s and np.isfinite(r["error"]) and r["error"] <= target]
-                best[s] = min(ok) if ok else (np.nan, "")
-            out.append({"case": name, "error_target": target, "flexmbd_wall_s": best["flexmbd"][0],
-                        "exudyn_ffrf_wall_s": best["exudyn-ffrf"][0],
-                        "ratio": best["flexmbd"][0] / best["exudyn-ffrf"][0],
-                        "flexmbd_setting": best["flexmbd"][1], "exudyn_ffrf_setting": best["exudyn-ffrf"][1]})
+            mine, theirs = fastest(rows, name, ours, target), fastest(rows, name, "exudyn-ffrf", target)
+            out.append({"case": name, "error_target": target, "flexmbd_wall_s": mine[0],
+                        "exudyn_ffrf_wall_s": theirs[0], "ratio": mine[0] / theirs[0],
+                        "flexmbd_setting": mine[1], "exudyn_ffrf_setting": theirs[1], "model": ours})
+    return out
+
+
+def against_reference(rows: list[dict], targets=(1e-3, 1e-4)) -> list[dict]:
+    """Each solver against the case's reference (`error_reference`): its smallest error over the
+    sweep (where its model, not its step, sets the error) and its fastest setting meeting each
+    target (nan when the model's own error lies above it)."""
+    out = []
+    for name in sorted({r["case"] for r in rows}):
+        for solver in dict.fromkeys(r["solver"] for r in rows if r["case"] == name):
+            errs = [r["error_reference"] for r in rows if r["case"] == name and r["solver"] == solver
+                    and np.isfinite(r.get("error_reference", np.nan))]
+            row = {"case": name, "solver": solver, "smallest_error": min(errs) if errs else np.nan}
+            for target in targets:
+                row[f"wall_s_at_{target:.0e}"], row[f"setting_at_{target:.0e}"] = \
+                    fastest(rows, name, solver, target, "error_reference")
+            out.append(row)
     return out
 
 
@@ -232,7 +317,9 @@ def matched_accuracy(rows: list[dict], targets=(1e-3, 1e-4)) -> list[dict]:
 # the command
 
 
-def run(quick: bool = False, with_work_precision: bool = True, progress=None) -> dict:
+def run(quick: bool = False, with_work_precision: bool = True, progress=None, stored: Path | None = None) -> dict:
+    """Every measurement of the module docstring; `stored`: a report's results folder whose fresh
+    reference runs are used instead of running them again (`reference_run`)."""
     out = {"machine": f"{os.cpu_count()} cpu", "quick": quick}
     out["compile_s"] = compile_seconds()
     out["rigid_chain"] = rigid_chain((1, 2, 8) if quick else (1, 2, 8, 32, 64))
@@ -250,8 +337,10 @@ def run(quick: bool = False, with_work_precision: bool = True, progress=None) ->
                     + [("adams", r) for r in (1e-5, 1e-7, 1e-9)])
             theirs = ([("generalized-alpha", dt) for dt in (2e-4, 1e-4, 5e-5, 2.5e-5)]
                       + [("fox-goodwin", dt) for dt in (4e-4, 2e-4, 1e-4, 5e-5, 2.5e-5)])
-        out["work_precision"], out["exudyn_convergence"] = work_precision(names, ours, theirs, progress)
+        out["work_precision"], info = work_precision(names, ours, theirs, progress, stored)
+        out["exudyn_convergence"], out["models"] = info["convergence"], info["models"]
         out["matched_accuracy"] = matched_accuracy(out["work_precision"])
+        out["against_reference"] = against_reference(out["work_precision"])
     return out
 
 

@@ -433,7 +433,9 @@ def cmd_bench(args) -> int:
                          f"error {row['error']:.3g}, {row['wall_s']:.2f} s\n")
 
     files.writable_dir(args.out, "--out")
-    result = bench.run(quick=args.quick, with_work_precision=not args.no_work_precision, progress=show)
+    stored = Path(args.results) / "results" if args.results else None
+    result = bench.run(quick=args.quick, with_work_precision=not args.no_work_precision, progress=show,
+                       stored=stored)
     bench.plots(result, Path(args.out))
     if Path(args.out).name == "bench":                  # a report folder's OUT/bench: kept in OUT/history too
         from flexmbd.report import history
@@ -449,10 +451,19 @@ def cmd_bench(args) -> int:
     for r in result["flexible_chain"]:
         print(f"flexible chain n={r['n']:3d}: {r['flexmbd_us']:10.1f} us")
     print(f"flexible chain exponent (n >= 4): {result['flexible_chain_exponent']:.2f}")
+    if result.get("matched_accuracy"):
+        print("matched accuracy, the same model (flexmbd without stiffening and exudyn-ffrf, each against its own "
+              "converged run):")
     for r in result.get("matched_accuracy", []):
-        print(f"{r['case']:16s} error {r['error_target']:.0e}: flexmbd {r['flexmbd_wall_s']:.2f} s, "
-              f"exudyn-ffrf {r['exudyn_ffrf_wall_s']:.2f} s, ratio {r['ratio']:.2f} "
+        print(f"  {r['case']:16s} error {r['error_target']:.0e}: flexmbd {r['flexmbd_wall_s']:.3f} s, "
+              f"exudyn-ffrf {r['exudyn_ffrf_wall_s']:.3f} s, ratio {r['ratio']:.2f} "
               f"({r['flexmbd_setting'] or '-'} / {r['exudyn_ffrf_setting'] or '-'})")
+    if result.get("against_reference"):
+        print("against each case's reference (smallest error over the sweep; fastest setting meeting 1e-3, 1e-4):")
+    for r in result.get("against_reference", []):
+        at = lambda k: f"{r[f'wall_s_at_{k}']:.3f} s" if math.isfinite(r[f"wall_s_at_{k}"]) else "-"
+        print(f"  {r['case']:16s} {r['solver']:15s} smallest {r['smallest_error']:.2e}; "
+              f"1e-03: {at('1e-03')}; 1e-04: {at('1e-04')}")
     print(f"plots: {Path(args.out) / 'index.html'}")
     return 0
 
@@ -689,6 +700,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--quick", action="store_true", help="fewer sizes and settings (a smoke run)")
     s.add_argument("--no-work-precision", action="store_true", help="skip the (long) work-precision sweeps")
     s.add_argument("--out", default="reports/bench", help="folder of the plots and their page")
+    s.add_argument("--results", metavar="DIR", help="a report folder (make report's reports/) whose stored "
+                   "reference runs, where they belong to the current cases, are used instead of running them")
     s.set_defaults(func=cmd_bench)
 
     s = sub.add_parser("history", help="the page of each solver's accuracy and time on each case across commits, "

@@ -21,16 +21,39 @@ def test_rigid_and_flexible_chain_rows():
     assert len(rows) == 3 and np.isfinite(exponent)
 
 
-def test_matched_accuracy_picks_the_fastest_setting_that_meets_the_target():
-    row = lambda solver, scheme, setting, error, wall: {"case": "c", "solver": solver, "scheme": scheme,
-                                                         "setting": setting, "error": error, "wall_s": wall}
-    rows = [row("flexmbd", "dopri5", "rtol=1e-4", 5e-4, 2.0), row("flexmbd", "adams", "rtol=1e-6", 5e-5, 3.0),
-            row("flexmbd", "dopri5", "rtol=1e-3", 2e-3, 1.0), row("exudyn-ffrf", "fox-goodwin", "dt=1e-4", 8e-4, 4.0),
-            row("exudyn-ffrf", "fox-goodwin", "dt=1e-3", np.nan, 0.1)]
+def row(solver, scheme, setting, error, wall, error_reference=np.nan):
+    return {"case": "c", "solver": solver, "scheme": scheme, "setting": setting, "error": error,
+            "error_reference": error_reference, "wall_s": wall}
+
+
+def test_matched_accuracy_compares_the_same_model_at_its_fastest_setting():
+    """flexmbd-linear (without stiffening) against exudyn-ffrf; flexmbd's stiffened rows are another model."""
+    rows = [row("flexmbd-linear", "dopri5", "rtol=1e-4", 5e-4, 2.0), row("flexmbd-linear", "adams", "rtol=1e-6", 5e-5, 3.0),
+            row("flexmbd-linear", "dopri5", "rtol=1e-3", 2e-3, 1.0), row("flexmbd", "dopri5", "rtol=1e-3", 1e-5, 0.5),
+            row("exudyn-ffrf", "fox-goodwin", "dt=1e-4", 8e-4, 4.0), row("exudyn-ffrf", "fox-goodwin", "dt=1e-3", np.nan, 0.1)]
     out = bench.matched_accuracy(rows)
     assert out[0] == {"case": "c", "error_target": 1e-3, "flexmbd_wall_s": 2.0, "exudyn_ffrf_wall_s": 4.0, "ratio": 0.5,
-                      "flexmbd_setting": "dopri5 rtol=1e-4", "exudyn_ffrf_setting": "fox-goodwin dt=1e-4"}
+                      "flexmbd_setting": "dopri5 rtol=1e-4", "exudyn_ffrf_setting": "fox-goodwin dt=1e-4",
+                      "model": "flexmbd-linear"}
     assert out[1]["flexmbd_wall_s"] == 3.0 and np.isnan(out[1]["exudyn_ffrf_wall_s"])
+
+
+def test_against_reference_gives_each_model_its_floor():
+    rows = [row("flexmbd", "dopri5", "rtol=1e-4", 1e-6, 2.0, 5e-5), row("flexmbd", "dopri5", "rtol=1e-3", 1e-4, 1.0, 4e-4),
+            row("exudyn-ffrf", "fox-goodwin", "dt=1e-4", 1e-7, 4.0, 0.2), row("exudyn-ffrf", "fox-goodwin", "dt=1e-3", 1e-3, 0.1)]
+    out = {r["solver"]: r for r in bench.against_reference(rows)}
+    assert out["flexmbd"]["smallest_error"] == 5e-5
+    assert out["flexmbd"]["wall_s_at_1e-03"] == 1.0 and out["flexmbd"]["wall_s_at_1e-04"] == 2.0
+    assert out["exudyn-ffrf"]["smallest_error"] == 0.2 and np.isnan(out["exudyn-ffrf"]["wall_s_at_1e-03"])
+
+
+def test_linear_turns_stiffening_off_on_every_flexible_beam():
+    from flexmbd import cases
+    over = bench.linear("double_pendulum")
+    assert len(over) == 2
+    case = cases.load("double_pendulum", over)
+    assert not any(b.stiffening for b in case.bodies.values() if b.type == "beam")
+    assert any(b.stiffening for b in cases.load("double_pendulum").bodies.values() if b.type == "beam")
 
 
 def test_convergence_follows_exudyn_rows_only():
