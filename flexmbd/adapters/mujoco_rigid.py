@@ -352,6 +352,23 @@ def trajectory(case, m, t, P, E, F) -> channels.Trajectory:
     return traj
 
 
+def samples(case, cuts, loads, m, d, S: dict) -> tuple:
+    """From the states S kept at the output instants ({qpos (n, nq), qvel (n, nv), qacc_warmstart
+    (n, nv), time (n,)}): the positions P (n, nq), the energy E (n,) J and the cut joints' reactions
+    {name: (n, 6)} (`cut_reactions`), each by `mj_forward` at that state under its loads."""
+    n = S["time"].size
+    P, E = S["qpos"].copy(), np.zeros(n)
+    F = {name: np.zeros((n, 6)) for name in case.loops}
+    for k in range(n):
+        d.qpos[:], d.qvel[:], d.qacc_warmstart[:], d.time = S["qpos"][k], S["qvel"][k], S["qacc_warmstart"][k], S["time"][k]
+        apply_loads(loads, m, d)
+        mujoco.mj_forward(m, d)
+        E[k] = d.energy.sum()
+        for name, f in cut_reactions(case, cuts, m, d).items():
+            F[name][k] = f
+    return P, E, F
+
+
 def run(case, t_end, settings):
     from flexmbd.results import Result
     t0 = time.perf_counter()
@@ -370,31 +387,37 @@ def run(case, t_end, settings):
     setup_s = time.perf_counter() - t0
 
     t_out = common.sample_times(case, t_end)
-    P, E = np.zeros((t_out.size, m.nq)), np.zeros(t_out.size)
-    F = {name: np.zeros((t_out.size, 6)) for name in case.loops}
+    n_out = t_out.size
+    S = {"qpos": np.zeros((n_out, m.nq)), "qvel": np.zeros((n_out, m.nv)),
+         "qacc_warmstart": np.zeros((n_out, m.nv)), "time": np.zeros(n_out)}
     status, k = results.Status(), 0
 
-    def sample(k: int) -> None:
-        apply_loads(loads, m, d)
-        mujoco.mj_forward(m, d)                                 # energy and constraint forces of the current state
-        P[k], E[k] = d.qpos, d.energy.sum()
-        for name, f in cut_reactions(case, cuts, m, d).items():
-            F[name][k] = f
+    def keep(k: int) -> None:
+        for name, arr in S.items():
+            arr[k] = getattr(d, name)
 
+    # the run as a MuJoCo user times it: the state kept at the output instants, everything else
+    # (energy, constraint forces) computed from it after the run (`samples`). Without point loads
+    # MuJoCo steps stride steps in one call (mj_step's nstep); a point load's time profile is set
+    # before each step (`apply_loads`).
     t1 = time.perf_counter()
-    sample(0)
-    for k in range(1, t_out.size):
-        for _ in range(stride):
-            apply_loads(loads, m, d)
-            mujoco.mj_step(m, d)
+    keep(0)
+    for k in range(1, n_out):
+        if loads:
+            for _ in range(stride):
+                apply_loads(loads, m, d)
+                mujoco.mj_step(m, d)
+        else:
+            mujoco.mj_step(m, d, stride)
+        keep(k)
         if not np.all(np.isfinite(d.qpos)):
             status = results.failed("non-finite state", d.time)
             break
-        sample(k)
     else:
-        k = t_out.size
+        k = n_out
     wall_s = time.perf_counter() - t1
-
+    n = k                                       # a failed run keeps the instants before the failure
+    P, E, F = samples(case, cuts, loads, m, d, {name: arr[:n] for name, arr in S.items()})
     n = k
     traj = trajectory(case, m, t_out[:n], P[:n], E[:n], {name: f[:n] for name, f in F.items()})
     loops = {"loops": f"equality constraints, solref ({TIMECONST} dt, 1), solimp d = {IMPEDANCE}, "

@@ -178,6 +178,8 @@ class Rigid:
         if self.cuts:
             pin.initConstraintDynamics(self.pm, self.pd, self.cm, self.cd)
         self.prox = pin.ProximalSettings(PROX_ACCURACY, PROX_MU, PROX_ITER)
+        self.tau0 = np.zeros(self.nv)
+        self.quats = any(j.shortname() in QUAT_JOINTS for j in self.pm.joints[1:])
         self.evals = 0
 
     def impose(self, t, q, v):
@@ -202,12 +204,14 @@ class Rigid:
 
     def qdd(self, t, q, v):
         """Accelerations (nv,) at time t; prescribed joints follow their profiles."""
+        if not (self.prescribed or self.cuts or self.loads):        # a free tree: one call of aba
+            return pin.aba(self.pm, self.pd, q, v, self.tau0), q, v
         q, v, a_p = self.impose(t, q.copy(), v.copy())
         fext = self.fext(t, q)
         if self.cuts:
             return self.closed(q, v, fext, a_p)[0], q, v
         if not self.prescribed:
-            return pin.aba(self.pm, self.pd, q, v, np.zeros(self.nv), fext), q, v
+            return pin.aba(self.pm, self.pd, q, v, self.tau0, fext), q, v
         # hybrid dynamics: M_ff a_f = -(b_f - f_ext,f) - M_fp a_p
         M = pin.crba(self.pm, self.pd, q)
         M = np.triu(M) + np.triu(M, 1).T
@@ -307,7 +311,7 @@ class Rigid:
         self.evals += 1
         q, v = y[:self.nq], y[self.nq:]
         a, q, v = self.qdd(t, q, v)
-        return np.concatenate([qdot(self.pm, q, v), a])
+        return np.concatenate([qdot(self.pm, q, v) if self.quats else v, a])
 
     def energy(self, q, v) -> float:
         """Kinetic + gravitational potential energy, J."""
