@@ -240,9 +240,13 @@ def stored(mbs, sensor) -> np.ndarray:
 
 
 def sensor_series(mbs, sensor, t_out: np.ndarray) -> np.ndarray:
-    """A sensor's stored values on the output grid t_out (n,): (n, k); the rows stored at t_out
-    when there are (others may lie between them), else resampled linearly."""
-    d = stored(mbs, sensor)
+    """A sensor's stored values on the output grid t_out (n,): (n, k) (`series`)."""
+    return series(stored(mbs, sensor), t_out)
+
+
+def series(d: np.ndarray, t_out: np.ndarray) -> np.ndarray:
+    """Stored rows d (m, 1 + k) (time, then k values) on the output grid t_out (n,): (n, k); the
+    rows stored at t_out when there are (others may lie between them), else resampled linearly."""
     t, v = d[:, 0], d[:, 1:]
     row = np.clip(np.searchsorted(t, t_out - 1e-9), 0, t.size - 1)
     if np.all(np.abs(t[row] - t_out) <= 1e-9):

@@ -688,14 +688,15 @@ def axial_bodies(case, fbs) -> list:
 
 
 def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
-    """Sensors kept in memory: poses of every body, modal coordinates, node positions and
-    velocities; for the beams of `axial_bodies`, every node's acceleration and the force of each
-    child joint (`joints`: add_joint's (object, frame) by joint name)."""
+    """Sensors kept in memory: poses of every body (velocities too for the energy), modal
+    coordinates (and their rates); for the beams of `axial_bodies` what their nodes' accelerations
+    are formed from ("a": the frame's acceleration, global angular velocity and acceleration, the
+    modal accelerations) and the force of each child joint (`joints`: add_joint's (object, frame) by
+    joint name). The nodes' positions, velocities and accelerations are formed from these after the
+    run (`node_kinematics`): a few sensors a body instead of three for each of its nodes."""
     S = {}
     sens = lambda **kw: mbs.AddSensor(eii.SensorNode(writeToFile=False, storeInternal=True,
                                                      visualization=eii.VSensorNode(show=False), **kw))
-    sup = lambda **kw: mbs.AddSensor(eii.SensorSuperElement(writeToFile=False, storeInternal=True,
-                                                            visualization=eii.VSensorSuperElement(show=False), **kw))
     obj = lambda **kw: mbs.AddSensor(eii.SensorObject(writeToFile=False, storeInternal=True,
                                                       visualization=eii.VSensorObject(show=False), **kw))
     axial = axial_bodies(case, fbs)
@@ -713,16 +714,13 @@ def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
         if name in fbs:
             fb = fbs[name]
             S[name]["eta"] = sens(nodeNumber=it["modal"], outputVariableType=OV.Coordinates)
-            nodes = range(fb.n_nodes) if energy else tracked_nodes(case, name, fb)
-            S[name]["r"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Position)
-                            for k in nodes}
-            if energy:
+            if energy or name in axial:
                 S[name]["eta_d"] = sens(nodeNumber=it["modal"], outputVariableType=OV.Coordinates_t)
-                S[name]["u"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Velocity)
-                                for k in nodes}
             if name in axial:
-                S[name]["a"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Acceleration)
-                                for k in range(fb.n_nodes)}
+                S[name]["a"] = {"a": sens(nodeNumber=n, outputVariableType=OV.Acceleration),
+                                "omega": sens(nodeNumber=n, outputVariableType=OV.AngularVelocity),
+                                "alpha": sens(nodeNumber=n, outputVariableType=OV.AngularAcceleration),
+                                "eta_dd": sens(nodeNumber=it["modal"], outputVariableType=OV.Coordinates_tt)}
                 S[name]["f"] = {jn: obj(objectNumber=jo[0], outputVariableType=OV.Force if jo[1] is None
                                         else OV.ForceLocal)
                                 for jn, jo in joints.items() if jo is not None and case.joints[jn].parent == name}
@@ -738,8 +736,8 @@ def tracked_nodes(case, name: str, fb: flexbody.FlexBody) -> list:
 
 
 def step_sensors(S: dict) -> list:
-    """The sensors of S read as step means (`step_mean`): node accelerations and joint forces,
-    the cut joints' too."""
+    """The sensors of S whose stored rows give step means (`step_mean`): those the node
+    accelerations are formed from, and the joint forces, the cut joints' too."""
     return ([x for Sb in S.values() for key in ("a", "f") for x in Sb.get(key, {}).values()]
             + [c["f"] for Sb in S.values() for c in Sb.get("cut", {}).values()])
 
@@ -825,6 +823,62 @@ def step_mean(v: np.ndarray, d: np.ndarray, t: np.ndarray, dt: float) -> np.ndar
     mid, last = hm & h0 & hp, hm & h0 & ~hp
     out[mid] = 0.25 * rows[jm[mid]] + 0.5 * rows[j0[mid]] + 0.25 * rows[jp[mid]]
     out[last] = 0.5 * (rows[jm[last]] + rows[j0[last]])
+    return out
+
+
+def node_kinematics(D: dict, fb: flexbody.FlexBody, nodes: list, kind: str) -> np.ndarray:
+    """(m, K, 3) the global positions (kind "r"), velocities ("u") or accelerations ("a") of the K
+    `nodes` of flexible body fb at m instants, from D: its sensors' rows at those instants (key -> (m, k): "p", "R" (m, 9), "eta", and "v", "w", "eta_d" for the
+    velocities, "a" (the frame's "a", "omega", "alpha", "eta_dd") for the accelerations; `add_sensors`).
+    Exudyn's own kinematics of a mesh node of ObjectFFRFreducedOrder, x = x0 + Phi_t eta in the
+    body frame: r = p + R x, u = v + R (w x x + Phi_t eta_d) (w body axes), a = a_0 + R Phi_t eta_dd
+    + 2 omega x R Phi_t eta_d + alpha x R x + omega x (omega x R x) (omega, alpha global), so the
+    results are those of its node sensors to rounding."""
+    Phi = translational_modes(fb).reshape(fb.n_nodes, 3, fb.n_modes)[nodes]          # (K, 3, nm)
+    R = D["R"].reshape(-1, 3, 3)
+    x = fb.x0[nodes][None] + np.einsum("kin,mn->mki", Phi, D["eta"])                 # (m, K, 3)
+    if kind == "u":
+        xd = np.einsum("kin,mn->mki", Phi, D["eta_d"])
+        return D["v"][:, None, :] + np.einsum("mij,mkj->mki", R, np.cross(D["w"][:, None, :], x) + xd)
+    Rx = np.einsum("mij,mkj->mki", R, x)
+    if kind == "r":
+        return D["p"][:, None, :] + Rx
+    A = D["a"]
+    Rxd = np.einsum("mij,mkj->mki", R, np.einsum("kin,mn->mki", Phi, D["eta_d"]))
+    Rxdd = np.einsum("mij,mkj->mki", R, np.einsum("kin,mn->mki", Phi, A["eta_dd"]))
+    om, al = A["omega"][:, None, :], A["alpha"][:, None, :]
+    return A["a"][:, None, :] + Rxdd + 2.0 * np.cross(om, Rxd) + np.cross(al, Rx) + np.cross(om, np.cross(om, Rx))
+
+
+def read_nodes(mbs, Sb: dict, fb: flexbody.FlexBody, wanted: dict, t: np.ndarray, dt: float,
+               means: bool) -> dict:
+    """{"r": {node: (n, 3)}, "u": ..., "a": ...} of flexible body fb on the output grid t (n,),
+    global, for the nodes `wanted` names ({"r": nodes, ...}), from the stored rows of its sensors
+    Sb (`node_kinematics`); the accelerations as step means with `means` (`step_mean`)."""
+    rows = lambda x: {k: rows(v) for k, v in x.items()} if isinstance(x, dict) else xc.stored(mbs, x)
+    D = {k: rows(Sb[k]) for k in ("p", "R", "eta", "v", "w", "eta_d", "a") if k in Sb and (k != "a" or "a" in wanted)}
+    time = D["p"][:, 0]
+    strip = lambda x: {k: strip(v) for k, v in x.items()} if isinstance(x, dict) else x[:, 1:]
+    out = {}
+    for kind, nodes in wanted.items():
+        v = node_kinematics(strip(D), fb, list(nodes), kind)                   # (m, K, 3)
+        d = np.column_stack([time, v.reshape(time.size, -1)])
+        s = xc.series(d, t)
+        s = step_mean(s, d, t, dt) if kind == "a" and means else s
+        out[kind] = dict(zip(nodes, s.reshape(t.size, len(nodes), 3).transpose(1, 0, 2)))
+    return out
+
+
+def wanted_nodes(case, name: str, fb: flexbody.FlexBody) -> dict:
+    """The nodes of flexible body `name` whose positions "r", velocities "u" and accelerations "a"
+    the channels read: every node's positions and velocities for the energy, else the `tracked_nodes`'
+    positions; every node's accelerations on a beam of `axial_bodies`."""
+    energy = channels.wants_energy(case)
+    out = {"r": list(range(fb.n_nodes)) if energy else tracked_nodes(case, name, fb)}
+    if energy:
+        out["u"] = list(range(fb.n_nodes))
+    if name in axial_bodies(case, {name: fb}):
+        out["a"] = list(range(fb.n_nodes))
     return out
 
 
@@ -1114,10 +1168,11 @@ def run(case, t_end, settings):
     if n == 0:
         return r
     X = read_sensors(mbs, S, t[:n])
+    for b, fb in fbs.items():
+        X[b].update(read_nodes(mbs, S[b], fb, wanted_nodes(model, b, fb), t[:n], dt, means))
     if means:
         for Xb, Sb in ((X[b], S[b]) for b in axial_bodies(case, fbs)):
-            for key in ("a", "f"):
-                Xb[key] = {k: step_mean(Xb[key][k], xc.stored(mbs, x), t[:n], dt) for k, x in Sb[key].items()}
+            Xb["f"] = {k: step_mean(Xb["f"][k], xc.stored(mbs, x), t[:n], dt) for k, x in Sb["f"].items()}
         for Xb, Sb in ((X[b], S[b]) for b in S if "cut" in S[b]):
             for jn, c in Sb["cut"].items():
                 Xb["cut"][jn]["f"] = step_mean(Xb["cut"][jn]["f"], xc.stored(mbs, c["f"]), t[:n], dt)
