@@ -194,20 +194,20 @@ def cut_off_plane(j: cases.Joint) -> str:
 
 class _FEM:
     """The FlexBody seen through the few FEMinterface calls ObjectFFRFreducedOrderInterface makes;
-    `mass` (3N, 3N) its mass matrix (default: the lumped node masses, a beam's). With a mass (a
-    solid) one node is appended, after the FlexBody's N: its centre of mass (`mass_centre`), no mass.
-    Then, per node of `anchors`, the four massless nodes of its rigid marker (`anchor_rows`)."""
+    `mass` (3N, 3N) its mass matrix (default: the lumped node masses, a beam's). One node is
+    appended, after the FlexBody's N: its centre of mass (`mass_centre`), no mass. Then, per node of
+    `anchors`, the four massless nodes of its rigid marker (`anchor_rows`). The massless nodes add
+    exact zeros to the invariants Exudyn's interface forms."""
 
     def __init__(self, fb: flexbody.FlexBody, mass: sp.spmatrix | None = None, anchors=()):
         self.x0 = np.asarray(fb.x0, dtype=float)
         self.modeBasis = {"matrix": translational_modes(fb)}
         self.postProcessingModes = {}
         self.mass = sp.diags(np.repeat(fb.m, 3)).tocsr() if mass is None else sp.csr_matrix(mass)
-        if mass is not None:
-            c, Pc = mass_centre(fb)
-            self.x0 = np.vstack([self.x0, c])
-            self.modeBasis["matrix"] = np.vstack([self.modeBasis["matrix"], Pc])
-            self.mass = sp.block_diag([self.mass, sp.csr_matrix((3, 3))], format="csr")
+        c, Pc = mass_centre(fb)
+        self.x0 = np.vstack([self.x0, c])
+        self.modeBasis["matrix"] = np.vstack([self.modeBasis["matrix"], Pc])
+        self.mass = sp.block_diag([self.mass, sp.csr_matrix((3, 3))], format="csr")
         for k in anchors:
             x, P = anchor_rows(fb, k)
             self.x0 = np.vstack([self.x0, x])
@@ -239,7 +239,8 @@ def mass_centre(fb: flexbody.FlexBody) -> tuple:
     """(x0_c (3,), Phi_c (3, nm)) the body's centre of mass as a node of the super element: the
     m-weighted mean of its nodes, sum m_p x0_p / M and sum m_p Phi_t,p / M (m_p = sum_q Ms_pq for a
     solid, some negative at a quadratic mesh's corners). A force on it is the same as m_p / M of the
-    force on every node: a solid's gravity (`add_loads`) through one node instead of thousands."""
+    force on every node: gravity (`add_loads`) through one node instead of all of a beam's or a
+    solid's (the solve evaluates a load's marker at every Newton iteration)."""
     w = np.asarray(fb.m, dtype=float) / fb.m.sum()
     return w @ fb.x0, np.einsum("p,pik->ik", w, fb.Phi[:, 3:, :])
 
@@ -264,10 +265,11 @@ def anchor_rows(fb: flexbody.FlexBody, k: int) -> tuple:
     return fb.x0[k] + d, np.vstack(rows)
 
 
-def anchor_nodes(fb: flexbody.FlexBody, solid: bool, anchors) -> dict:
+def anchor_nodes(fb: flexbody.FlexBody, centre: bool, anchors) -> dict:
     """Node k of `anchors` -> the super element's node numbers of its four `anchor_rows` nodes
-    (after the FlexBody's N nodes and a solid's centre node, in the order of `anchors`)."""
-    first = fb.n_nodes + int(solid)
+    (after the FlexBody's N nodes and, with `centre`, its centre node (`_FEM`), in the order of
+    `anchors`)."""
+    first = fb.n_nodes + int(centre)
     return {k: list(range(first + 4 * i, first + 4 * i + 4)) for i, k in enumerate(anchors)}
 
 
@@ -501,13 +503,13 @@ def motion_offset(mbs, j: cases.Joint) -> dict:
 def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> None:
     """Point loads (with their time profiles) and gravity.
 
-    Gravity on a flexible body: `nodal` (default) puts m_p g on every node through one
-    super-element marker at the mass-weighted mean of the nodes (its Jacobian is the
-    mass-weighted sum of the node Jacobians, so this is exact); `mass-proportional` uses Exudyn's
-    LoadMassProportional, which on an ObjectFFRFreducedOrder takes the moment of gravity about the
-    reference frame from the undeformed centre of mass only (the deflection's lever arm is lost).
-    On a solid `nodal` is its consistent gravity load (m_p = sum_q Ms_pq), on its centre node
-    (`mass_centre`): the same marker position and Jacobian from one node."""
+    Gravity on a flexible body: `nodal` (default) puts m_p g on every node as M g on its centre
+    node (`mass_centre`), the mass-weighted mean of the nodes (its Jacobian is the mass-weighted sum
+    of the node Jacobians, so this is exact; on a solid m_p = sum_q Ms_pq, its consistent gravity
+    load): one node for the solve to evaluate at every Newton iteration, not N (pendulum: 0.6 of its
+    solve time less). `mass-proportional` uses Exudyn's LoadMassProportional, which on an
+    ObjectFFRFreducedOrder takes the moment of gravity about the reference frame from the
+    undeformed centre of mass only (the deflection's lever arm is lost)."""
     for ld in case.loads.values():
         name = ld.body
         it = items[name]
@@ -540,13 +542,11 @@ def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> Non
             if name == "ground":
                 continue
             if name in fbs and gravity_mode == "nodal":
-                # M g at the mass-weighted mean of the deformed nodes = m_p g at every node (a solid:
-                # its consistent load, sum_q Ms_pq g); a solid's mean is its centre node (`mass_centre`)
+                # M g at the mass-weighted mean of the deformed nodes, the centre node (`mass_centre`)
+                # = m_p g at every node (a solid: its consistent load, sum_q Ms_pq g)
                 fb = fbs[name]
-                nodes, w = ([fb.n_nodes], [1.0]) if case.bodies[name].type == "solid" else \
-                    (list(range(fb.n_nodes)), list(fb.m / fb.m.sum()))
-                m = mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=it["obj"], meshNodeNumbers=nodes,
-                                                                 weightingFactors=w))
+                m = mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=it["obj"], meshNodeNumbers=[fb.n_nodes],
+                                                                 weightingFactors=[1.0]))
                 mbs.AddLoad(eii.LoadForceVector(markerNumber=m, loadVector=list(fb.m.sum() * g)))
                 continue
             m = mbs.AddMarker(eii.MarkerBodyMass(bodyNumber=it["obj"]))
@@ -1072,7 +1072,7 @@ def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
             nodes = anchors(case, name, fbs)
             items[name] = add_ffrf(mbs, fbs[name], ffrf_interface(fbs[name], rotary, mass, nodes), R, p, v, w,
                                    fbs[name].Cm)
-            items[name]["anchors"] = anchor_nodes(fbs[name], mass is not None, nodes)
+            items[name]["anchors"] = anchor_nodes(fbs[name], True, nodes)
         elif body.type == "rigid":
             items[name] = add_rigid(mbs, body, R, p, v, w)
         else:                                    # a beam declared rigid: its undeformed mass properties
