@@ -778,16 +778,24 @@ def watch_divergence(mbs, S: dict, fbs: dict, case) -> None:
     their modal coordinates alone (one sensor each): the points of the deflection channels in the
     body frame, x0_p + Phi_t,p eta, and the root rotation (`channels.modal_shape`), which are
     `trajectory`'s body-frame points to rounding (those come from Exudyn's global node positions
-    and frame pose, p + R (x0_p + Phi_t,p eta))."""
+    and frame pose, p + R (x0_p + Phi_t,p eta)). A body whose points cannot reach its channels'
+    bounds at a sample (`channels.modal_reach` below the smallest) is not judged there: most
+    samples of most runs cost a few products, not the Beam the rule reads."""
     bound = channels.bounds(case)
     bodies = list(dict.fromkeys(c.body for n, c in case.channels.items() if n in bound and c.body in fbs))
     nodes = {b: watched_nodes(case, b, fbs[b]) for b in bodies}
     origin = {b: case.bodies[b].frame if case.bodies[b].type == "solid" else 0.0 for b in bodies}
+    limit = {b: min(bound[n] for n, c in case.channels.items() if n in bound and c.body == b) for b in bodies}
+    reach = {b: channels.modal_reach(fbs[b], nodes[b], origin[b]) for b in bodies}
     for b in bodies:                 # once before the solve's clock: numba loads the rotation's exponential
         channels.modal_shape(fbs[b], list(nodes[b]), np.zeros((1, fbs[b].n_modes)), nodes[b], origin[b])
+
+    def beams(mbs_) -> dict:
+        eta = {b: xc.values(mbs_, S[b]["eta"]) for b in bodies}
+        return {b: channels.modal_shape(fbs[b], list(nodes[b]), eta[b], nodes[b], origin[b])
+                for b in bodies if not reach[b](eta[b]) < limit[b]}
     if bodies:
-        xc.watch(mbs, case, lambda mbs_: {b: channels.modal_shape(fbs[b], list(nodes[b]), xc.values(mbs_, S[b]["eta"]),
-                                                                  nodes[b], origin[b]) for b in bodies})
+        xc.watch(mbs, case, beams)
 
 
 def watched_nodes(case, name: str, fb: flexbody.FlexBody) -> dict:
