@@ -38,7 +38,7 @@ Joints (body frame = the FFRF reference node, which is the beam's root node):
     as flexmbd's joint on the node takes it; other joints: not applicable.
 Prescribed joint motion: the generic joint's offset user function, a symbolic one that Exudyn
 evaluates in C++ (a table profile: a Python function). Loads: `LoadForceVector` on
-the node's super-element marker; gravity: `LoadMassProportional`.
+the node's super-element marker; gravity: M g on the centre node (`add_loads`).
 
 Closed loops (`case.loops`): each cut joint is an `ObjectJointSpherical` between position
 markers at its two points (on a flexible beam `MarkerSuperElementPosition` on the node, which
@@ -55,12 +55,13 @@ loop needs numerical damping or index-2 constraints: the default scheme, the tra
 with index-3 constraints, is refused there (`refused`).
 
 The trajectory (`flexmbd.channels`) is measured from Exudyn's sensors: node positions of the
-super element (global, taken into the body frame with the reference node's pose), the modal
-coordinates (the root node's rotation and the section strains, through the FlexBody's modes and
+super element (global, taken into the body frame with the reference node's pose; formed after the
+run from the frame's and the modal coordinates' sensors by Exudyn's own mesh-node kinematics,
+`node_kinematics`, as are the node velocities and accelerations), the modal coordinates (the root node's rotation and the section strains, through the FlexBody's modes and
 modal strains); the triad of a joint on a flexible node turns with the node's elastic
 rotation Phi_r eta (Exudyn's modal coordinates). A beam with a stress channel and no axial
 mode gets flexmbd's quasi-static axial strain N(x) / (E A) (docs/formulation.md §7) from
-Exudyn's results: every node's global acceleration a_p (super-element sensor), taken with
+Exudyn's results: every node's global acceleration a_p (`node_kinematics`), taken with
 gravity g into the body frame, -m_p R^T (a_p - g); the point loads on the beam at their nodes
 with their profiles; the force each child joint exerts on its node (a spherical joint's
 `Force`, global; a generic joint's `ForceLocal`, in its marker 0's frame; both on marker 0,
