@@ -28,7 +28,7 @@ def ffrf(case, t_end: float, variant: str):
     """(mbs, settings, solver) of an exudyn-ffrf solve in one of the variants."""
     opt = xf.options(solvers.settings(case, "exudyn-ffrf"))
     dt, out_dt = xf.step_size(case, opt), case.integrator.output_dt
-    sim = xf.simulation_settings(case, t_end, dt, opt)
+    sim = xc.simulation_settings(case, t_end, dt, opt)
     with xc.quiet(), python_motion(variant == "python motion"):
         SC, mbs, items, S, joints = xf.build(case, flexbody.for_case(case), opt["rotary_inertia"], opt["gravity"])
         if variant in ("adapter", "pre-step", "python motion") and xf.step_sensors(S):

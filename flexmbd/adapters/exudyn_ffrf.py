@@ -103,9 +103,6 @@ LOOPS = True                             # closed loops: cut joints as Exudyn jo
 SOLIDS = True                            # flexible solids: the FlexBody with the mesh's consistent mass (docstring)
 INDEX2 = ("fox-goodwin", "trapezoidal-index2")   # the schemes with velocity-level (index-2) constraints
 NODE_TYPE = exu.NodeType.RotationEulerParameters
-# the system is small (a frame and its modes a body): a dense LU solves it faster than the sparse one,
-# the results the same to rounding (docs/exudyn.md, Speed)
-LINEAR_SOLVER = exu.LinearSolverType.EigenDense
 CONSTRAINED = {"fixed": [1, 1, 1, 1, 1, 1], "revolute": [1, 1, 1, 1, 1, 0],
                "prismatic": [1, 1, 0, 1, 1, 1], "spherical": [1, 1, 1, 0, 0, 0]}
 
@@ -1136,13 +1133,6 @@ def refused(case, opt: dict) -> str:
     return ""
 
 
-def simulation_settings(case, t_end: float, dt: float, opt: dict):
-    """Exudyn's SimulationSettings (`xc.simulation_settings`) with the dense `LINEAR_SOLVER`."""
-    sim = xc.simulation_settings(case, t_end, dt, opt)
-    sim.linearSolver.solverType = LINEAR_SOLVER
-    return sim
-
-
 def run(case, t_end, settings):
     opt = options(settings)
     why = refused(case, opt)
@@ -1153,7 +1143,7 @@ def run(case, t_end, settings):
     fbs = flexbody.for_case(case)
     model = assembled(case, fbs)
     dt = step_size(case, opt)
-    sim = simulation_settings(case, t_end, dt, opt)
+    sim = xc.simulation_settings(case, t_end, dt, opt)
     xc.reach(sim, xc.output_grid(case, t_end)[-1], dt)
     with xc.quiet():
         SC, mbs, items, S, joints = build(model, fbs, opt["rotary_inertia"], opt["gravity"])
@@ -1166,7 +1156,7 @@ def run(case, t_end, settings):
     t = xc.output_grid(case, t_end)
     recorded = {"dt": dt, **{k: opt[k] for k in ("solver", "spectral_radius", "newton_rtol", "adaptive",
                                                  "rotary_inertia", "gravity")},
-                "node_type": str(NODE_TYPE), "linear_solver": LINEAR_SOLVER.name,
+                "node_type": str(NODE_TYPE), "linear_solver": "EigenSparse",
                 "modes": {n: {"count": fb.n_modes, "boundary": fb.boundary} for n, fb in fbs.items()}}
     r = results.Result(solver="exudyn-ffrf", case=case.name, status=status, wall_s=wall_s, setup_s=setup_s,
                steps=steps, rhs_evals=newton, settings=recorded, solver_version=version(),
