@@ -108,7 +108,7 @@ def test_ffrf_axial_stress_step_means(monkeypatch):
     raw, the part of them alternating from step to step (index-3 constraints, no numerical
     damping) takes them farther from flexmbd's. That part's size is not a property of the model:
     it is excited by rounding-level differences (gravity through a marker on all 101 nodes, the
-    same load to rounding as on the centre node, gave twice the raw error: 0.57 and 1.21 % RMS
+    same load to rounding as on the centre node, gave a larger raw error: 0.57 and 1.21 % RMS
     against 0.30 and 0.93 %, while the step means agree to six digits, 0.10 and 0.82 %), so the
     raw run is held to no bound of its own."""
     case = cases.load("double_pendulum", ['solvers.exudyn-ffrf.solver="generalized-alpha"', "solvers.exudyn-ffrf.dt=2.5e-5"])
