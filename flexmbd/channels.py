@@ -156,6 +156,44 @@ def modal_shape(fb: flexbody.FlexBody, xs, eta, nodes: dict | None = None, origi
     return Beam(length=fb.length, points=points, x0=x0, root=modal_root(fb, eta), origin=origin)
 
 
+def modal_reach(fb: flexbody.FlexBody, nodes: dict, origin=0.0):
+    """A function of modal coordinates eta (nm,) giving an upper bound (m) on the `displacement`
+    of every point of `nodes` ({x: p}, `origin` among them) in the `modal_shape` they make, so on
+    each deflection channel there. With dx0, du a point's undeformed offset from the origin's and
+    its elastic part, |R' (dx0 + du) - dx0| <= |R - I| |dx0| + |du|, and |R - I| = 2 sin(phi / 2)
+    for R's angle phi: in the root-node frame phi = |Phi_r,0 eta| bounds it; in the chord frame
+    (hinged-hinged modes: the smallest turn of x onto the chord dx0_L + du_L, dx0_L = L x) sin phi
+    <= |du_L| / (L - |du_L|) and phi <= 90 degrees while |du_L| < L, where 2 sin(phi / 2) <= sqrt(2)
+    sin phi. inf where no bound is known (coordinates not finite, a chord that is not the body's x
+    axis or whose tip moved by L or more). A few products where `failure` builds the Beam: the
+    samples of a run far below the rule's bounds need no more."""
+    p0, ps = nodes[origin], list(nodes.values())
+    dPhi = (fb.Phi[ps, 3:, :] - fb.Phi[p0, 3:, :]).reshape(-1, fb.n_modes)             # (3K, nm)
+    dx0 = np.linalg.norm(fb.x0[ps] - fb.x0[p0], axis=1)                                 # (K,)
+    if fb.boundary != "hinged-hinged":
+        Phi_r = fb.Phi[0, :3, :]
+        turn = lambda eta: np.linalg.norm(Phi_r @ eta)
+    else:
+        pL = nodes.get(float(fb.length))
+        a = fb.x0[pL] - fb.x0[p0] if pL is not None else np.zeros(3)
+        if not (a[0] > 0.0 and np.linalg.norm(a[1:]) <= 1e-12 * a[0]):
+            return lambda eta: np.inf
+        dPhi_L = fb.Phi[pL, 3:, :] - fb.Phi[p0, 3:, :]
+
+        def turn(eta):
+            d = np.linalg.norm(dPhi_L @ eta)
+            return np.sqrt(2.0) * d / (a[0] - d) if d < a[0] else np.inf
+
+    def reach(eta) -> float:
+        eta = np.asarray(eta, dtype=float).ravel()
+        phi = turn(eta) if np.all(np.isfinite(eta)) else np.inf
+        if phi == np.inf:
+            return np.inf
+        du = np.linalg.norm((dPhi @ eta).reshape(-1, 3), axis=1)
+        return float(np.max(phi * dx0 + du)) * (1.0 + 1e-9)              # margin: the Beam's own rounding
+    return reach
+
+
 def modal_strains(fb: flexbody.FlexBody, eta) -> dict:
     """{x: (n, 4)} section strains at the body's stress sections from modal coordinates eta (n, nm)."""
     return {float(x): eta @ fb.S_strain[k].T for k, x in enumerate(fb.stress_x)}

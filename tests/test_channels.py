@@ -83,6 +83,28 @@ def test_hinged_hinged_deflection_is_measured_from_the_chord():
             assert abs(deflection(rigid, p, axis, eta_rigid)) <= 1e-13
 
 
+@pytest.mark.parametrize("boundary", ["clamped-free", "hinged-hinged"])
+def test_modal_reach_bounds_every_displacement(boundary):
+    """`channels.modal_reach` (what lets the divergence watch skip a sample) is never below the
+    largest displacement of the points it covers, from small motions to turns of a radian, node 0
+    moving as well; finite while the beam is not torn apart (a hinged-hinged chord's tip moved by
+    less than L), inf for coordinates that are not finite. It bounds by a strict inequality, with
+    a 1e-9 margin for the Beam's own rounding, so the check is exact: d <= reach."""
+    fb = moving_body(boundary, 4)
+    nodes = {float(fb.x0[p, 0]): p for p in (0, 3, 7, fb.n_nodes - 1)}
+    reach, rng, finite = channels.modal_reach(fb, nodes), np.random.default_rng(5), 0
+    for scale in (1e-6, 1e-3, 0.1, 1.0, 3.0):
+        for _ in range(50):
+            eta = rng.normal(size=fb.n_modes) * scale
+            points, x0 = channels.modal_points(fb, list(nodes), eta[None, :], nodes)
+            beam = channels.Beam(length=fb.length, points=points, x0=x0, root=channels.modal_root(fb, eta[None, :]))
+            d = max(np.linalg.norm(channels.displacement(beam, x)[0]) for x in nodes)
+            assert d <= reach(eta)
+            finite += np.isfinite(reach(eta))
+    assert finite >= 100                                   # the small motions at least get a finite bound
+    assert reach(np.full(fb.n_modes, np.nan)) == np.inf
+
+
 def test_chord_frame_turns_x_onto_the_chord():
     e = np.array([0.6, 0.8, 0.0])
     R = channels.chord_frame(e)

@@ -102,19 +102,25 @@ def test_ffrf_axial_stress_of_point_loads():
     np.testing.assert_allclose(r.channels["stress_vm"], sigma * np.minimum(r.t / 0.02, 1.0), rtol=rtol, atol=1e-6)
 
 
-@pytest.mark.parametrize("step_means", [True, False])
-def test_ffrf_axial_stress_step_means(step_means, monkeypatch):
+def test_ffrf_axial_stress_step_means(monkeypatch):
     """Double pendulum, 0.2 s, the trapezoidal rule at 2.5e-5 s: with the node accelerations and
     joint forces read as step means the stresses (axial term included) follow flexmbd's; sampled
     raw, the part of them alternating from step to step (index-3 constraints, no numerical
-    damping) spoils them."""
-    if not step_means:
-        monkeypatch.setattr(exudyn_ffrf, "write_around_outputs", lambda *a: False)
+    damping) takes them farther from flexmbd's. That part's size is not a property of the model:
+    it is excited by rounding-level differences (gravity through a marker on all 101 nodes, the
+    same load to rounding as on the centre node, gave a larger raw error: 0.57 and 1.21 % RMS
+    against 0.30 and 0.93 %, while the step means agree to six digits, 0.10 and 0.82 %), so the
+    raw run is held to no bound of its own."""
     case = cases.load("double_pendulum", ['solvers.exudyn-ffrf.solver="generalized-alpha"', "solvers.exudyn-ffrf.dt=2.5e-5"])
     ref = solvers.run(linear("double_pendulum"), "flexmbd", 0.2)
-    r = solvers.run(case, "exudyn-ffrf", 0.2)
-    err = [rel_rms(ref.channels[ch], r.channels[ch]) for ch in ("stress_vm_1", "stress_vm_2")]
-    assert (err[0] < 0.005 and err[1] < 0.015) == step_means, err
+    err = {}
+    for means in (True, False):
+        if not means:
+            monkeypatch.setattr(exudyn_ffrf, "write_around_outputs", lambda *a: False)
+        r = solvers.run(case, "exudyn-ffrf", 0.2)
+        err[means] = [rel_rms(ref.channels[ch], r.channels[ch]) for ch in ("stress_vm_1", "stress_vm_2")]
+    assert err[True][0] < 0.005 and err[True][1] < 0.015, err
+    assert err[False][0] > err[True][0] and err[False][1] > err[True][1], err
 
 
 def test_ffrf_step_means_from_exudyn_storage_are_a_per_step_record():

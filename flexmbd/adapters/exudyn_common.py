@@ -175,7 +175,8 @@ def solve(mbs, settings, solver_type: str, label: str = "exudyn"):
 def watch(mbs, case, beams) -> dict:
     """Stop the solve at the first output sample at which the divergence rule fails the run
     (`channels.failure`), judged on `beams(mbs)`: {body: its `channels.Beam` at that instant, read
-    from the sensors' current values (`values`) as the channels will be after the run}. A run
+    from the sensors' current values (`values`) as the channels will be after the run}, the bodies
+    that cannot fail there left out (none: nothing to judge). A run
     that has failed is not integrated further: a linear floating frame that lost its stiffness
     would otherwise integrate its growing oscillation to the end. A sensor user function: Exudyn
     calls it only when it writes the sensors (no Python runs at the steps between); it looks at
@@ -188,7 +189,8 @@ def watch(mbs, case, beams) -> dict:
     def check(mbs_, t, sensor_numbers, factors, configuration):
         if seen or abs(t / out_dt - round(t / out_dt)) > 1e-6:
             return [0.0]
-        hit = channels.failure(case, channels.Trajectory(t=np.array([t]), beams=beams(mbs_)))
+        judged = beams(mbs_)
+        hit = channels.failure(case, channels.Trajectory(t=np.array([t]), beams=judged)) if judged else None
         if hit is not None:
             seen["status"] = hit[1]
             mbs_.SetRenderEngineStopFlag(True)
@@ -240,9 +242,13 @@ def stored(mbs, sensor) -> np.ndarray:
 
 
 def sensor_series(mbs, sensor, t_out: np.ndarray) -> np.ndarray:
-    """A sensor's stored values on the output grid t_out (n,): (n, k); the rows stored at t_out
-    when there are (others may lie between them), else resampled linearly."""
-    d = stored(mbs, sensor)
+    """A sensor's stored values on the output grid t_out (n,): (n, k) (`series`)."""
+    return series(stored(mbs, sensor), t_out)
+
+
+def series(d: np.ndarray, t_out: np.ndarray) -> np.ndarray:
+    """Stored rows d (m, 1 + k) (time, then k values) on the output grid t_out (n,): (n, k); the
+    rows stored at t_out when there are (others may lie between them), else resampled linearly."""
     t, v = d[:, 0], d[:, 1:]
     row = np.clip(np.searchsorted(t, t_out - 1e-9), 0, t.size - 1)
     if np.all(np.abs(t[row] - t_out) <= 1e-9):

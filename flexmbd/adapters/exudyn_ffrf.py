@@ -38,7 +38,7 @@ Joints (body frame = the FFRF reference node, which is the beam's root node):
     as flexmbd's joint on the node takes it; other joints: not applicable.
 Prescribed joint motion: the generic joint's offset user function, a symbolic one that Exudyn
 evaluates in C++ (a table profile: a Python function). Loads: `LoadForceVector` on
-the node's super-element marker; gravity: `LoadMassProportional`.
+the node's super-element marker; gravity: M g on the centre node (`add_loads`).
 
 Closed loops (`case.loops`): each cut joint is an `ObjectJointSpherical` between position
 markers at its two points (on a flexible beam `MarkerSuperElementPosition` on the node, which
@@ -55,12 +55,13 @@ loop needs numerical damping or index-2 constraints: the default scheme, the tra
 with index-3 constraints, is refused there (`refused`).
 
 The trajectory (`flexmbd.channels`) is measured from Exudyn's sensors: node positions of the
-super element (global, taken into the body frame with the reference node's pose), the modal
-coordinates (the root node's rotation and the section strains, through the FlexBody's modes and
+super element (global, taken into the body frame with the reference node's pose; formed after the
+run from the frame's and the modal coordinates' sensors by Exudyn's own mesh-node kinematics,
+`node_kinematics`, as are the node velocities and accelerations), the modal coordinates (the root node's rotation and the section strains, through the FlexBody's modes and
 modal strains); the triad of a joint on a flexible node turns with the node's elastic
 rotation Phi_r eta (Exudyn's modal coordinates). A beam with a stress channel and no axial
 mode gets flexmbd's quasi-static axial strain N(x) / (E A) (docs/formulation.md §7) from
-Exudyn's results: every node's global acceleration a_p (super-element sensor), taken with
+Exudyn's results: every node's global acceleration a_p (`node_kinematics`), taken with
 gravity g into the body frame, -m_p R^T (a_p - g); the point loads on the beam at their nodes
 with their profiles; the force each child joint exerts on its node (a spherical joint's
 `Force`, global; a generic joint's `ForceLocal`, in its marker 0's frame; both on marker 0,
@@ -191,20 +192,20 @@ def cut_off_plane(j: cases.Joint) -> str:
 
 class _FEM:
     """The FlexBody seen through the few FEMinterface calls ObjectFFRFreducedOrderInterface makes;
-    `mass` (3N, 3N) its mass matrix (default: the lumped node masses, a beam's). With a mass (a
-    solid) one node is appended, after the FlexBody's N: its centre of mass (`mass_centre`), no mass.
-    Then, per node of `anchors`, the four massless nodes of its rigid marker (`anchor_rows`)."""
+    `mass` (3N, 3N) its mass matrix (default: the lumped node masses, a beam's). One node is
+    appended, after the FlexBody's N: its centre of mass (`mass_centre`), no mass. Then, per node of
+    `anchors`, the four massless nodes of its rigid marker (`anchor_rows`). The massless nodes add
+    exact zeros to the invariants Exudyn's interface forms."""
 
     def __init__(self, fb: flexbody.FlexBody, mass: sp.spmatrix | None = None, anchors=()):
         self.x0 = np.asarray(fb.x0, dtype=float)
         self.modeBasis = {"matrix": translational_modes(fb)}
         self.postProcessingModes = {}
         self.mass = sp.diags(np.repeat(fb.m, 3)).tocsr() if mass is None else sp.csr_matrix(mass)
-        if mass is not None:
-            c, Pc = mass_centre(fb)
-            self.x0 = np.vstack([self.x0, c])
-            self.modeBasis["matrix"] = np.vstack([self.modeBasis["matrix"], Pc])
-            self.mass = sp.block_diag([self.mass, sp.csr_matrix((3, 3))], format="csr")
+        c, Pc = mass_centre(fb)
+        self.x0 = np.vstack([self.x0, c])
+        self.modeBasis["matrix"] = np.vstack([self.modeBasis["matrix"], Pc])
+        self.mass = sp.block_diag([self.mass, sp.csr_matrix((3, 3))], format="csr")
         for k in anchors:
             x, P = anchor_rows(fb, k)
             self.x0 = np.vstack([self.x0, x])
@@ -236,7 +237,8 @@ def mass_centre(fb: flexbody.FlexBody) -> tuple:
     """(x0_c (3,), Phi_c (3, nm)) the body's centre of mass as a node of the super element: the
     m-weighted mean of its nodes, sum m_p x0_p / M and sum m_p Phi_t,p / M (m_p = sum_q Ms_pq for a
     solid, some negative at a quadratic mesh's corners). A force on it is the same as m_p / M of the
-    force on every node: a solid's gravity (`add_loads`) through one node instead of thousands."""
+    force on every node: gravity (`add_loads`) through one node instead of all of a beam's or a
+    solid's (the solve evaluates a load's marker at every Newton iteration)."""
     w = np.asarray(fb.m, dtype=float) / fb.m.sum()
     return w @ fb.x0, np.einsum("p,pik->ik", w, fb.Phi[:, 3:, :])
 
@@ -261,10 +263,11 @@ def anchor_rows(fb: flexbody.FlexBody, k: int) -> tuple:
     return fb.x0[k] + d, np.vstack(rows)
 
 
-def anchor_nodes(fb: flexbody.FlexBody, solid: bool, anchors) -> dict:
+def anchor_nodes(fb: flexbody.FlexBody, centre: bool, anchors) -> dict:
     """Node k of `anchors` -> the super element's node numbers of its four `anchor_rows` nodes
-    (after the FlexBody's N nodes and a solid's centre node, in the order of `anchors`)."""
-    first = fb.n_nodes + int(solid)
+    (after the FlexBody's N nodes and, with `centre`, its centre node (`_FEM`), in the order of
+    `anchors`)."""
+    first = fb.n_nodes + int(centre)
     return {k: list(range(first + 4 * i, first + 4 * i + 4)) for i, k in enumerate(anchors)}
 
 
@@ -498,13 +501,13 @@ def motion_offset(mbs, j: cases.Joint) -> dict:
 def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> None:
     """Point loads (with their time profiles) and gravity.
 
-    Gravity on a flexible body: `nodal` (default) puts m_p g on every node through one
-    super-element marker at the mass-weighted mean of the nodes (its Jacobian is the
-    mass-weighted sum of the node Jacobians, so this is exact); `mass-proportional` uses Exudyn's
-    LoadMassProportional, which on an ObjectFFRFreducedOrder takes the moment of gravity about the
-    reference frame from the undeformed centre of mass only (the deflection's lever arm is lost).
-    On a solid `nodal` is its consistent gravity load (m_p = sum_q Ms_pq), on its centre node
-    (`mass_centre`): the same marker position and Jacobian from one node."""
+    Gravity on a flexible body: `nodal` (default) puts m_p g on every node as M g on its centre
+    node (`mass_centre`), the mass-weighted mean of the nodes (its Jacobian is the mass-weighted sum
+    of the node Jacobians, so this is exact; on a solid m_p = sum_q Ms_pq, its consistent gravity
+    load): one node for the solve to evaluate at every Newton iteration, not N (pendulum: 0.6 of its
+    solve time less). `mass-proportional` uses Exudyn's LoadMassProportional, which on an
+    ObjectFFRFreducedOrder takes the moment of gravity about the reference frame from the
+    undeformed centre of mass only (the deflection's lever arm is lost)."""
     for ld in case.loads.values():
         name = ld.body
         it = items[name]
@@ -537,13 +540,11 @@ def add_loads(mbs, items, case, fbs, states, gravity_mode: str = "nodal") -> Non
             if name == "ground":
                 continue
             if name in fbs and gravity_mode == "nodal":
-                # M g at the mass-weighted mean of the deformed nodes = m_p g at every node (a solid:
-                # its consistent load, sum_q Ms_pq g); a solid's mean is its centre node (`mass_centre`)
+                # M g at the mass-weighted mean of the deformed nodes, the centre node (`mass_centre`)
+                # = m_p g at every node (a solid: its consistent load, sum_q Ms_pq g)
                 fb = fbs[name]
-                nodes, w = ([fb.n_nodes], [1.0]) if case.bodies[name].type == "solid" else \
-                    (list(range(fb.n_nodes)), list(fb.m / fb.m.sum()))
-                m = mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=it["obj"], meshNodeNumbers=nodes,
-                                                                 weightingFactors=w))
+                m = mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=it["obj"], meshNodeNumbers=[fb.n_nodes],
+                                                                 weightingFactors=[1.0]))
                 mbs.AddLoad(eii.LoadForceVector(markerNumber=m, loadVector=list(fb.m.sum() * g)))
                 continue
             m = mbs.AddMarker(eii.MarkerBodyMass(bodyNumber=it["obj"]))
@@ -685,14 +686,15 @@ def axial_bodies(case, fbs) -> list:
 
 
 def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
-    """Sensors kept in memory: poses of every body, modal coordinates, node positions and
-    velocities; for the beams of `axial_bodies`, every node's acceleration and the force of each
-    child joint (`joints`: add_joint's (object, frame) by joint name)."""
+    """Sensors kept in memory: poses of every body (velocities too for the energy), modal
+    coordinates (and their rates); for the beams of `axial_bodies` what their nodes' accelerations
+    are formed from ("a": the frame's acceleration, global angular velocity and acceleration, the
+    modal accelerations) and the force of each child joint (`joints`: add_joint's (object, frame) by
+    joint name). The nodes' positions, velocities and accelerations are formed from these after the
+    run (`node_kinematics`): a few sensors a body instead of three for each of its nodes."""
     S = {}
     sens = lambda **kw: mbs.AddSensor(eii.SensorNode(writeToFile=False, storeInternal=True,
                                                      visualization=eii.VSensorNode(show=False), **kw))
-    sup = lambda **kw: mbs.AddSensor(eii.SensorSuperElement(writeToFile=False, storeInternal=True,
-                                                            visualization=eii.VSensorSuperElement(show=False), **kw))
     obj = lambda **kw: mbs.AddSensor(eii.SensorObject(writeToFile=False, storeInternal=True,
                                                       visualization=eii.VSensorObject(show=False), **kw))
     axial = axial_bodies(case, fbs)
@@ -710,16 +712,13 @@ def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
         if name in fbs:
             fb = fbs[name]
             S[name]["eta"] = sens(nodeNumber=it["modal"], outputVariableType=OV.Coordinates)
-            nodes = range(fb.n_nodes) if energy else tracked_nodes(case, name, fb)
-            S[name]["r"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Position)
-                            for k in nodes}
-            if energy:
+            if energy or name in axial:
                 S[name]["eta_d"] = sens(nodeNumber=it["modal"], outputVariableType=OV.Coordinates_t)
-                S[name]["u"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Velocity)
-                                for k in nodes}
             if name in axial:
-                S[name]["a"] = {k: sup(bodyNumber=it["obj"], meshNodeNumber=k, outputVariableType=OV.Acceleration)
-                                for k in range(fb.n_nodes)}
+                S[name]["a"] = {"a": sens(nodeNumber=n, outputVariableType=OV.Acceleration),
+                                "omega": sens(nodeNumber=n, outputVariableType=OV.AngularVelocity),
+                                "alpha": sens(nodeNumber=n, outputVariableType=OV.AngularAcceleration),
+                                "eta_dd": sens(nodeNumber=it["modal"], outputVariableType=OV.Coordinates_tt)}
                 S[name]["f"] = {jn: obj(objectNumber=jo[0], outputVariableType=OV.Force if jo[1] is None
                                         else OV.ForceLocal)
                                 for jn, jo in joints.items() if jo is not None and case.joints[jn].parent == name}
@@ -735,8 +734,8 @@ def tracked_nodes(case, name: str, fb: flexbody.FlexBody) -> list:
 
 
 def step_sensors(S: dict) -> list:
-    """The sensors of S read as step means (`step_mean`): node accelerations and joint forces,
-    the cut joints' too."""
+    """The sensors of S whose stored rows give step means (`step_mean`): those the node
+    accelerations are formed from, and the joint forces, the cut joints' too."""
     return ([x for Sb in S.values() for key in ("a", "f") for x in Sb.get(key, {}).values()]
             + [c["f"] for Sb in S.values() for c in Sb.get("cut", {}).values()])
 
@@ -777,16 +776,24 @@ def watch_divergence(mbs, S: dict, fbs: dict, case) -> None:
     their modal coordinates alone (one sensor each): the points of the deflection channels in the
     body frame, x0_p + Phi_t,p eta, and the root rotation (`channels.modal_shape`), which are
     `trajectory`'s body-frame points to rounding (those come from Exudyn's global node positions
-    and frame pose, p + R (x0_p + Phi_t,p eta))."""
+    and frame pose, p + R (x0_p + Phi_t,p eta)). A body whose points cannot reach its channels'
+    bounds at a sample (`channels.modal_reach` below the smallest) is not judged there: most
+    samples of most runs cost a few products, not the Beam the rule reads."""
     bound = channels.bounds(case)
     bodies = list(dict.fromkeys(c.body for n, c in case.channels.items() if n in bound and c.body in fbs))
     nodes = {b: watched_nodes(case, b, fbs[b]) for b in bodies}
     origin = {b: case.bodies[b].frame if case.bodies[b].type == "solid" else 0.0 for b in bodies}
+    limit = {b: min(bound[n] for n, c in case.channels.items() if n in bound and c.body == b) for b in bodies}
+    reach = {b: channels.modal_reach(fbs[b], nodes[b], origin[b]) for b in bodies}
     for b in bodies:                 # once before the solve's clock: numba loads the rotation's exponential
         channels.modal_shape(fbs[b], list(nodes[b]), np.zeros((1, fbs[b].n_modes)), nodes[b], origin[b])
+
+    def beams(mbs_) -> dict:
+        eta = {b: xc.values(mbs_, S[b]["eta"]) for b in bodies}
+        return {b: channels.modal_shape(fbs[b], list(nodes[b]), eta[b], nodes[b], origin[b])
+                for b in bodies if not reach[b](eta[b]) < limit[b]}
     if bodies:
-        xc.watch(mbs, case, lambda mbs_: {b: channels.modal_shape(fbs[b], list(nodes[b]), xc.values(mbs_, S[b]["eta"]),
-                                                                  nodes[b], origin[b]) for b in bodies})
+        xc.watch(mbs, case, beams)
 
 
 def watched_nodes(case, name: str, fb: flexbody.FlexBody) -> dict:
@@ -822,6 +829,62 @@ def step_mean(v: np.ndarray, d: np.ndarray, t: np.ndarray, dt: float) -> np.ndar
     mid, last = hm & h0 & hp, hm & h0 & ~hp
     out[mid] = 0.25 * rows[jm[mid]] + 0.5 * rows[j0[mid]] + 0.25 * rows[jp[mid]]
     out[last] = 0.5 * (rows[jm[last]] + rows[j0[last]])
+    return out
+
+
+def node_kinematics(D: dict, fb: flexbody.FlexBody, nodes: list, kind: str) -> np.ndarray:
+    """(m, K, 3) the global positions (kind "r"), velocities ("u") or accelerations ("a") of the K
+    `nodes` of flexible body fb at m instants, from D: its sensors' rows at those instants (key -> (m, k): "p", "R" (m, 9), "eta", and "v", "w", "eta_d" for the
+    velocities, "a" (the frame's "a", "omega", "alpha", "eta_dd") for the accelerations; `add_sensors`).
+    Exudyn's own kinematics of a mesh node of ObjectFFRFreducedOrder, x = x0 + Phi_t eta in the
+    body frame: r = p + R x, u = v + R (w x x + Phi_t eta_d) (w body axes), a = a_0 + R Phi_t eta_dd
+    + 2 omega x R Phi_t eta_d + alpha x R x + omega x (omega x R x) (omega, alpha global), so the
+    results are those of its node sensors to rounding."""
+    Phi = translational_modes(fb).reshape(fb.n_nodes, 3, fb.n_modes)[nodes]          # (K, 3, nm)
+    R = D["R"].reshape(-1, 3, 3)
+    x = fb.x0[nodes][None] + np.einsum("kin,mn->mki", Phi, D["eta"])                 # (m, K, 3)
+    if kind == "u":
+        xd = np.einsum("kin,mn->mki", Phi, D["eta_d"])
+        return D["v"][:, None, :] + np.einsum("mij,mkj->mki", R, np.cross(D["w"][:, None, :], x) + xd)
+    Rx = np.einsum("mij,mkj->mki", R, x)
+    if kind == "r":
+        return D["p"][:, None, :] + Rx
+    A = D["a"]
+    Rxd = np.einsum("mij,mkj->mki", R, np.einsum("kin,mn->mki", Phi, D["eta_d"]))
+    Rxdd = np.einsum("mij,mkj->mki", R, np.einsum("kin,mn->mki", Phi, A["eta_dd"]))
+    om, al = A["omega"][:, None, :], A["alpha"][:, None, :]
+    return A["a"][:, None, :] + Rxdd + 2.0 * np.cross(om, Rxd) + np.cross(al, Rx) + np.cross(om, np.cross(om, Rx))
+
+
+def read_nodes(mbs, Sb: dict, fb: flexbody.FlexBody, wanted: dict, t: np.ndarray, dt: float,
+               means: bool) -> dict:
+    """{"r": {node: (n, 3)}, "u": ..., "a": ...} of flexible body fb on the output grid t (n,),
+    global, for the nodes `wanted` names ({"r": nodes, ...}), from the stored rows of its sensors
+    Sb (`node_kinematics`); the accelerations as step means with `means` (`step_mean`)."""
+    rows = lambda x: {k: rows(v) for k, v in x.items()} if isinstance(x, dict) else xc.stored(mbs, x)
+    D = {k: rows(Sb[k]) for k in ("p", "R", "eta", "v", "w", "eta_d", "a") if k in Sb and (k != "a" or "a" in wanted)}
+    time = D["p"][:, 0]
+    strip = lambda x: {k: strip(v) for k, v in x.items()} if isinstance(x, dict) else x[:, 1:]
+    out = {}
+    for kind, nodes in wanted.items():
+        v = node_kinematics(strip(D), fb, list(nodes), kind)                   # (m, K, 3)
+        d = np.column_stack([time, v.reshape(time.size, -1)])
+        s = xc.series(d, t)
+        s = step_mean(s, d, t, dt) if kind == "a" and means else s
+        out[kind] = dict(zip(nodes, s.reshape(t.size, len(nodes), 3).transpose(1, 0, 2)))
+    return out
+
+
+def wanted_nodes(case, name: str, fb: flexbody.FlexBody) -> dict:
+    """The nodes of flexible body `name` whose positions "r", velocities "u" and accelerations "a"
+    the channels read: every node's positions and velocities for the energy, else the `tracked_nodes`'
+    positions; every node's accelerations on a beam of `axial_bodies`."""
+    energy = channels.wants_energy(case)
+    out = {"r": list(range(fb.n_nodes)) if energy else tracked_nodes(case, name, fb)}
+    if energy:
+        out["u"] = list(range(fb.n_nodes))
+    if name in axial_bodies(case, {name: fb}):
+        out["a"] = list(range(fb.n_nodes))
     return out
 
 
@@ -1015,7 +1078,7 @@ def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
             nodes = anchors(case, name, fbs)
             items[name] = add_ffrf(mbs, fbs[name], ffrf_interface(fbs[name], rotary, mass, nodes), R, p, v, w,
                                    fbs[name].Cm)
-            items[name]["anchors"] = anchor_nodes(fbs[name], mass is not None, nodes)
+            items[name]["anchors"] = anchor_nodes(fbs[name], True, nodes)
         elif body.type == "rigid":
             items[name] = add_rigid(mbs, body, R, p, v, w)
         else:                                    # a beam declared rigid: its undeformed mass properties
@@ -1104,10 +1167,11 @@ def run(case, t_end, settings):
     if n == 0:
         return r
     X = read_sensors(mbs, S, t[:n])
+    for b, fb in fbs.items():
+        X[b].update(read_nodes(mbs, S[b], fb, wanted_nodes(model, b, fb), t[:n], dt, means))
     if means:
         for Xb, Sb in ((X[b], S[b]) for b in axial_bodies(case, fbs)):
-            for key in ("a", "f"):
-                Xb[key] = {k: step_mean(Xb[key][k], xc.stored(mbs, x), t[:n], dt) for k, x in Sb[key].items()}
+            Xb["f"] = {k: step_mean(Xb["f"][k], xc.stored(mbs, x), t[:n], dt) for k, x in Sb["f"].items()}
         for Xb, Sb in ((X[b], S[b]) for b in S if "cut" in S[b]):
             for jn, c in Sb["cut"].items():
                 Xb["cut"][jn]["f"] = step_mean(Xb["cut"][jn]["f"], xc.stored(mbs, c["f"]), t[:n], dt)
