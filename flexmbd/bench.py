@@ -20,7 +20,7 @@
     solid_mesh        one evaluation of the same solid part (the paper's beam as hex20, 12 clamped-interface
                       modes, on a revolute joint under gravity) meshed at about 5,000 and 50,000 DOFs, with
                       the time and peak memory of each reduction: the run time does not depend on the mesh
-    compile_s         first compilation of the kernels (empty cache, in a subprocess) and a cached load
+    compile_s         first compilation of what a dopri5 run uses (empty cache, in a subprocess) and a cached load
 
 Wall times are solve-only (`Result.wall_s`) for both solvers. Nothing here asserts a time.
 """
@@ -152,11 +152,13 @@ def solid_mesh(meshes=SOLID_MESHES) -> list[dict]:
     return rows
 
 
-def compile_seconds() -> dict:
-    """First compilation (empty cache, subprocess) and a cached start (same cache, second subprocess)."""
+def compile_seconds(method: str = "dopri5") -> dict:
+    """First compilation (empty cache, subprocess) and a cached start (same cache, second
+    subprocess) of what a run with the compiled integrator `method` uses, and one evaluation
+    from Python: the whole process, import included."""
     code = ("import time; t=time.perf_counter(); from flexmbd import bench; "
             "from flexmbd.build import from_case; m=from_case(bench.chain_case(2, True)); "
-            "f=bench.evaluation(m)[0]; f(); from flexmbd import integrate; integrate.warm_up(m); "
+            f"f=bench.evaluation(m)[0]; f(); from flexmbd import integrate; integrate.warm_up(m, {method!r}); "
             "print(time.perf_counter()-t)")
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "XDG_CACHE_HOME": cache}
@@ -164,7 +166,7 @@ def compile_seconds() -> dict:
                                     check=True).stdout.split()[-1])
         warm = float(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                                     check=True).stdout.split()[-1])
-    return {"cold_s": cold, "cached_s": warm}
+    return {"cold_s": cold, "cached_s": warm, "method": method}
 
 
 # ---------------------------------------------------------------------------------------------

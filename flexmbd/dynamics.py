@@ -32,7 +32,8 @@ from flexmbd.joints import jcalc
 from flexmbd.model import Data, Model
 from flexmbd.profiles import load_at, motion_at
 from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, expm_so3, inertia_parts, jac_left_so3,
-                             jac_left_so3_dot, plux, plux_parts, xmul_into)
+                             jac_left_so3_dot, mv6_add_into, mv6_into, plux, plux_parts, xcongruence_add_into,
+                             xmul_into, xmv_into, xtv_add_into)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -124,7 +125,7 @@ def forward_kinematics(model, data, q, v):
             data.c[i] = mv(XJT, cn + cross_motion(vn, vn_rel)) + cross_motion(data.v[i], data.vJ[i])
         else:
             xmul_into(data.XJ[i], model.jnt_Xtriad[i], data.Xup[i])
-            mv_into(data.Xup[i], data.v[lam], data.v[i])
+            xmv_into(data.Xup[i], data.v[lam], data.v[i])
             for r in range(6):
                 data.v[i, r] += data.vJ[i, r]
             cross_motion_into(data.v[i], data.vJ[i], data.c[i])
@@ -167,7 +168,7 @@ def body_forces(model, data, q, v, tau):
         MA, pA = data.MA[i, :6 + nm, :6 + nm], data.pA[i, :6 + nm]
         if nm == 0:
             MA[:] = model.body_inertia[i]
-            mv_into(MA, data.v[i], data.Iv[i])
+            mv6_into(model.body_inertia[i], data.v[i], data.Iv[i])
             cross_force_into(data.v[i], data.Iv[i], pA)
         else:
             eta, eta_d = q[a:a + nm], v[a:a + nm]
@@ -223,7 +224,7 @@ def articulated_inertias(model, data, tau):
             for r in range(6):
                 for k in range(6):
                     IA[r, k] -= Uj[r] * Uj[k] * dinv
-            mv_add_into(IA, c, pa)
+            mv6_add_into(IA, c, pa)
             for r in range(6):
                 pa[r] += Uj[r] * u * dinv
         elif nvj > 1:
@@ -236,7 +237,7 @@ def articulated_inertias(model, data, tau):
             mv_add_into(IA, c, pa)                      # pa = pA + Ia c + Uj d^-1 u
             mv_add_into(Uj, mv(dinv, u), pa)
         else:
-            mv_add_into(IA, c, pa)
+            mv6_add_into(IA, c, pa)
 
         # project into the parent: G = [Xup, U] onto (a_lam, eta_dd_lam)
         lam = model.parent[i]
@@ -247,10 +248,11 @@ def articulated_inertias(model, data, tau):
             G = np.empty((6, n))
             G[:, :6] = data.Xup[i]
             G[:, 6:] = data.U[i, :, :n - 6]
-        else:
-            n, G = 6, data.Xup[i]
-        congruence_add_into(G, IA, data.MA[lam, :n, :n], data.IG[:, :n])
-        mtv_add_into(G, pa, data.pA[lam, :n])
+            congruence_add_into(G, IA, data.MA[lam, :n, :n], data.IG[:, :n])
+            mtv_add_into(G, pa, data.pA[lam, :n])
+        else:                                           # G = Xup, a Plücker transform
+            xcongruence_add_into(data.Xup[i], IA, data.MA[lam], data.IG)
+            xtv_add_into(data.Xup[i], pa, data.pA[lam])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -267,7 +269,7 @@ def accelerations(model, data):
     data.a[0, 3:] = -model.gravity
     for i in range(1, model.parent.size):
         lam, a = model.parent[i], data.a[i]
-        mv_into(data.Xup[i], data.a[lam], a)
+        xmv_into(data.Xup[i], data.a[lam], a)
         for r in range(6):
             a[r] += data.c[i, r]
         if model.jnt_node[i] >= 0:
@@ -290,7 +292,7 @@ def accelerations(model, data):
             qdd[ma:ma + nm] = -back_subst_vec(data.Lm[i, :nm, :nm], mv(data.W[i, :nm], a) + data.y[i, :nm])
 
         # joint reaction: the reference rows of MA_i [a_i; eta_dd_i] + pA_i = [f_i; 0]
-        mv_into(data.MA[i, :6, :6], a, data.f[i])
+        mv6_into(data.MA[i], a, data.f[i])
         for r in range(6):
             data.f[i, r] += data.pA[i, r]
         if nm > 0:

@@ -31,7 +31,7 @@ from scipy.integrate import ode, solve_ivp
 
 from flexmbd import results
 from flexmbd.dense import mv
-from flexmbd.jit import njit
+from flexmbd.jit import compiling, njit
 from flexmbd.kernel.bound import bind
 from flexmbd.kernel.entry import handle, rhs
 from flexmbd.model import Model, make_data
@@ -332,19 +332,21 @@ def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50, judged=None
                                                 Jinv, counts), t_out, counts, bar, chunk, judged)
 
 
-def warm_up(model: Model, method: str | None = None) -> None:
-    """Compile (or load from the cache) the kernel's entry and the compiled integrator of `method`
-    (every one when None), so that no compilation lands inside a timed run."""
-    b, nq = bind(model, make_data(model)), model.nq
-    ev = handle(b)
-    y0 = np.concatenate([model.q0, model.v0])
-    rhs_function(model)[0](0.0, y0)
-    t, Y, counts = np.zeros(2), np.zeros((2, y0.size)), np.zeros(3, dtype=np.int64)
-    if method in (None, "dopri5"):
-        dopri5(ev, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts)
-    if method in (None, "fox-goodwin") and model.nq == model.nv and model.nv:   # nothing to compile for: no states
-        newmark_matrix(ev, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
-        fox_goodwin(ev, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
+def warm_up(model: Model, method: str = "") -> None:
+    """Compile (or load from the cache) the kernel's entry, `rhs` and the compiled integrator of
+    `method` ("dopri5", "fox-goodwin"; none for any other), so that no compilation lands inside a
+    timed run. Only what the run uses: each integrator compiles on its first use."""
+    with compiling():
+        b, nq = bind(model, make_data(model)), model.nq
+        ev = handle(b)
+        y0 = np.concatenate([model.q0, model.v0])
+        rhs_function(model)[0](0.0, y0)
+        t, Y, counts = np.zeros(2), np.zeros((2, y0.size)), np.zeros(3, dtype=np.int64)
+        if method == "dopri5":
+            dopri5(ev, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts)
+        if method == "fox-goodwin" and model.nq == model.nv and model.nv:   # nothing to compile for: no states
+            newmark_matrix(ev, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
+            fox_goodwin(ev, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
 
 
 def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50, judged=None):

@@ -10,9 +10,11 @@ kernel's), of the Model layout in model.py and of the constants in results.py: a
 starts a fresh cache, and a stale compiled kernel can never be loaded.
 """
 
+import gc
 import hashlib
 import os
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import numba
@@ -72,10 +74,25 @@ def njit(fn=None, **kw):
     return numba.njit(**opts)(fn)
 
 
+@contextmanager
+def compiling():
+    """Python's cyclic garbage collector paused while numba compiles: its passes over numba's
+    many objects took about 13 % of a first compilation's CPU time (docs/performance.md).
+    Collection resumes after."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
 def cfunc(signature, fn):
     """numba.cfunc(signature, cache=True, error_model="numpy")(fn): a C function, compiled (or
     loaded from the cache) now, whose address compiled code calls without linking its body in."""
-    return numba.cfunc(signature, cache=True, error_model="numpy")(fn)
+    with compiling():
+        return numba.cfunc(signature, cache=True, error_model="numpy")(fn)
 
 
 def is_cached() -> bool:

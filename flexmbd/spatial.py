@@ -137,6 +137,79 @@ def xmul_into(X1, X2, out):
             out[i, 3 + j] = 0.0
 
 
+@njit(inline="always")
+def xmv_into(X, m, out):
+    """out = X m (6,) for a Plücker transform X = [E 0; F E] (6, 6) and a motion vector m (6,):
+    [E w; F w + E u], 27 multiply-adds with fixed loop bounds (unrolled)."""
+    for i in range(3):
+        e, f = 0.0, 0.0
+        for l in range(3):
+            e += X[i, l] * m[l]
+            f += X[3 + i, l] * m[l] + X[i, l] * m[3 + l]
+        out[i] = e
+        out[3 + i] = f
+
+
+@njit(inline="always")
+def xtv_add_into(X, f, out):
+    """out += X^T f (6,) for a Plücker transform X = [E 0; F E]: a force vector f back into the
+    frame X maps from, [E^T n + F^T f; E^T f]."""
+    for i in range(3):
+        a, b = 0.0, 0.0
+        for l in range(3):
+            a += X[l, i] * f[l] + X[3 + l, i] * f[3 + l]
+            b += X[l, i] * f[3 + l]
+        out[i] += a
+        out[3 + i] += b
+
+
+@njit(inline="always")
+def xcongruence_add_into(X, I, out, Y):
+    """out (6, 6) += X^T I X for a Plücker transform X = [E 0; F E] and a symmetric I (6, 6): an
+    articulated inertia carried back into the frame X maps from. Y (6, 6): workspace (I X).
+    270 multiply-adds against 342 for the dense product (X's zero block skipped, one triangle)."""
+    for r in range(6):
+        for j in range(3):
+            y, z = 0.0, 0.0
+            for l in range(3):
+                y += I[r, l] * X[l, j] + I[r, 3 + l] * X[3 + l, j]
+                z += I[r, 3 + l] * X[3 + l, 3 + j]
+            Y[r, j] = y
+            Y[r, 3 + j] = z
+    for i in range(6):
+        for j in range(i, 6):
+            s = 0.0
+            if i < 3:
+                for l in range(6):
+                    s += X[l, i] * Y[l, j]
+            else:
+                for l in range(3, 6):
+                    s += X[l, i] * Y[l, j]
+            out[i, j] += s
+            if j != i:
+                out[j, i] += s
+
+
+@njit(inline="always")
+def mv6_add_into(A, x, out):
+    """out += A x for A (6, 6), x (6,): fixed loop bounds (unrolled)."""
+    for i in range(6):
+        s = 0.0
+        for l in range(6):
+            s += A[i, l] * x[l]
+        out[i] += s
+
+
+@njit(inline="always")
+def mv6_into(A, x, out):
+    """out = A x for A (6, 6), x (6,): fixed loop bounds (unrolled)."""
+    for i in range(6):
+        s = 0.0
+        for l in range(6):
+            s += A[i, l] * x[l]
+        out[i] = s
+
+
 @njit
 def plux_parts(X):
     """(r (3,), R (3, 3)) of X_{B<-A}: B's origin in A and the rotation B -> A (R = E^T); inverse of plux."""

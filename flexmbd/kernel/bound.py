@@ -3,8 +3,9 @@ intrinsics that pass it and the kernel's entry by address.
 
 numba passes a Bound in about 1.7 us, where the two NamedTuples (some 70 arrays) take about
 17 us; inside, both are structrefs with the NamedTuples' fields, so the algorithms read
-`model.parent` or `data.Xup` the same way in compiled and in plain Python code, and reading a
-field takes a reference to that one array only.
+`model.parent` or `data.Xup` the same way in compiled and in plain Python code. The arrays inside
+are borrowed (`borrowed`: no meminfo), so reading a field touches no reference count; the Python
+Bound keeps their owners, the Model's arrays and the Data, alive (`bind`).
 """
 
 from __future__ import annotations
@@ -126,11 +127,32 @@ def _address(b):
     return address_of(b)
 
 
+def _borrow(builder, ty, value):
+    """`value` of type ty (an array, or a tuple of them, nested) with every array's meminfo set to
+    null: the same data, shape and parent, no reference count."""
+    if isinstance(ty, types.Array):
+        return builder.insert_value(value, ir.Constant(value.type.elements[0], None), 0)   # field 0: meminfo
+    if isinstance(ty, types.BaseTuple):
+        for k, member in enumerate(ty.types):
+            value = builder.insert_value(value, _borrow(builder, member, builder.extract_value(value, k)), k)
+    return value
+
+
+@intrinsic
+def borrowed(typingctx, arrays):
+    """The arrays of a (nested) tuple as borrowed references: their meminfo null, so that neither
+    reading nor dropping one touches a reference count (an atomic add). Whoever holds them must
+    keep the owners alive: `bind` keeps the NamedTuples on the Bound."""
+    def codegen(context, builder, sig, args):
+        return _borrow(builder, sig.args[0], args[0])
+    return arrays(arrays), codegen
+
+
 @njit
 def _bind(arrays, data):
     b = structref.new(BOUND_T)
-    b.model = ArraysRef(*arrays)
-    b.data = DataRef(*data)
+    b.model = ArraysRef(*borrowed(arrays))
+    b.data = DataRef(*borrowed(data))
     return b
 
 
@@ -146,4 +168,6 @@ def bind(model: Model, data: Data) -> Bound:
     """The Model's arrays and `data` as one `Bound`; a PlainBound when numba's JIT is disabled."""
     if PURE_PYTHON:
         return PlainBound(model.arrays, data)
-    return _bind(model.arrays, data)
+    b = _bind(model.arrays, data)
+    b.owners = (model.arrays, data)                     # the Bound's arrays are borrowed from these
+    return b
