@@ -7,6 +7,12 @@ Methods (the case's `[integrator] method`):
           on the accelerations with a reused finite-difference iteration matrix (rtol/atol are
           its tolerance). Phase error (w h)^4/480, stable for w_max h < sqrt(6) like an explicit
           method, but one or two evaluations per step
+  exp-adams  exponential Adams predictor-corrector (PECE, order 3), fixed step `dt`, compiled
+          (`exp_adams`): f(y) = L y + N(y) with L the Jacobian, re-linearized every EXP_REFRESH
+          steps (every EXP_FULL-th time in full, between only its fast eigenvalues), L integrated
+          exactly in its eigenbasis and N through the polynomial of its last values; two
+          evaluations a step, stable and phase-exact for the modes of L at any step, so the step
+          is set by the accuracy of the slow motion and of the remainder (docs/formulation.md §6)
   adams   variable-step, variable-order (1-12) Adams-Moulton predictor-corrector with
           functional iteration (PECE), as in the paper: ODEPACK's VODE through scipy
   rk45, dop853   explicit embedded Runge-Kutta pairs (scipy's solve_ivp), for comparison
@@ -561,6 +567,7 @@ def _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step):
 EXP_ORDER = 3           # nodes of the predictor's and the corrector's polynomials (order 3 each)
 EXP_REFRESH = 25        # steps between two linearizations (a finite-difference Jacobian, eig)
 EXP_FULL = 8           # of which every EXP_FULL-th a full one, the others only its fast eigenvalues
+EXP_TURN = 0.02         # unless a fast eigenvector has turned by more than this (its residual |J v - lam v| / |lam v|)
 NOT_DIAGONAL, STALE = 5, 6     # status codes: the linearization has no eigenbasis; it is due again
 
 
@@ -772,17 +779,13 @@ def exp_linearize(ev, nq, t, h, Yh, Fh, basis, Wz, G, st, counts, made) -> bool:
     its eigenbasis; between, only the fast eigenvalues move (|lam h| > 1, where the remainder
     polynomial cannot follow a change of L): lam_i = w_i J v_i from two evaluations along the
     real and imaginary parts of each such eigenvector v_i (w_i its row of V^-1), the eigenvectors
-    kept. False when J has no eigenbasis (`eigenbasis`). made (1,): linearizations so far.
+    kept, unless one of them has turned (|J v_i - lam_i v_i| > EXP_TURN |lam_i v_i|): then in full.
+    False when J has no eigenbasis (`eigenbasis`). made (1,): linearizations so far.
     counts (3,) += -, linearizations, evaluations."""
     n = Yh.shape[1]
     lam, V, Vi = basis[0], basis[1:n + 1], basis[n + 1:]
-    if made[0] % EXP_FULL == 0:
-        e = eigenbasis(jacobian(ev, nq, t, Yh[0]))
-        counts[2] += n + 1
-        if e is None:
-            return False
-        lam[:], V[:], Vi[:] = e
-    else:
+    full = made[0] % EXP_FULL == 0
+    if not full:
         fast = np.flatnonzero((np.abs(lam * h) > 1.0) & (lam.imag > 0.0))     # one of each conjugate pair
         if fast.size:
             JU = directional(ev, nq, t, Yh[0], Fh[0], np.ascontiguousarray(
@@ -790,11 +793,19 @@ def exp_linearize(ev, nq, t, h, Yh, Fh, basis, Wz, G, st, counts, made) -> bool:
             counts[2] += 2 * fast.size
             Jv = JU[:, :fast.size] + 1j * JU[:, fast.size:]
             new = np.einsum("ij,ji->i", Vi[fast], Jv)
-            old = lam[fast]
-            lam[fast] = new
-            for i, o in zip(fast, old):                 # its conjugate partner
-                if o.imag > 0.0:
+            turned = np.linalg.norm(Jv - V[:, fast] * new, axis=0) / (np.abs(new) * np.linalg.norm(V[:, fast], axis=0))
+            full = turned.max() > EXP_TURN     # the eigenvectors have turned: linearize in full
+            if not full:
+                old = lam[fast]
+                lam[fast] = new
+                for i, o in zip(fast, old):             # its conjugate partner
                     lam[np.argmin(np.abs(lam - np.conj(o)))] = np.conj(lam[i])
+    if full:
+        e = eigenbasis(jacobian(ev, nq, t, Yh[0]))
+        counts[2] += n + 1
+        if e is None:
+            return False
+        lam[:], V[:], Vi[:] = e
     Wz[:st[1]] = Yh[:st[1]] @ Vi.T
     G[:st[1]] = Fh[:st[1]] @ Vi.T
     made[0] += 1
