@@ -780,7 +780,10 @@ def exp_linearize(ev, nq, t, h, Yh, Fh, basis, Wz, G, st, counts, made) -> bool:
     polynomial cannot follow a change of L): lam_i = w_i J v_i from two evaluations along the
     real and imaginary parts of each such eigenvector v_i (w_i its row of V^-1), the eigenvectors
     kept, unless one of them has turned (|J v_i - lam_i v_i| > EXP_TURN |lam_i v_i|): then in full.
-    False when J has no eigenbasis (`eigenbasis`). made (1,): linearizations so far.
+    A J with no eigenbasis (`eigenbasis`: a defective one, as [[0, 1], [0, 0]] of a coordinate
+    with no restoring force) gets a stiffness (0.01 / h)^2 on every coordinate (q and v aligned),
+    which the remainder N = f - L y takes back; False when that has none either. made (1,):
+    linearizations so far.
     counts (3,) += -, linearizations, evaluations."""
     n = Yh.shape[1]
     lam, V, Vi = basis[0], basis[1:n + 1], basis[n + 1:]
@@ -801,8 +804,12 @@ def exp_linearize(ev, nq, t, h, Yh, Fh, basis, Wz, G, st, counts, made) -> bool:
                 for i, o in zip(fast, old):             # its conjugate partner
                     lam[np.argmin(np.abs(lam - np.conj(o)))] = np.conj(lam[i])
     if full:
-        e = eigenbasis(jacobian(ev, nq, t, Yh[0]))
+        J = jacobian(ev, nq, t, Yh[0])
         counts[2] += n + 1
+        e = eigenbasis(J)
+        if e is None and 2 * nq == n:                  # a coordinate with no restoring force: give
+            J[nq:, :nq] -= (0.01 / h) ** 2 * np.eye(nq)  # L one at w h = 0.01 (N takes it back)
+            e = eigenbasis(J)
         if e is None:
             return False
         lam[:], V[:], Vi[:] = e

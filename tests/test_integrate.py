@@ -154,6 +154,17 @@ def test_exp_adams_converges_at_third_order_on_the_rigid_pendulum():
     assert 6 < err[0] / err[1] < 11 and err[1] < 1e-6, err
 
 
+def test_exp_adams_turns_a_free_coordinate_at_its_constant_rate():
+    """Without gravity the rigid pendulum's Jacobian is [[0, 1], [0, 0]], with no eigenbasis: the
+    linear part gets a small stiffness that the remainder takes back, and the uniform rotation
+    comes out exact (its polynomial is linear), to roundoff times the basis' condition (~1e3)."""
+    model = from_case(cases.load("pendulum", ["bodies.beam.rigid=true", "gravity=[0.0, 0.0, 0.0]",
+                                              "joints.pivot.qd0=1.0"]))
+    sim = integrate.simulate(model, 0.5, method="exp-adams", dt=1e-3, output_dt=1e-2, progress=False)
+    assert sim.status.ok and len(sim.t) == 51
+    assert np.abs(sim.q[:, 0] - sim.t).max() < 1e-9 and np.abs(sim.v[:, 0] - 1.0).max() < 1e-9
+
+
 def test_exp_adams_agrees_with_dopri5_on_the_flexible_pendulum():
     """The flexible pendulum (modes up to 700 Hz, steps of 1 and 0.5 ms: h w_max = 4.4 and 2.2)
     against the compiled Dormand-Prince at rtol 1e-10 over 0.5 s: the tip deflection's RMS
