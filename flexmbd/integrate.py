@@ -564,11 +564,11 @@ def _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step):
 # ---------------------------------------------------------------------------------------------
 # Exponential Adams (predictor-corrector) on a refreshed linearization, fixed step, compiled
 
-EXP_ORDER = 3           # nodes of the predictor's and the corrector's polynomials (order 3 each)
-EXP_REFRESH = 25        # steps between two linearizations (a finite-difference Jacobian, eig)
-EXP_FULL = 8           # of which every EXP_FULL-th a full one, the others only its fast eigenvalues
-EXP_TURN = 0.02         # unless a fast eigenvector has turned by more than this (its residual |J v - lam v| / |lam v|)
-NOT_DIAGONAL, STALE = 5, 6     # status codes: the linearization has no eigenbasis; it is due again
+EXP_ORDER = 3       # nodes of the predictor's and the corrector's polynomials (order 3 each)
+EXP_REFRESH = 25    # steps between two linearizations (`exp_linearize`)
+EXP_FULL = 8        # every EXP_FULL-th of them in full (Jacobian, eigenbasis), between only the fast eigenvalues,
+EXP_TURN = 0.02     # unless a fast eigenvector has turned by more than this (|J v - lam v| / |lam v|)
+NOT_DIAGONAL, STALE = 5, 6      # status codes: the linearization has no eigenbasis; it is due again
 
 
 @njit
