@@ -267,8 +267,11 @@ STABLE = {"adams": 0.1, "dopri5": 3.3, "rk45": 2.8, "dop853": 4.0}
 # right-hand sides per step (pendulum: adams 1.84, dopri5 6.3, rk45 6.0, dop853 12.0, fox-goodwin
 # 2.0) and the Python around each one (s; pendulum, against 16 us for the right-hand side: adams
 # 18.6 us, rk4 30 us, rk45 53 us, dop853 36 us; dopri5 and fox-goodwin are compiled whole)
-EVALS = {"adams": 2, "dopri5": 7, "rk45": 7, "dop853": 13, "rk4": 4, "fox-goodwin": 2}
-AROUND = {"adams": 3e-6, "rk4": 1.5e-5, "rk45": 4e-5, "dop853": 2e-5, "dopri5": 0.0, "fox-goodwin": 0.0}
+# exp-adams: two a step and its linearizations, 2.6 a step on the pendulum at 1 ms (5.0 on the
+# double pendulum, where every one is full), and its eigenbasis work around them, about 3 us each
+EVALS = {"adams": 2, "dopri5": 7, "rk45": 7, "dop853": 13, "rk4": 4, "fox-goodwin": 2, "exp-adams": 2.6}
+AROUND = {"adams": 3e-6, "rk4": 1.5e-5, "rk45": 4e-5, "dop853": 2e-5, "dopri5": 0.0, "fox-goodwin": 0.0,
+          "exp-adams": 3e-6}
 # a closed loop's right-hand side (`constraints.Loops.rates`): one evaluation per constraint row more,
 # and the Python around them (rows, Jacobians, the multipliers' solve, scipy's step): measured
 # 0.36 ms (slider_crank), 0.45 ms (four_bar), 0.73 ms (four_bar_rigid, cores busy) per right-hand side
@@ -282,7 +285,7 @@ def flexmbd(case, t_end: float) -> list:
     (a singular moment) takes more, which no estimate knows. rk45 and dop853 show no progress."""
     ig = case.integrator
     method = ig.method
-    if method in ("rk4", "fox-goodwin"):
+    if method in ("rk4", "fox-goodwin", "exp-adams"):
         steps = t_end / ig.dt
         evals = steps * EVALS[method] + case.modelled.nv + 2
         key, how = _time_key(case, t_end, "integrator.dt", ig.dt, 1e-4), "duration / dt"

@@ -43,7 +43,7 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
     t0 = time.perf_counter()
     ig = case.integrator
     loops = constraints.Loops(model, case.modelled) if case.loops else None
-    integrate.warm_up(model, ig.method if ig.method in ("dopri5", "fox-goodwin") and not loops else "")
+    integrate.warm_up(model, ig.method if ig.method in ("dopri5", "fox-goodwin", "exp-adams") and not loops else "")
     compile_s = time.perf_counter() - t0
 
     label = f"{case.name} / flexmbd"

@@ -21,6 +21,12 @@ def test_rigid_and_flexible_chain_rows():
     assert len(rows) == 3 and np.isfinite(exponent)
 
 
+def test_the_timed_flexible_state_is_physical():
+    """The state the evaluations are timed at gives finite accelerations with stiffening on."""
+    f, _ = bench.evaluation(from_case(bench.chain_case(4, flexible=True)))
+    assert np.isfinite(f()).all()
+
+
 def row(solver, scheme, setting, error, wall, error_reference=np.nan):
     return {"case": "c", "solver": solver, "scheme": scheme, "setting": setting, "error": error,
             "error_reference": error_reference, "wall_s": wall}

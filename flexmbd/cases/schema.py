@@ -146,7 +146,7 @@ CHANNEL = {
 }
 
 INTEGRATOR = {
-    "method": (("adams", "dopri5", "fox-goodwin", "rk45", "dop853", "rk4"), "adams"),
+    "method": (("adams", "dopri5", "fox-goodwin", "exp-adams", "rk45", "dop853", "rk4"), "adams"),
     "rtol": ("float+", 1e-8),
     "atol": ("float+", 1e-10),
     "max_step": ("float+", 1e-3),       # s
