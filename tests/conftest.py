@@ -64,7 +64,7 @@ def shared_dir(tmp_path_factory) -> Path:
     """A folder of this session's temporary base shared by its xdist workers (each has a base of
     its own below it)."""
     base = tmp_path_factory.getbasetemp()
-    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    return base.parent if base.name == f"popen-{os.environ.get('PYTEST_XDIST_WORKER')}" else base
 
 
 def once(shared: Path, name: str, build) -> Path:
@@ -80,13 +80,20 @@ def once(shared: Path, name: str, build) -> Path:
 
 @pytest.fixture(scope="session")
 def compiled_kernel(shared_dir) -> None:
-    """flexmbd's kernel and its compiled integrators, compiled (or loaded from numba's cache) by one
-    process at a time: the first compiles them, the others load them from the cache."""
-    from flexmbd import cases, flexbody, integrate
+    """flexmbd's kernel, its compiled integrators and the compiled functions of a run (its energies,
+    a loop's constraints), compiled (or loaded from numba's cache) by one process at a time: the
+    first compiles them (about a minute of one core), the others load them from the cache. A
+    session fixture that needs them asks for this one (pytest sets up session fixtures before
+    module ones)."""
+    from flexmbd import cases, flexbody, integrate, jit, solvers
     from flexmbd.build import from_case
-    case = cases.load("pendulum")
+    if jit.PURE_PYTHON:                                 # NUMBA_DISABLE_JIT=1: nothing to compile
+        return
     with locked(shared_dir / "kernel.lock"):
+        case = cases.load("pendulum")
         integrate.warm_up(from_case(case.modelled, flexbody.for_case(case.modelled)))
+        for case in (case, cases.load("four_bar")):
+            assert solvers.run(case, "flexmbd", 0.01).ok
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -109,7 +116,7 @@ def cantilever_argv() -> list:
 
 
 @pytest.fixture(scope="session")
-def cantilever_report(shared_dir) -> Path:
+def cantilever_report(shared_dir, compiled_kernel) -> Path:
     """The report folder of `flexmbd CANTILEVER_REPORT --out FOLDER` (every run passes: exit 0,
     checked), made once per session; what the command said on stderr is FOLDER.stderr beside it."""
     def build(out: Path) -> None:
