@@ -96,11 +96,12 @@ def no_leftovers(folder: Path) -> None:
 
 
 @pytest.fixture(scope="module")
-def stored(tmp_path_factory) -> Path:
-    """A report folder of analytic on cantilever_step: results/ plus the pages."""
-    out = tmp_path_factory.mktemp("stored") / "rep"
-    cli(["report", *ONE, "--out", out], 0, 0)
-    return out
+def stored(cantilever_report) -> Path:
+    """A report folder of analytic on cantilever_step (with its reference fe-linear, and pinocchio,
+    which does not apply): results/ plus the pages; the session's (conftest.py), which said
+    nothing on stderr but its progress."""
+    check(0, Path(f"{cantilever_report}.stderr").read_text(), 0, 0, ())
+    return cantilever_report
 
 
 @pytest.fixture
@@ -179,11 +180,11 @@ def test_a_failed_solver_is_exit_0_and_with_strict_exit_1(tmp_path):
     cli(run + ["--strict"], 1, 0)
 
 
-def test_report_strict_is_exit_1_when_a_solver_failed(tmp_path):
-    cli(["report", *ONE, "--out", tmp_path, "--strict"], 0, 0)
-    edit_result(tmp_path / "results", change_meta=lambda m: m.update(status="failed: boom at t = 0.1 s"))
-    cli(["report", *ONE, "--out", tmp_path, "--no-run"], 0, 0)
-    cli(["report", *ONE, "--out", tmp_path, "--no-run", "--strict"], 1, 0)
+def test_report_strict_is_exit_1_when_a_solver_failed(report, cantilever_argv):
+    cli([*cantilever_argv, "--out", report], 0, 0)                     # made with --strict: every run passes
+    edit_result(report / "results", change_meta=lambda m: m.update(status="failed: boom at t = 0.1 s"))
+    cli(["report", *ONE, "--out", report, "--no-run"], 0, 0)
+    cli(["report", *ONE, "--out", report, "--no-run", "--strict"], 1, 0)
 
 
 def test_an_internal_error_is_exit_3_with_its_traceback_in_a_file():
@@ -733,10 +734,13 @@ def test_report_no_run_with_a_broken_sidecar(report):
 # names and paths checked before any solver runs
 
 
-def test_report_takes_a_case_path(tmp_path):
-    cli(["report", "--cases", ROOT / "cases" / f"{CASE}.toml", "--solvers", f"fe-linear,{SOLVER}", "--out", tmp_path],
-        0, 0)
-    assert (tmp_path / CASE / "index.html").is_file()
+def test_report_takes_a_case_path(report, cantilever_argv, capsys):
+    """The shipped case's file is the case of that name: its stored runs and its page are kept."""
+    argv = [str(ROOT / "cases" / f"{CASE}.toml") if a == CASE else a for a in cantilever_argv]
+    assert main([*argv, "--out", str(report)]) == 0
+    err = capsys.readouterr().err
+    assert err.count("(stored, unchanged)") == 3 and f"page {CASE} (unchanged, kept)" in err, err
+    assert (report / CASE / "index.html").is_file()
 
 
 def test_report_with_an_unknown_case_among_known_ones_runs_nothing(tmp_path):

@@ -12,14 +12,11 @@ from flexmbd.cli import main
 from flexmbd.report import accuracy, history
 from flexmbd.version import __version__
 
-FAST = "analytic,fe-linear"
-
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    out = tmp_path_factory.mktemp("rep")
-    assert main(["report", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(out), "--workers", "1"]) == 0
-    return out
+def report(cantilever_report):
+    """A report of cantilever_step by analytic and its reference fe-linear (the session's: conftest.py)."""
+    return cantilever_report
 
 
 def outcome(case: str, solver: str, verdict: str = "pass", worst: float = 0.004, wall: float = 0.5):

@@ -1,0 +1,129 @@
+"""The suite's slow parts done once: flexmbd's kernel compiled by one process while the other
+xdist worker runs tests that never need it, and what several test files read (a report of the
+cantilever) made once per session and shared by the workers through a file lock. The test files
+start heaviest first, so that no long file starts last (`make test`: one file per core at a time).
+"""
+
+import contextlib
+import fcntl
+import io
+import os
+from pathlib import Path
+
+import pytest
+
+# The files that take longest, heaviest first (seconds of CPU on one core, measured): they start
+# first, after the files that never need the kernel (KERNEL_FREE); every other file after them, in
+# collection order.
+HEAVY = ["test_report_verdicts.py", "test_report_build.py", "test_faults.py", "test_executor.py",
+         "test_exudyn.py", "test_contract.py", "test_study.py", "test_packaging.py", "test_stiffening.py",
+         "test_history.py", "test_tip_mass.py", "test_integrate.py", "test_linearize.py", "test_report.py"]
+
+# The files none of whose tests compiles or loads flexmbd's kernel, in this process or any it
+# starts. One worker runs them while the other compiles the kernel (`compiled_kernel`, about 40 s
+# on one core on a fresh checkout); a file here that did need it would compile it a second time
+# alongside, which costs time and changes no result.
+KERNEL_FREE = ["test_results.py", "test_fe_modes.py", "test_oracle_lagrange.py", "test_reference_solvers.py",
+               "test_invariants.py", "test_exudyn_ffrf_loops.py", "test_fe_solid.py", "test_fe_meshfile.py",
+               "test_fe_element.py", "test_fe_stress.py", "test_figures.py", "test_cases.py", "test_tables.py",
+               "test_spatial.py", "test_mujoco_loops.py", "test_pinocchio_loops.py", "test_exudyn_beam_loops.py",
+               "test_accuracy.py", "test_capabilities.py", "test_completion.py", "test_jit.py", "test_layers.py",
+               "test_profiles.py", "test_progress.py", "test_solvers.py"]
+
+
+def pytest_configure(config):
+    """pytest-xdist hands out files in the order of `pytest_collection_modifyitems`, not by their
+    number of tests (its default)."""
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """The first file needing the kernel (it compiles it), the KERNEL_FREE files (another worker
+    runs them meanwhile), the rest of HEAVY, then every other file; a file's tests in their order."""
+    rank = {name: k for k, name in enumerate(HEAVY[:1] + KERNEL_FREE + HEAVY[1:])}
+    order = {}
+    for item in items:
+        order.setdefault(item.path.name, len(order))
+    items.sort(key=lambda item: (rank.get(item.path.name, len(rank)), order[item.path.name]))
+
+
+@contextlib.contextmanager
+def locked(path: Path):
+    """An exclusive lock on `path` (created), held by one process of the session at a time."""
+    with open(path, "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+@pytest.fixture(scope="session")
+def shared_dir(tmp_path_factory) -> Path:
+    """A folder of this session's temporary base shared by its xdist workers (each has a base of
+    its own below it)."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if base.name == f"popen-{os.environ.get('PYTEST_XDIST_WORKER')}" else base
+
+
+def once(shared: Path, name: str, build) -> Path:
+    """shared/name, made by build(folder) by the first process of the session to ask for it while
+    the others wait; read-only to the tests (copy it to change it)."""
+    folder, done = shared / name, shared / f"{name}.done"
+    with locked(shared / f"{name}.lock"):
+        if not done.exists():
+            build(folder)
+            done.touch()
+    return folder
+
+
+@pytest.fixture(scope="session")
+def compiled_kernel(shared_dir) -> None:
+    """flexmbd's kernel, its compiled integrators and the compiled functions of a run (its energies,
+    a loop's constraints), compiled (or loaded from numba's cache) by one process at a time: the
+    first compiles them (about a minute of one core), the others load them from the cache. A
+    session fixture that needs them asks for this one (pytest sets up session fixtures before
+    module ones)."""
+    from flexmbd import cases, flexbody, integrate, jit, solvers
+    from flexmbd.build import from_case
+    if jit.PURE_PYTHON:                                 # NUMBA_DISABLE_JIT=1: nothing to compile
+        return
+    with locked(shared_dir / "kernel.lock"):
+        case = cases.load("pendulum")
+        integrate.warm_up(from_case(case.modelled, flexbody.for_case(case.modelled)))
+        for case in (case, cases.load("four_bar")):
+            assert solvers.run(case, "flexmbd", 0.01).ok
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _kernel_first(request):
+    """The kernel compiled before a module's first fixture or test (`compiled_kernel`), unless
+    none of the module's tests needs it (KERNEL_FREE)."""
+    if request.path.name not in KERNEL_FREE:
+        request.getfixturevalue("compiled_kernel")
+
+
+# cantilever_step by analytic, its reference fe-linear and pinocchio, which does not apply to it
+CANTILEVER_REPORT = ["report", "--cases", "cantilever_step", "--solvers", "analytic,fe-linear,pinocchio", "--strict"]
+
+
+@pytest.fixture(scope="session")
+def cantilever_argv() -> list:
+    """The command of `cantilever_report` (without its --out): run again on a copy of the report,
+    it keeps every run and page."""
+    return list(CANTILEVER_REPORT)
+
+
+@pytest.fixture(scope="session")
+def cantilever_report(shared_dir, compiled_kernel) -> Path:
+    """The report folder of `flexmbd CANTILEVER_REPORT --out FOLDER` (every run passes: exit 0,
+    checked), made once per session; what the command said on stderr is FOLDER.stderr beside it."""
+    def build(out: Path) -> None:
+        from flexmbd.cli import main
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            code = main([*CANTILEVER_REPORT, "--out", str(out)])
+        Path(f"{out}.stderr").write_text(err.getvalue())
+        assert code == 0, err.getvalue()
+    return once(shared_dir, "cantilever_report", build)

@@ -1,0 +1,64 @@
+"""The report's verdicts on the command line and the index: the reference a comparison needs runs
+too, a channel beyond its tolerance is a fail, --strict exits 1 on a fail or when nothing was
+compared, --json carries the verdicts."""
+
+import re
+from pathlib import Path
+
+from flexmbd import cases
+from flexmbd.cli import main
+
+
+def test_report_runs_the_reference_it_compares_against(tmp_path, capsys):
+    """`--solvers analytic` on cantilever_step, whose reference is fe-linear: the reference runs
+    too (said in one line) and analytic is compared with it; with tolerances of 1e-12 (a copy of
+    the case file) --strict exits 1, and without tolerances nothing is compared: --strict exits 1
+    saying so."""
+    args = ["--cases", "cantilever_step", "--solvers", "analytic", "--strict", "--out", str(tmp_path / "a")]
+    assert main(["report", *args]) == 0
+    out, err = capsys.readouterr()
+    assert "cantilever_step: its reference fe-linear runs too" in err
+    assert (tmp_path / "a" / "results" / "cantilever_step" / "fe-linear.json").is_file()
+    assert out.startswith("2 runs: 1 pass, 1 reference"), out
+    text = (cases.find("cantilever_step")).read_text()
+    tight = re.sub(r"(?m)^tolerances = .*$", "tolerances = { tip_deflection = 1e-12, stress_vm = 1e-12 }", text)
+    none = re.sub(r"(?m)^tolerances = .*$", "tolerances = {}", text)        # an empty table grades nothing
+    default = re.sub(r"(?m)^tolerances = .*$", "", text)                   # no table: each kind's default
+    for name, body, want, code in (("tight", tight, "1 fail", 1), ("none", none, "1 not compared", 1),
+                                   ("default", default, "1 pass", 0)):
+        path = tmp_path / name / "cantilever_step.toml"
+        path.parent.mkdir()
+        path.write_text(body)
+        assert main(["report", "--cases", str(path), "--solvers", "analytic", "--strict",
+                     "--out", str(tmp_path / name)]) == code, name
+        out, err = capsys.readouterr()
+        assert want in out.splitlines()[0], (name, out)
+        if name == "none":
+            assert "--strict: nothing was compared" in err
+
+
+def test_a_failing_channel_is_a_fail_on_the_index_and_with_strict_exit_1(tmp_path, capsys):
+    """The cantilever with a tolerance no solver meets: the index says fail (worst channel, by how
+    much) in red on top of a one-line summary; --strict exits 1; --json carries the verdicts."""
+    import json
+    text = (Path(cases.find("cantilever_step"))).read_text()
+    strict = re.sub(r"tolerances = \{[^}]*\}", "tolerances = { tip_deflection = 1e-9, stress_vm = 1.0 }", text)
+    path = tmp_path / "tight.toml"
+    path.write_text(strict)
+    out = tmp_path / "rep"
+    args = ["report", "--cases", str(path), "--solvers", "analytic,fe-linear", "--out", str(out)]
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    assert "2 runs: 1 fail, 1 reference" in printed and "tight / analytic: fail: tip_deflection RMS" in printed
+    index = (out / "index.html").read_text()
+    assert "<b>2 runs: 1 fail, 1 reference</b>" in index
+    assert re.search(r"<td class='fail'>fail: tip_deflection RMS [0-9.e-]+ = [0-9.e]+ × its tolerance 1e-9</td>", index)
+    assert "td.fail::before{content:'✗\\a0'}" in index                  # its icon beside its colour
+    # the case x solver matrix above the table of every run
+    assert index.index("<table class='matrix'>") < index.index("<h2>Every run</h2>")
+    assert re.search(r"<tr><td><a href='tight/index.html'>tight</a></td><td class='fail'[^>]*>fail</td>", index)
+    assert main(args[:1] + ["--no-run", "--strict"] + args[1:]) == 1
+    capsys.readouterr()
+    assert main(args[:1] + ["--no-run", "--json"] + args[1:]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert [r["verdict"] for r in got["runs"]] == ["fail", "reference"] and got["summary"] == "2 runs: 1 fail, 1 reference"
