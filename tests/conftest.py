@@ -8,27 +8,29 @@ import contextlib
 import fcntl
 import io
 import os
+import pickle
 from pathlib import Path
 
 import pytest
 
-# The files that take longest, heaviest first (seconds of CPU on one core, measured): they start
-# first, after the files that never need the kernel (KERNEL_FREE); every other file after them, in
-# collection order.
-HEAVY = ["test_report_verdicts.py", "test_report_build.py", "test_faults.py", "test_executor.py",
-         "test_exudyn.py", "test_contract.py", "test_study.py", "test_packaging.py", "test_stiffening.py",
-         "test_history.py", "test_tip_mass.py", "test_integrate.py", "test_linearize.py", "test_report.py"]
+# The files that take longest, longest first (measured: 25 to 65 s each on one core, the kernel
+# compiled): they start first, every other file after them in collection order. The first of them
+# compiles the kernel on one worker while another runs the KERNEL_FREE files, which come next; it
+# has more than 2 tests, so that pytest-xdist gives that worker no second file before it ends.
+HEAVY = ["test_report_build.py", "test_faults.py", "test_report_verdicts.py", "test_executor.py", "test_exudyn.py",
+         "test_contract.py", "test_report.py", "test_packaging.py", "test_tip_mass.py", "test_integrate.py",
+         "test_loops.py", "test_pure_python.py", "test_stiffening.py", "test_linearize.py"]
 
 # The files none of whose tests compiles or loads flexmbd's kernel, in this process or any it
-# starts. One worker runs them while the other compiles the kernel (`compiled_kernel`, about 40 s
-# on one core on a fresh checkout); a file here that did need it would compile it a second time
-# alongside, which costs time and changes no result.
-KERNEL_FREE = ["test_results.py", "test_fe_modes.py", "test_oracle_lagrange.py", "test_reference_solvers.py",
-               "test_invariants.py", "test_exudyn_ffrf_loops.py", "test_fe_solid.py", "test_fe_meshfile.py",
-               "test_fe_element.py", "test_fe_stress.py", "test_figures.py", "test_cases.py", "test_tables.py",
-               "test_spatial.py", "test_mujoco_loops.py", "test_pinocchio_loops.py", "test_exudyn_beam_loops.py",
-               "test_accuracy.py", "test_capabilities.py", "test_completion.py", "test_jit.py", "test_layers.py",
-               "test_profiles.py", "test_progress.py", "test_solvers.py"]
+# starts. One worker runs them while the other compiles the kernel (`compiled_kernel`, about a
+# minute of one core on a fresh checkout); a file here that did need it would compile it a second
+# time alongside, which costs time and changes no result.
+KERNEL_FREE = ["test_study.py", "test_results.py", "test_fe_modes.py", "test_oracle_lagrange.py",
+               "test_reference_solvers.py", "test_invariants.py", "test_exudyn_ffrf_loops.py", "test_fe_solid.py",
+               "test_fe_meshfile.py", "test_fe_element.py", "test_fe_stress.py", "test_figures.py", "test_cases.py",
+               "test_tables.py", "test_spatial.py", "test_mujoco_loops.py", "test_pinocchio_loops.py",
+               "test_exudyn_beam_loops.py", "test_accuracy.py", "test_capabilities.py", "test_completion.py",
+               "test_jit.py", "test_layers.py", "test_profiles.py", "test_progress.py", "test_solvers.py"]
 
 
 def pytest_configure(config):
@@ -127,3 +129,20 @@ def cantilever_report(shared_dir, compiled_kernel) -> Path:
         Path(f"{out}.stderr").write_text(err.getvalue())
         assert code == 0, err.getvalue()
     return once(shared_dir, "cantilever_report", build)
+
+
+@pytest.fixture(scope="session")
+def cantilever_run(shared_dir):
+    """cantilever_run(solver): a fresh copy of the Result of `solvers.run` of `solver` on the shipped
+    cantilever_step (its whole duration), run once per session. flexmbd's run needs the kernel
+    (compiled before any module outside KERNEL_FREE)."""
+    from flexmbd import cases, solvers
+
+    def build(folder: Path, solver: str) -> None:
+        folder.mkdir()
+        (folder / "result.pickle").write_bytes(pickle.dumps(solvers.run(cases.load("cantilever_step"), solver)))
+
+    def get(solver: str):
+        folder = once(shared_dir, f"cantilever_step.{solver}", lambda f: build(f, solver))
+        return pickle.loads((folder / "result.pickle").read_bytes())
+    return get

@@ -273,10 +273,9 @@ def test_shapes_of_a_known_motion_are_its_displacements(chord):
 
 
 @pytest.fixture(scope="module")
-def cantilever_runs():
-    from flexmbd import solvers
-    case = cases.load("cantilever_step")
-    return case, {s: solvers.run(case, s) for s in ("flexmbd", "fe-linear")}
+def cantilever_runs(cantilever_run):
+    """The shipped cantilever_step and its runs by flexmbd and fe-linear (the session's: conftest.py)."""
+    return cases.load("cantilever_step"), {s: cantilever_run(s) for s in ("flexmbd", "fe-linear")}
 
 
 def test_cantilever_shapes_of_flexmbd_and_fe_linear_agree(cantilever_runs):

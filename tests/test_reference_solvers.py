@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from flexmbd import cases, results, solvers
+from flexmbd import cases, results
 from flexmbd.adapters import analytic
 from flexmbd.cli import main
 
@@ -14,9 +14,9 @@ STATIC_STRESS = 12.0 * (1.5 - 0.03) * 0.0075 / (0.01 * 0.015 ** 3 / 12)   # 47.0
 
 
 @pytest.fixture(scope="module")
-def runs():
-    case = cases.load("cantilever_step")
-    return {s: solvers.run(case, s) for s in ("analytic", "fe-linear")}
+def runs(cantilever_run):
+    """Both solvers' runs of the shipped cantilever_step (the session's: conftest.py)."""
+    return {s: cantilever_run(s) for s in ("analytic", "fe-linear")}
 
 
 def test_static_reference_numbers():

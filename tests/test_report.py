@@ -127,7 +127,7 @@ def test_accuracy_tex_compiles_in_a_two_column_article_and_fits(report, tmp_path
     assert "Overfull \\hbox" not in compile_input(tmp_path, tex)
 
 
-def test_fft_peaks_match_fe_frequencies_on_cantilever_step():
+def test_fft_peaks_match_fe_frequencies_on_cantilever_step(cantilever_run):
     """The first three excited (in-plane) bending modes, read from 2 s of signal, within 1 %."""
     case = cases.load("cantilever_step")
     fb = flexbody.for_case(case)["beam"]
@@ -135,7 +135,7 @@ def test_fft_peaks_match_fe_frequencies_on_cantilever_step():
     bin_width = 1.0 / case.duration
     assert excited[0] < 12 * bin_width                 # coarse bins: interpolation has to do the work
     for name in ("flexmbd", "fe-linear", "analytic"):
-        r = solvers.run(case, name)
+        r = cantilever_run(name)
         found = metrics.match_peaks(metrics.spectral_peaks(r.t, r.channels["tip_deflection"], n=8, fmin=1.0),
                                     excited, tol=0.05)
         for fe, fp in zip(excited, found):
@@ -151,7 +151,9 @@ def test_peak_interpolation_beats_the_bin_width():
     assert abs(found[1][0] - 34.63) < 0.01 * 34.63
 
 
-def test_regress_flags_a_perturbed_baseline_and_passes_the_real_one(tmp_path, capsys):
+def test_regress_flags_a_perturbed_baseline_and_passes_the_real_one(report, tmp_path, capsys):
+    """Runs the solvers against the shipped baselines; then the same runs, stored in the session's
+    report (`--results`), against a copy with fe-linear's tip deflection moved by 2 %."""
     real = resources.BASELINES
     args = ["--cases", "cantilever_step", "--solvers", FAST]
     assert main(["regress", "--baseline", str(real)] + args) == 0
@@ -162,7 +164,7 @@ def test_regress_flags_a_perturbed_baseline_and_passes_the_real_one(tmp_path, ca
     df = pd.read_csv(p, comment="#")
     df["tip_deflection"] *= 1.02
     p.write_text("\n".join(header) + "\n" + df.to_csv(index=False))
-    assert main(["regress", "--baseline", str(tmp_path)] + args) == 1
+    assert main(["regress", "--baseline", str(tmp_path), "--results", str(report)] + args) == 1
     err = capsys.readouterr().err
     assert "cantilever_step / fe-linear / tip_deflection" in err
     assert "moved: cantilever_step / analytic" not in err

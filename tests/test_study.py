@@ -1,7 +1,8 @@
 """`flexmbd study`: the grid, the study file, every point checked before any run, the tidy table
-(the same bytes on the pool and on a Dask LocalCluster) and its figures."""
+(the same bytes in this process and on a Dask LocalCluster) and its figures."""
 
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -69,9 +70,17 @@ def test_one_bad_point_stops_the_study_before_anything_runs(tmp_path, capsys):
     assert not out.exists()
 
 
-def test_a_study_writes_its_table_and_figures_and_keeps_its_runs(tmp_path, capsys):
-    out = tmp_path / "st"
+@pytest.fixture(scope="module")
+def grid_study(tmp_path_factory) -> Path:
+    """The study of GRID run in this process (its folder; read only: copy it to change it)."""
+    out = tmp_path_factory.mktemp("grid") / "st"
     assert main(["study", *GRID, "--out", str(out), "--workers", "1"]) == 0
+    return out
+
+
+def test_a_study_writes_its_table_and_figures_and_keeps_its_runs(grid_study, tmp_path, capsys):
+    out = tmp_path / "st"
+    shutil.copytree(grid_study, out)
     df = pd.read_parquet(out / "study.parquet")
     # 4 points x (analytic and the reference fe-linear) x 2 channels x 5 metrics
     assert len(df) == 4 * 2 * 2 * len(study.METRICS)
@@ -90,11 +99,11 @@ def test_a_study_writes_its_table_and_figures_and_keeps_its_runs(tmp_path, capsy
     assert capsys.readouterr().err.count("(stored, unchanged)") == 8
 
 
-def test_the_table_is_the_same_bytes_on_the_pool_and_on_a_dask_local_cluster(tmp_path):
+def test_the_table_is_the_same_bytes_in_this_process_and_on_a_dask_local_cluster(grid_study, tmp_path):
+    """(test_executor.py: a study's table on the pool and on a Dask cluster.)"""
     pytest.importorskip("distributed")
-    assert main(["study", *GRID, "--out", str(tmp_path / "pool"), "--workers", "2"]) == 0
     assert main(["study", *GRID, "--out", str(tmp_path / "dask"), "--dask-local", "2"]) == 0
-    assert (tmp_path / "pool" / "study.parquet").read_bytes() == (tmp_path / "dask" / "study.parquet").read_bytes()
+    assert (grid_study / "study.parquet").read_bytes() == (tmp_path / "dask" / "study.parquet").read_bytes()
 
 
 def test_the_study_options_are_one_line_when_missing_or_doubled(tmp_path, capsys):
