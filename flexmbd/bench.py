@@ -36,8 +36,9 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, metrics, solvers
+from flexmbd import cases, metrics, results, solvers
 from flexmbd.build import from_case
+from flexmbd.errors import InputError
 from flexmbd.files import json_text
 from flexmbd.kernel.entry import forward
 from flexmbd.model import make_data
@@ -217,8 +218,6 @@ def reference_run(name: str, stored: Path | None = None):
     if ref is None:
         return None, None
     if stored is not None:
-        from flexmbd.errors import InputError
-        from flexmbd import results
         try:
             r = results.read(stored, name, ref)
             if not results.stale(r, case.sha256, case.channels) and r.ok:
