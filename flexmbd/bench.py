@@ -82,20 +82,24 @@ MODAL_SCALE = 1e-3      # modal coordinates of the random state, against 0.3 rad
 
 
 def evaluation(model):
-    """A zero-argument call of one flexmbd forward-dynamics evaluation at a fixed random state:
-    `kernel.entry.forward` on the model and a Data, as a user calls it from Python. Joint
-    coordinates and rates ~ 0.3, modal ones ~ MODAL_SCALE (a 12-mode beam of the chain bends by
-    millimetres: with 0.3 on every mode its stiffened mass matrix would not be positive definite
-    and the accelerations not finite)."""
-    rng = np.random.default_rng(0)
+    """A zero-argument call of one flexmbd forward-dynamics evaluation at the fixed random `state`:
+    `kernel.entry.forward` on the model and a Data, as a user calls it from Python; and that state."""
     data = make_data(model)
+    q, v, tau = state(model)
+    return lambda: forward(model, data, 0.0, q, v, tau), (q, v, tau)
+
+
+def state(model) -> tuple:
+    """A fixed random state (q (nq,), v (nv,), tau (nv,) = 0): joint coordinates and rates ~ 0.3,
+    modal ones ~ MODAL_SCALE (a 12-mode beam of the chain bends by millimetres: with 0.3 on every
+    mode its stiffened mass matrix would not be positive definite and the accelerations not finite)."""
+    rng = np.random.default_rng(0)
     sq, sv = np.full(model.nq, 0.3), np.full(model.nv, 0.3)
     for i in range(1, model.nb + 1):                   # body_madr: the same index in q and in v
         a, n = model.body_madr[i], model.body_nm[i]
         sq[a:a + n] = sv[a:a + n] = MODAL_SCALE
     q, v = rng.normal(size=model.nq) * sq, rng.normal(size=model.nv) * sv
-    tau = np.zeros(model.nv)
-    return lambda: forward(model, data, 0.0, q, v, tau), (q, v, tau)
+    return q, v, np.zeros(model.nv)
 
 
 def rigid_chain(ns=(1, 2, 8, 32, 64)) -> list[dict]:

@@ -30,11 +30,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from flexmbd import flexbody, results
 from flexmbd.fe.solid import von_mises as solid_von_mises
 from flexmbd.fe.stress import section_stresses, von_mises
-from flexmbd.spatial import expm_so3
 
 
 @dataclass
@@ -145,7 +145,7 @@ def modal_root(fb: flexbody.FlexBody, eta) -> np.ndarray | None:
     beam with hinged-hinged modes (its deflections are measured from the chord)."""
     if fb.boundary == "hinged-hinged":
         return None
-    return np.array([expm_so3(w) for w in eta @ fb.Phi[0, :3, :].T]).reshape(-1, 3, 3)
+    return Rotation.from_rotvec((eta @ fb.Phi[0, :3, :].T).reshape(-1, 3)).as_matrix()
 
 
 def modal_shape(fb: flexbody.FlexBody, xs, eta, nodes: dict | None = None, origin=0.0) -> Beam:
@@ -337,14 +337,18 @@ def validity(traj: Trajectory) -> tuple[dict, tuple | None]:
 # one function per channel kind
 
 
-def chord_frame(e) -> np.ndarray:
-    """Rotation (3, 3) taking the x axis onto unit vector e by the smallest turn."""
-    x = np.array([1.0, 0.0, 0.0])
-    k = np.cross(x, e)
-    s = np.linalg.norm(k)
-    if s < 1e-15:
-        return np.eye(3)
-    return expm_so3(k / s * np.arctan2(s, x @ e))
+def chord_frames(e) -> np.ndarray:
+    """Rotations (n, 3, 3) taking the x axis onto the directions e (n, 3) by the smallest turn:
+    with u = e / |e|, k = x ~ u (|k| = sin of the turn, u_x its cosine), Rodrigues' formula
+    R = 1 + k~ + k~^2 / (1 + u_x); the identity where |k| < 1e-15 (u along +x or -x)."""
+    u = e / np.linalg.norm(e, axis=-1, keepdims=True)
+    K = np.zeros((len(u), 3, 3))
+    K[:, 0, 1], K[:, 0, 2] = -u[:, 1], -u[:, 2]            # k~ for k = (0, -u_z, u_y)
+    K[:, 1, 0], K[:, 2, 0] = u[:, 1], u[:, 2]
+    turned = np.hypot(u[:, 1], u[:, 2]) >= 1e-15
+    R = np.broadcast_to(np.eye(3), K.shape).copy()
+    R[turned] += K[turned] + K[turned] @ K[turned] / (1.0 + u[turned, 0])[:, None, None]
+    return R
 
 
 def displacement(beam: Beam, x: float, k=slice(None)) -> np.ndarray:
@@ -353,8 +357,7 @@ def displacement(beam: Beam, x: float, k=slice(None)) -> np.ndarray:
     r0 = beam.points[beam.origin][k]
     R = None if beam.root is None else beam.root[k]
     if R is None:
-        e = beam.points[beam.length][k] - r0
-        R = np.array([chord_frame(u / np.linalg.norm(u)) for u in e]).reshape(-1, 3, 3)
+        R = chord_frames((beam.points[beam.length][k] - r0).reshape(-1, 3))
     d = np.einsum("nji,nj->ni", R, beam.points[x][k] - r0)
     return d - (beam.x0[x] - beam.x0[beam.origin])
 

@@ -29,7 +29,7 @@ from flexmbd.dense import (back_subst_vec, cholesky, congruence_add_into, forwar
 from flexmbd.invariants import first_moment, inertia_and_forces_into, mass_matrix
 from flexmbd.jit import njit
 from flexmbd.joints import jcalc
-from flexmbd.model import Data, Model
+from flexmbd.model import Model
 from flexmbd.profiles import load_at, motion_at
 from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, expm_so3, inertia_parts, jac_left_so3,
                              jac_left_so3_dot, mv6_add_into, mv6_into, plux, plux_parts, xcongruence_add_into,
@@ -313,6 +313,12 @@ def aba(model, data, q, v, tau):
     jnt_prescribed set.
     """
     forward_kinematics(model, data, q, v)
+    return aba_after_kinematics(model, data, q, v, tau)
+
+
+@njit(inline="always")
+def aba_after_kinematics(model, data, q, v, tau):
+    """`aba` once `forward_kinematics` has run at (q, v): its other passes."""
     external_forces(model, data, q)
     body_forces(model, data, q, v, tau)
     articulated_inertias(model, data, tau)
@@ -321,7 +327,7 @@ def aba(model, data, q, v, tau):
 
 
 # ---------------------------------------------------------------------------------------------
-# energies (after forward_kinematics)
+# energies (after forward_kinematics; `kernel.entry.energy` evaluates them)
 
 
 @njit
@@ -363,17 +369,6 @@ def potential_energy(model, data, q):
     return V
 
 
-@njit
-def _energy(model, data, q, v):
-    forward_kinematics(model, data, q, v)
-    return kinetic_energy(model, data, q, v), potential_energy(model, data, q)
-
-
-def energy(model: Model, data: Data, q, v) -> tuple[float, float]:
-    """(kinetic, potential) energy of the state."""
-    return _energy(model.arrays, data, q, v)
-
-
 def free_velocities(model: Model) -> np.ndarray:
     """Indices into v of the coordinates that are not prescribed: free joints' and all modal."""
     keep = np.ones(model.nv, dtype=bool)
@@ -381,17 +376,3 @@ def free_velocities(model: Model) -> np.ndarray:
         if model.jnt_prescribed[i]:
             keep[model.jnt_vadr[i]:model.jnt_vadr[i] + model.jnt_nv[i]] = False
     return np.flatnonzero(keep)
-
-
-def mass_matrix_system(model: Model, data: Data, q) -> np.ndarray:
-    """M(q) (nv, nv) of the whole tree, from the kinetic energy T = 1/2 v^T M v by polarization:
-    M_ii = 2 T(e_i), M_ij = T(e_i + e_j) - T(e_i) - T(e_j). For diagnosis and linearization,
-    not for time stepping (nv^2 / 2 energy evaluations)."""
-    E = np.eye(model.nv)
-    T = [energy(model, data, q, E[i])[0] for i in range(model.nv)]
-    M = np.diag(2.0 * np.array(T))
-    for i in range(model.nv):
-        for j in range(i):
-            M[i, j] = M[j, i] = energy(model, data, q, E[i] + E[j])[0] - T[i] - T[j]
-    return M
-

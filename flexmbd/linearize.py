@@ -25,6 +25,7 @@ from flexmbd.errors import InputError
 from flexmbd.kernel.entry import forward_dynamics
 from flexmbd.model import Model, make_data
 from flexmbd.progress import Progress
+from flexmbd.kernel import entry
 
 STEP = 1e-6          # central-difference step on q and v (coordinates are O(1) rad or mass-normalized)
 
@@ -107,7 +108,7 @@ def equilibrium(model: Model, q0) -> np.ndarray:
     def V(x):
         q = np.array(q0, dtype=float)
         q[free] = x
-        return dynamics.energy(model, data, q, zero)[1]
+        return entry.energy(model, data, q, zero)[1]
 
     x = optimize.minimize(V, np.asarray(q0, dtype=float)[free], method="BFGS", options={"gtol": 1e-10}).x
     q = np.array(q0, dtype=float)
@@ -120,7 +121,7 @@ def mass_matrix(model: Model, q, t: float = 0.0) -> np.ndarray:
     dynamics' response to unit generalized forces, column c of M^-1 = (qdd(s e_c) - qdd(0)) / s.
     The response is linear in the force, so the large s (1e6 over the coordinate's unit) keeps
     qdd(0)'s round-off out of the difference; n + 1 evaluations where polarization
-    (`dynamics.mass_matrix_system`) takes n^2 / 2."""
+    (`entry.mass_matrix_system`) takes n^2 / 2."""
     free, data = dynamics.free_velocities(model), make_data(model)
     v, s = np.zeros(model.nv), 1e6
     qdd0 = forward_dynamics(model, data, q, v, t=t)[free]

@@ -106,7 +106,7 @@ def stiffening_limit(case, model: Model, sim, traj) -> results.Status | None:
     if not stiff or finite.size < 2:
         return None
     free, data = dynamics.free_velocities(model), make_data(model)
-    lam = [np.linalg.eigvalsh(dynamics.mass_matrix_system(model, data, sim.q[k])[np.ix_(free, free)])[0]
+    lam = [np.linalg.eigvalsh(entry.mass_matrix_system(model, data, sim.q[k])[np.ix_(free, free)])[0]
            for k in (0, finite[-1])]
     if lam[1] >= SINGULAR * lam[0]:
         return None
@@ -126,7 +126,7 @@ def stiffening_limit(case, model: Model, sim, traj) -> results.Status | None:
 def energies(model: Model, Q, V) -> np.ndarray:
     """(n, 2): kinetic and potential (gravity + strain) energy of every state, J."""
     data = make_data(model)
-    return np.array([dynamics.energy(model, data, q, v) for q, v in zip(Q, V)]).reshape(-1, 2)
+    return np.array([entry.energy(model, data, q, v) for q, v in zip(Q, V)]).reshape(-1, 2)
 
 
 class Evaluated(NamedTuple):

@@ -106,10 +106,17 @@ def test_modal_reach_bounds_every_displacement(boundary):
 
 
 def test_chord_frame_turns_x_onto_the_chord():
-    e = np.array([0.6, 0.8, 0.0])
-    R = channels.chord_frame(e)
-    assert np.allclose(R @ [1, 0, 0], e) and np.allclose(R.T @ R, np.eye(3))
-    assert np.allclose(R @ [0, 0, 1], [0, 0, 1])            # a planar chord keeps z
+    e = np.array([[0.6, 0.8, 0.0], [3.0, 0.0, 0.0], [-2.0, 0.0, 0.0], [1.0, -2.0, 2.0]])
+    R = channels.chord_frames(e)
+    u = e / np.linalg.norm(e, axis=1)[:, None]
+    assert np.allclose(R[[0, 1, 3]] @ [1, 0, 0], u[[0, 1, 3]])
+    assert np.allclose(np.einsum("nji,njk->nik", R, R), np.eye(3))
+    assert np.allclose(R[0] @ [0, 0, 1], [0, 0, 1])         # a planar chord keeps z
+    assert np.array_equal(R[2], np.eye(3))                  # along -x: no smallest turn, the identity
+    # the smallest turn: about the axis x ~ u, by the angle between them (Rodrigues' exp, apart)
+    k = np.cross([1.0, 0.0, 0.0], u[3])
+    angle = np.arctan2(np.linalg.norm(k), u[3, 0])
+    assert np.allclose(R[3], Rotation.from_rotvec(k / np.linalg.norm(k) * angle).as_matrix(), atol=1e-14)  # O(1) entries
 
 
 def test_clamp_reactions_are_the_rate_of_momentum_less_the_applied_loads():
@@ -138,14 +145,14 @@ def test_clamp_reactions_are_the_rate_of_momentum_less_the_applied_loads():
 
 def test_no_adapter_computes_a_channel_itself():
     """Adapters produce trajectories: none defines a channel function or forms stresses or chords."""
-    own = {"deflection", "stress", "stress_vm", "chord_frame", "von_mises", "channels"}
+    own = {"deflection", "stress", "stress_vm", "chord_frames", "von_mises", "channels"}
     for path in (Path(flexmbd.__file__).parent / "adapters").glob("*.py"):
         tree = ast.parse(path.read_text())
         defined = {n.name for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)}
         used = {n.attr if isinstance(n, ast.Attribute) else n.id for n in ast.walk(tree)
                 if isinstance(n, (ast.Attribute, ast.Name))}
         assert not defined & own, (path.name, defined & own)
-        assert not used & {"von_mises", "section_stresses", "chord_frame", "stress_coefficients"}, path.name
+        assert not used & {"von_mises", "section_stresses", "chord_frames", "stress_coefficients"}, path.name
 
 
 def test_stress_vm_at_a_section_point():

@@ -7,15 +7,16 @@ import pinocchio as pin
 import pytest
 from scipy.integrate import solve_ivp
 
-from flexmbd import cases, dynamics, flexbody, integrate, results, solver, solvers
+from flexmbd import cases, flexbody, integrate, results, solver, solvers
 from flexmbd.adapters import pinocchio_model
 from flexmbd.build import from_case
 from flexmbd.model import make_data
+from flexmbd.kernel import entry
 
 
 def energies(model, sim):
     data = make_data(model)
-    return np.array([dynamics.energy(model, data, q, v) for q, v in zip(sim.q, sim.v)])
+    return np.array([entry.energy(model, data, q, v) for q, v in zip(sim.q, sim.v)])
 
 
 @pytest.mark.parametrize("name,t_end", [("pendulum", 2.0), ("double_pendulum", 0.5),

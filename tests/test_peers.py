@@ -22,6 +22,7 @@ pin = pytest.importorskip("pinocchio")
 mujoco = pytest.importorskip("mujoco")
 
 from flexmbd.adapters import common, mujoco_common, mujoco_rigid, mujoco_rod, pinocchio_model, pinocchio_rigid  # noqa: E402
+from flexmbd.kernel import entry
 
 LUMPED = ['solvers.pinocchio.beam_mass="lumped"', 'solvers.mujoco.beam_mass="lumped"']
 
@@ -200,11 +201,11 @@ def test_pinocchio_model_from_the_case_against_flexmbds_model(tree):
     assert np.array_equal(eng.v0, pinocchio_model.to_pin_v(model, model.v0))
     data = make_data(model)
     P = velocity_permutation(model)
-    M_ref = P @ dynamics.mass_matrix_system(model, data, model.q0) @ P.T
+    M_ref = P @ entry.mass_matrix_system(model, data, model.q0) @ P.T
     M = pin.crba(eng.pm, eng.pd, eng.q0)
     M = np.triu(M) + np.triu(M, 1).T
     assert np.allclose(M, M_ref, rtol=1e-12, atol=1e-12 * np.abs(M_ref).max())
-    T, V = dynamics.energy(model, data, model.q0, model.v0)
+    T, V = entry.energy(model, data, model.q0, model.v0)
     assert eng.energy(eng.q0, eng.v0) == pytest.approx(T + V, rel=1e-12, abs=1e-12)
 
 
@@ -263,7 +264,7 @@ def test_mujoco_body_poses_velocities_and_energy_from_the_case_match_flexmbd(tre
     assert (m.nq, m.nv) == (model.nq, model.nv)
     mujoco.mj_forward(m, d)
     data = make_data(model)
-    T, V = dynamics.energy(model, data, model.q0, model.v0)
+    T, V = entry.energy(model, data, model.q0, model.v0)
     for i in range(1, model.nb + 1):
         R, p = dynamics.body_pose(data, i)
         b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, model.names[i])
@@ -276,7 +277,7 @@ def test_mujoco_body_poses_velocities_and_energy_from_the_case_match_flexmbd(tre
     M = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, d, M)
     k = model.jnt_vadr[model.index("arm")]                       # after the free joint (other layout)
-    M_ref = dynamics.mass_matrix_system(model, data, model.q0)
+    M_ref = entry.mass_matrix_system(model, data, model.q0)
     assert np.allclose(M[6:, 6:], M_ref[k:, k:], rtol=1e-12, atol=1e-12 * np.abs(M_ref).max())
 
 

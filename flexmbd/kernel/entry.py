@@ -1,5 +1,5 @@
-"""The kernel's one compiled entry, `evaluate`, and the calls into it: `forward` from Python,
-`rhs` from the compiled integrators.
+"""The kernel's one compiled entry, `evaluate`, and the calls into it: `forward` and `energy`
+from Python, `rhs` from the compiled integrators.
 
 `evaluate` is a C function (numba cfunc): the profiles at time t, the coordinate rates and the
 articulated-body algorithm (`dynamics`) for the Bound at an address. It is compiled once; the
@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numba import carray, types
 
-from flexmbd.dynamics import aba, prescribed
+from flexmbd.dynamics import (aba, aba_after_kinematics, forward_kinematics, kinetic_energy, potential_energy,
+                              prescribed)
 from flexmbd.jit import PURE_PYTHON, cfunc, njit
 from flexmbd.joints import qdot
 from flexmbd.kernel.bound import Bound, bind, bound_at, call_entry
@@ -25,14 +26,27 @@ _P = types.CPointer(types.float64)
 SIGNATURE = types.void(types.intp, types.float64, _P, _P, _P, _P, types.intp, types.intp, types.intp)
 
 
-def evaluate(address, t, q_ptr, v_ptr, tau_ptr, out_ptr, nq, nv, want_qdot):
+ACCELERATIONS, RATES, ENERGY = 0, 1, 2      # what `evaluate` computes (its last argument)
+
+
+def evaluate(address, t, q_ptr, v_ptr, tau_ptr, out_ptr, nq, nv, mode):
     """For the Bound at `address`, at time t, state q (nq,), v (nv,) and generalized forces tau (nv,):
-    the accelerations into its data.qdd and, if want_qdot, [dq/dt; qdd] into out (nq+nv,)."""
+    the accelerations into its data.qdd (mode ACCELERATIONS) and [dq/dt; qdd] into out (nq+nv,)
+    (RATES), or the kinetic and potential energy of the state as it is, no profile applied, into
+    out (2,) (ENERGY). The energy is here so that it is compiled with the rest, not as a second
+    copy of the kinematics in a function of its own (16 s of a first run's compilation)."""
     b = bound_at(address)
     model, data = b.model, b.data
-    q, v = prescribed(model, data, t, carray(q_ptr, nq), carray(v_ptr, nv))
-    qdd = aba(model, data, q, v, carray(tau_ptr, nv))
-    if want_qdot:
+    q, v = carray(q_ptr, nq), carray(v_ptr, nv)
+    if mode != ENERGY:
+        q, v = prescribed(model, data, t, q, v)
+    forward_kinematics(model, data, q, v)               # `aba`'s first pass, shared
+    if mode == ENERGY:
+        out = carray(out_ptr, 2)
+        out[0], out[1] = kinetic_energy(model, data, q, v), potential_energy(model, data, q)
+        return
+    qdd = aba_after_kinematics(model, data, q, v, carray(tau_ptr, nv))
+    if mode == RATES:
         out = carray(out_ptr, nq + nv)
         qdot(model, q, v, out[:nq])
         out[nq:] = qdd
@@ -59,18 +73,14 @@ def rhs(k, t, y, nq):
     """dy/dt (nq+nv,) for y = [q; v] at time t, through the entry `k` (`handle`); prescribed
     joints follow their profiles, no joint forces."""
     out = np.empty(y.size)
-    call_entry(k[0], k[1], t, y[:nq], y[nq:], np.zeros(y.size - nq), out, 1)
+    call_entry(k[0], k[1], t, y[:nq], y[nq:], np.zeros(y.size - nq), out, RATES)
     return out
 
 
 @njit
-def _forward_at(fn, address, t, q, v, tau):
-    call_entry(fn, address, t, q, v, tau, q, 0)
-
-
-@njit
-def _rates_at(fn, address, t, q, v, tau, out):
-    call_entry(fn, address, t, q, v, tau, out, 1)
+def _at(fn, address, t, q, v, tau, out, mode):
+    """One call of the entry at fn for the Bound at `address` (`evaluate`'s arguments)."""
+    call_entry(fn, address, t, q, v, tau, out, mode)
 
 
 _bound = {}
@@ -92,7 +102,7 @@ def forward(model: Model, data: Data, t: float, q, v, tau) -> np.ndarray:
     call from Python: q, v, tau C-contiguous float arrays, t a float. Returns data.qdd itself, as
     Pinocchio's `aba` returns `data.ddq`: copy it to keep it."""
     b, fn = _bound_of(model, data)
-    _forward_at(fn, b.address, t, q, v, tau)
+    _at(fn, b.address, t, q, v, tau, q, ACCELERATIONS)
     return data.qdd
 
 
@@ -101,8 +111,17 @@ def rates(model: Model, data: Data, t: float, q, v, tau) -> np.ndarray:
     joints' profile values), arguments as there."""
     b, fn = _bound_of(model, data)
     out = np.empty(q.size + v.size)
-    _rates_at(fn, b.address, t, q, v, tau, out)
+    _at(fn, b.address, t, q, v, tau, out, RATES)
     return out
+
+
+def energy(model: Model, data: Data, q, v) -> tuple[float, float]:
+    """(kinetic, potential) energy of the state (q, v) as it is (no profile applied)."""
+    b, fn = _bound_of(model, data)
+    q, v = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float)
+    out = np.empty(2)
+    _at(fn, b.address, 0.0, q, v, v, out, ENERGY)
+    return float(out[0]), float(out[1])
 
 
 if PURE_PYTHON:                                         # no addresses: the same passes, uncompiled
@@ -128,6 +147,11 @@ if PURE_PYTHON:                                         # no addresses: the same
         out[q.size:] = aba(model.arrays, data, q, v, tau)
         return out
 
+    def energy(model: Model, data: Data, q, v) -> tuple[float, float]:    # noqa: F811
+        """`energy` uncompiled."""
+        forward_kinematics(model.arrays, data, q, v)
+        return kinetic_energy(model.arrays, data, q, v), potential_energy(model.arrays, data, q)
+
 
 def forward_dynamics(model: Model, data: Data, q, v, tau=None, t: float = 0.0) -> np.ndarray:
     """Generalized accelerations (nv,) at time t (profiles of loads and prescribed joints applied),
@@ -135,3 +159,17 @@ def forward_dynamics(model: Model, data: Data, q, v, tau=None, t: float = 0.0) -
     tau = np.zeros(model.nv) if tau is None else np.asarray(tau, dtype=float)
     return forward(model, data, float(t), np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float),
                    np.ascontiguousarray(tau)).copy()
+
+
+def mass_matrix_system(model: Model, data: Data, q) -> np.ndarray:
+    """M(q) (nv, nv) of the whole tree, from the kinetic energy T = 1/2 v^T M v by polarization:
+    M_ii = 2 T(e_i), M_ij = T(e_i + e_j) - T(e_i) - T(e_j). For diagnosis and linearization,
+    not for time stepping (nv^2 / 2 energy evaluations)."""
+    E = np.eye(model.nv)
+    T = [energy(model, data, q, E[i])[0] for i in range(model.nv)]
+    M = np.diag(2.0 * np.array(T))
+    for i in range(model.nv):
+        for j in range(i):
+            M[i, j] = M[j, i] = energy(model, data, q, E[i] + E[j])[0] - T[i] - T[j]
+    return M
+
