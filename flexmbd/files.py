@@ -50,6 +50,12 @@ REASONS = {
 }
 
 
+def user_cache(*parts) -> Path:
+    """A path in flexmbd's folder of the user's cache ($XDG_CACHE_HOME, else ~/.cache): what is
+    kept between processes because it costs time to make again (compiled code, drawn figures)."""
+    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"), "flexmbd", *parts)
+
+
 def json_text(x, **kw) -> str:
     """Strict JSON text of x (`jsonable`, then json.dumps(allow_nan=False, **kw))."""
     return json.dumps(jsonable(x), allow_nan=False, **kw)

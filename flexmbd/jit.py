@@ -20,6 +20,8 @@ from pathlib import Path
 import numba
 from numba.core.errors import NumbaPerformanceWarning
 
+from flexmbd.files import user_cache
+
 warnings.filterwarnings("ignore", category=NumbaPerformanceWarning)
 
 _SOURCE = Path(__file__).resolve().parent             # the flexmbd package
@@ -48,8 +50,7 @@ def source_hash() -> str:
 
 
 def cache_dir() -> Path:
-    base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
-    return base / "flexmbd" / f"numba-{numba.__version__}-{source_hash()}"
+    return user_cache(f"numba-{numba.__version__}-{source_hash()}")
 
 
 # numba reads its settings again from the environment whenever a NUMBA_ variable differs from what

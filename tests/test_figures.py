@@ -223,3 +223,29 @@ def test_a_deflection_that_is_only_round_off_draws_as_a_straight_line(pendulum):
                                             "exudyn-beam"))
     lo, hi = top.get_ylim()
     assert hi - lo >= 1e-9 * 1e3 * (1 - 1e-9) and np.ptp(top.lines[0].get_ydata()) < 0.1 * (hi - lo)
+
+
+def test_a_figure_drawn_from_the_same_bytes_is_taken_from_the_cache(tmp_path, monkeypatch):
+    """`figures.kept` draws once per source: the second call copies the PNG and SVG (the same bytes),
+    another source draws again, and a cache that cannot be written is drawn around."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    drawn = []
+
+    def make():
+        drawn.append(1)
+        fig, ax = figures.plt.subplots()
+        ax.plot([0, 1], [0, len(drawn)])
+        return fig
+
+    a, b, c = (tmp_path / n for n in ("a", "b", "c"))
+    for d in (a, b, c):
+        d.mkdir()
+    assert figures.kept(a / "f.png", b"rows 1", make) == "f.png" and len(drawn) == 1
+    assert figures.kept(b / "f.png", b"rows 1", make) == "f.png" and len(drawn) == 1
+    for suffix in (".png", ".svg"):
+        assert (a / "f").with_suffix(suffix).read_bytes() == (b / "f").with_suffix(suffix).read_bytes()
+    figures.kept(c / "f.png", b"rows 2", make)
+    assert len(drawn) == 2
+    monkeypatch.setenv("XDG_CACHE_HOME", str(a / "f.png"))     # a file where the cache's folder would be
+    figures.kept(c / "g.png", b"rows 3", make)
+    assert len(drawn) == 3 and (c / "g.png").stat().st_size > 1000 and (c / "g.svg").is_file()

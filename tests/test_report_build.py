@@ -62,6 +62,7 @@ def test_an_interrupted_report_leaves_no_half_written_files(report, tmp_path, mo
         return real_savefig(self, *a, **k)
 
     monkeypatch.setattr(figures.plt.Figure, "savefig", interrupt)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))    # every figure drawn, none from the cache
     assert main(["report", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(out)]) == 130
     leftovers = [p for p in tmp_path.rglob("*") if p.name.startswith(".")]
     assert leftovers == []

@@ -6,6 +6,7 @@ bodies; the index's work-precision figure of a benchmark run."""
 
 from __future__ import annotations
 
+import hashlib
 import re
 import warnings
 import zlib
@@ -20,7 +21,8 @@ import numpy as np  # noqa: E402
 from matplotlib import ticker  # noqa: E402
 
 from flexmbd import channels, metrics  # noqa: E402
-from flexmbd.files import atomic_write  # noqa: E402
+from flexmbd.errors import InputError  # noqa: E402
+from flexmbd.files import atomic_write, user_cache  # noqa: E402
 
 DRAWN = {"m": ("mm", 1e3), "Pa": ("MPa", 1e-6)}     # SI unit (`channels.unit`) -> drawn unit, factor
 
@@ -496,9 +498,36 @@ def mode_shapes_figure(fb, title: str):
 SCHEME_LOOK = [("-", "o"), ("--", "s"), (":", "^"), ("-.", "D"), ((0, (5, 1, 1, 1)), "v")]
 
 
-def work_precision(rows: list, path: Path) -> str:
-    """`work_precision_figure`, saved (`save`)."""
+def work_precision(rows: list, path: Path, source: bytes = b"") -> str:
+    """`work_precision_figure`, saved (`save`); when `source` (the bytes the rows were read from)
+    is given, through the cache of drawn figures (`kept`)."""
+    if source:
+        return kept(path, source, lambda: work_precision_figure(rows))
     return save(work_precision_figure(rows), path)
+
+
+def kept(path: Path, source: bytes, figure) -> str:
+    """save(figure()) at path, or the PNG and SVG drawn before from the same `source` bytes by this
+    module's same code and matplotlib version, copied from the user's cache (`files.user_cache`).
+    A cache that cannot be read or written is drawn around: the figure is drawn."""
+    h = hashlib.sha256(source)
+    h.update(Path(__file__).read_bytes())
+    h.update(matplotlib.__version__.encode())
+    stored = user_cache("figures", h.hexdigest()[:24] + ".png")
+    try:
+        png, svg = stored.read_bytes(), stored.with_suffix(".svg").read_bytes()
+    except OSError:
+        name = save(figure(), path)
+        try:
+            stored.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write(stored.with_suffix(".svg"), path.with_suffix(".svg").read_bytes())
+            atomic_write(stored, path.read_bytes())         # the PNG last: it says the pair is whole
+        except (OSError, InputError):
+            pass
+        return name
+    atomic_write(path, png)
+    atomic_write(path.with_suffix(".svg"), svg)
+    return path.name
 
 
 def work_precision_figure(rows: list):

@@ -458,14 +458,15 @@ def bench_figure(series: dict, labels: list, machines: list):
 def figure(make, d: Path, name: str, shown, old: Path) -> str:
     """The figure `make()` as d/NAME-DIGEST.png and .svg (`figures.save`), DIGEST of what it shows
     (`shown`, as JSON) and of flexmbd's source; copied from the page's last folder `old` when it has
-    that file, not drawn again. Its PNG's name."""
-    digest = hashlib.sha256(json.dumps([shown, solvers.source_sha256()], default=str).encode()).hexdigest()[:12]
-    png = d / f"{name}-{digest}.png"
+    that file, else from the user's cache of drawn figures (`figures.kept`), not drawn again. Its
+    PNG's name."""
+    source = json.dumps([name, shown, solvers.source_sha256()], default=str).encode()
+    png = d / f"{name}-{hashlib.sha256(source).hexdigest()[:12]}.png"
     if (old / png.name).is_file() and (old / png.with_suffix(".svg").name).is_file():
         for p in (png, png.with_suffix(".svg")):
             files.atomic_write(p, (old / p.name).read_bytes())
         return png.name
-    return figures.save(make(), png)
+    return figures.kept(png, source, make)
 
 
 def page_key(recs: list, labels: list) -> str:

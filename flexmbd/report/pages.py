@@ -351,7 +351,7 @@ def bench_section(stage: Path, warn=None) -> tuple[str, str]:
         return "", ""
     path, run = got
     rows = run["work_precision"]
-    img = figures.work_precision(rows, stage / "work_precision.png")
+    img = figures.work_precision(rows, stage / "work_precision.png", source=path.read_bytes())
     date, _, rest = path.stem.partition("_")
     commit = rest.split("_")[0] or "not recorded"
     dropped = sum(not np.isfinite(r["error"]) for r in rows)
