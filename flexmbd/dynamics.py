@@ -26,7 +26,7 @@ import numpy as np
 
 from flexmbd.dense import (back_subst_vec, cholesky, congruence_add_into, forward_subst, inv_spd, mm, mm_into, mtm,
                            mtv, mtv_add_into, mv, mv_add_into, mv_into)
-from flexmbd.invariants import first_moment, inertia_and_forces_into, mass_matrix
+from flexmbd.invariants import first_moment, inertia_and_forces_into
 from flexmbd.jit import njit
 from flexmbd.joints import jcalc
 from flexmbd.model import Model
@@ -312,35 +312,44 @@ def aba(model, data, q, v, tau):
     the point loads' profile factors, and data.qdd_p (nv,), the accelerations of the joints with
     jnt_prescribed set.
     """
-    forward_kinematics(model, data, q, v)
-    return aba_after_kinematics(model, data, q, v, tau)
+    pass1(model, data, q, v, tau)
+    return passes23(model, data, tau)
 
 
 @njit(inline="always")
-def aba_after_kinematics(model, data, q, v, tau):
-    """`aba` once `forward_kinematics` has run at (q, v): its other passes."""
+def pass1(model, data, q, v, tau):
+    """`aba`'s pass 1: kinematics, then each body's own inertia M_i(eta) (into data.MA's leading
+    block) and forces."""
+    forward_kinematics(model, data, q, v)
     external_forces(model, data, q)
     body_forces(model, data, q, v, tau)
+
+
+@njit(inline="always")
+def passes23(model, data, tau):
+    """`aba`'s passes 2 and 3, after `pass1`: the accelerations, data.qdd itself."""
     articulated_inertias(model, data, tau)
     accelerations(model, data)
     return data.qdd
 
 
 # ---------------------------------------------------------------------------------------------
-# energies (after forward_kinematics; `kernel.entry.energy` evaluates them)
+# energies (after pass1; `kernel.entry.energy` evaluates them)
 
 
 @njit
-def kinetic_energy(model, data, q, v):
-    """1/2 sum_i [v_i; eta_d_i]^T M_i [v_i; eta_d_i]."""
+def kinetic_energy(model, data, v):
+    """1/2 sum_i [v_i; eta_d_i]^T M_i [v_i; eta_d_i], after `pass1` (v_i = data.v[i], M_i(eta) the
+    leading 6+nm block of data.MA[i]: the same mass matrix the dynamics uses)."""
     T = 0.0
     for i in range(1, model.parent.size):
         a, nm = model.body_madr[i], model.body_nm[i]
-        if nm == 0:
-            T += 0.5 * data.v[i] @ (model.body_inertia[i] @ data.v[i])
-        else:
-            vv = np.concatenate((data.v[i], v[a:a + nm]))
-            T += 0.5 * vv @ (mass_matrix(model.inv, i, q[a:a + nm]) @ vv)
+        for r in range(6 + nm):
+            xr = data.v[i, r] if r < 6 else v[a + r - 6]
+            s = 0.0
+            for c in range(6 + nm):
+                s += data.MA[i, r, c] * (data.v[i, c] if c < 6 else v[a + c - 6])
+            T += 0.5 * xr * s
     return T
 
 

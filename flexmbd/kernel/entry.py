@@ -15,8 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import carray, types
 
-from flexmbd.dynamics import (aba, aba_after_kinematics, forward_kinematics, kinetic_energy, potential_energy,
-                              prescribed)
+from flexmbd.dynamics import aba, kinetic_energy, pass1, passes23, potential_energy, prescribed
 from flexmbd.jit import PURE_PYTHON, cfunc, njit
 from flexmbd.joints import qdot
 from flexmbd.kernel.bound import Bound, bind, bound_at, call_entry
@@ -33,19 +32,20 @@ def evaluate(address, t, q_ptr, v_ptr, tau_ptr, out_ptr, nq, nv, mode):
     """For the Bound at `address`, at time t, state q (nq,), v (nv,) and generalized forces tau (nv,):
     the accelerations into its data.qdd (mode ACCELERATIONS) and [dq/dt; qdd] into out (nq+nv,)
     (RATES), or the kinetic and potential energy of the state as it is, no profile applied, into
-    out (2,) (ENERGY). The energy is here so that it is compiled with the rest, not as a second
-    copy of the kinematics in a function of its own (16 s of a first run's compilation)."""
+    out (2,) (ENERGY). The energy is here, after `aba`'s first pass (the bodies' mass matrices
+    M_i(eta) included), so that it is compiled with the rest, not as a second copy of the
+    kinematics and the mass matrix in a function of its own (16 s of a first run's compilation)."""
     b = bound_at(address)
     model, data = b.model, b.data
-    q, v = carray(q_ptr, nq), carray(v_ptr, nv)
+    q, v, tau = carray(q_ptr, nq), carray(v_ptr, nv), carray(tau_ptr, nv)
     if mode != ENERGY:
         q, v = prescribed(model, data, t, q, v)
-    forward_kinematics(model, data, q, v)               # `aba`'s first pass, shared
+    pass1(model, data, q, v, tau)                       # `aba`'s first pass, shared
     if mode == ENERGY:
         out = carray(out_ptr, 2)
-        out[0], out[1] = kinetic_energy(model, data, q, v), potential_energy(model, data, q)
+        out[0], out[1] = kinetic_energy(model, data, v), potential_energy(model, data, q)
         return
-    qdd = aba_after_kinematics(model, data, q, v, carray(tau_ptr, nv))
+    qdd = passes23(model, data, tau)
     if mode == RATES:
         out = carray(out_ptr, nq + nv)
         qdot(model, q, v, out[:nq])
@@ -120,7 +120,7 @@ def energy(model: Model, data: Data, q, v) -> tuple[float, float]:
     b, fn = _bound_of(model, data)
     q, v = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float)
     out = np.empty(2)
-    _at(fn, b.address, 0.0, q, v, v, out, ENERGY)
+    _at(fn, b.address, 0.0, q, v, np.zeros(v.size), out, ENERGY)
     return float(out[0]), float(out[1])
 
 
@@ -149,8 +149,8 @@ if PURE_PYTHON:                                         # no addresses: the same
 
     def energy(model: Model, data: Data, q, v) -> tuple[float, float]:    # noqa: F811
         """`energy` uncompiled."""
-        forward_kinematics(model.arrays, data, q, v)
-        return kinetic_energy(model.arrays, data, q, v), potential_energy(model.arrays, data, q)
+        pass1(model.arrays, data, q, v, np.zeros(v.size))
+        return kinetic_energy(model.arrays, data, v), potential_energy(model.arrays, data, q)
 
 
 def forward_dynamics(model: Model, data: Data, q, v, tau=None, t: float = 0.0) -> np.ndarray:
