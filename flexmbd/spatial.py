@@ -202,12 +202,10 @@ def mv6_add_into(A, x, out):
 
 @njit(inline="always")
 def mv6_into(A, x, out):
-    """out = A x for A (6, 6), x (6,): fixed loop bounds (unrolled)."""
+    """out = A x for A (6, 6), x (6,) (`mv6_add_into` on a zeroed out)."""
     for i in range(6):
-        s = 0.0
-        for l in range(6):
-            s += A[i, l] * x[l]
-        out[i] = s
+        out[i] = 0.0
+    mv6_add_into(A, x, out)
 
 
 @njit
