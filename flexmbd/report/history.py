@@ -455,18 +455,12 @@ def bench_figure(series: dict, labels: list, machines: list):
 # the page
 
 
-def figure(make, d: Path, name: str, shown, old: Path) -> str:
+def figure(make, d: Path, name: str, shown) -> str:
     """The figure `make()` as d/NAME-DIGEST.png and .svg (`figures.save`), DIGEST of what it shows
-    (`shown`, as JSON) and of flexmbd's source; copied from the page's last folder `old` when it has
-    that file, else from the user's cache of drawn figures (`figures.kept`), not drawn again. Its
-    PNG's name."""
+    (`shown`, as JSON) and of flexmbd's source; copied from the user's cache of drawn figures when
+    drawn before (`figures.kept`). Its PNG's name."""
     source = json.dumps([name, shown, solvers.source_sha256()], default=str).encode()
-    png = d / f"{name}-{hashlib.sha256(source).hexdigest()[:12]}.png"
-    if (old / png.name).is_file() and (old / png.with_suffix(".svg").name).is_file():
-        for p in (png, png.with_suffix(".svg")):
-            files.atomic_write(p, (old / p.name).read_bytes())
-        return png.name
-    return figures.kept(png, source, make)
+    return figures.kept(d / f"{name}-{hashlib.sha256(source).hexdigest()[:12]}.png", source, make)
 
 
 def page_key(recs: list, labels: list) -> str:
@@ -517,23 +511,23 @@ def page(out, warn=None) -> Path:
     except (OSError, ValueError, AttributeError):
         pass
     with files.generation(out) as stage:
-        html_text, md_text = sections(recs, labels, stage / PAGE, out / PAGE)
+        html_text, md_text = sections(recs, labels, stage / PAGE)
         files.atomic_write(stage / PAGE / "page.json", json.dumps({"key": key}) + "\n")
         files.atomic_write(stage / "history.html", html_text)
         files.atomic_write(stage / "history.md", md_text)
     return out / "history.html"
 
 
-def sections(recs: list, labels: list, d: Path, old: Path) -> tuple[str, str]:
+def sections(recs: list, labels: list, d: Path) -> tuple[str, str]:
     """The page (html, markdown) of records `recs` (commit labels oldest first: `labels`), its
-    figures written into `d` (or copied from the last page's folder `old`: `figure`)."""
+    figures written into `d` (or copied from the user's cache: `figure`)."""
     reports = [r for r in recs if "runs" in r]
     benches = [r for r in recs if "bench" in r]
     parts = [("", *introduction(recs, [lab for lab in labels if any(label(r) == lab for r in reports)])),
              ("Commits, oldest first", *commit_table(recs, labels))]
-    parts += case_sections(reports, labels, d, old)
+    parts += case_sections(reports, labels, d)
     if benches:
-        parts.append(("Benchmarks", *bench_section(benches, labels, d, old)))
+        parts.append(("Benchmarks", *bench_section(benches, labels, d)))
     title = "flexmbd history"
     doc = [f"<!doctype html><html><head><meta charset='utf-8'><title>{title}</title><style>{pages.CSS}</style></head>"
            f"<body><p><a href='index.html'>report</a></p><h1>{title}</h1>"]
@@ -582,7 +576,7 @@ def commit_table(recs: list, labels: list) -> tuple[str, str]:
     return tables.html_table(head, rows), tables.markdown(head, rows)
 
 
-def case_sections(reports: list, labels: list, d: Path, old: Path) -> list[tuple]:
+def case_sections(reports: list, labels: list, d: Path) -> list[tuple]:
     """One section (title, html, markdown) per case of the report records: its figure across the
     commits (`case_figure`, into `d`) and the table of each solver's latest values (`latest_rows`)."""
     machines = list(dict.fromkeys(r["machine"]["name"] for r in reports))
@@ -600,21 +594,21 @@ def case_sections(reports: list, labels: list, d: Path, old: Path) -> list[tuple
             continue
         shown = [lab for lab in labels if any(lab in pts for pts in series.values())]
         img = figure(lambda: case_figure(case, series, shown, machines), d, case,
-                     [sorted(series.items()), shown, machines], old)
+                     [sorted(series.items()), shown, machines])
         rows = latest_rows(series, shown)
         out.append((case, f"<p><img src='{PAGE}/{img}' alt='{img}'></p>" + tables.html_table(head, rows),
                     f"![{img}]({PAGE}/{img})\n\n" + tables.markdown(head, rows)))
     return out
 
 
-def bench_section(benches: list, labels: list, d: Path, old: Path) -> tuple[str, str]:
+def bench_section(benches: list, labels: list, d: Path) -> tuple[str, str]:
     """The bench records' figure across commits (`bench_figure`, into `d`), what it shows and the
     list of the records, as (html, markdown)."""
     shown = [lab for lab in labels if any(label(r) == lab for r in benches)]
     machines = list(dict.fromkeys(r["machine"]["name"] for r in benches))
     got = bench_series(benches)
     img = figure(lambda: bench_figure(got, shown, machines), d, "bench",
-                 [sorted((k, sorted(v.items())) for k, v in got.items()), shown, machines], old)
+                 [sorted((k, sorted(v.items())) for k, v in got.items()), shown, machines])
     note = ("<p>Each <code>flexmbd bench</code> run (benchmarks/README.md): the wall-time ratio of flexmbd to "
             "exudyn-ffrf at their fastest settings meeting each error target (below 1: flexmbd faster), of one "
             "rigid-chain evaluation to Pinocchio's, the fitted exponent of the flexible chain's cost against its "
