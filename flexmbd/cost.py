@@ -387,12 +387,12 @@ def fe_linear(case, t_end: float, opt: dict) -> list:
     n DOFs."""
     (name, body), = case.bodies.items()
     n = 3 * solid_nodes(body) if body.type == "solid" else 6 * body.elements
-    scheme = opt["scheme"] or ("newmark" if body.type == "solid" else "exact")
+    damped = body.damping_ratio > 0
+    scheme = opt["scheme"] or ("newmark" if body.type == "solid" else "exact" if damped else "modal")
     dt = opt["dt"] or (5e-5 if scheme == "newmark" else case.integrator.output_dt)
     out_dt = case.integrator.output_dt
     stride = max(round(out_dt / dt), 1)
     steps = (samples(case, t_end) - 1) * stride
-    damped = body.damping_ratio > 0
     if scheme == "exact":
         setup_s, setup_b, per_step = 3e-10 * (2 * n) ** 3, 48.0 * (2 * n) ** 2, 1e-9 * (2 * n) ** 2
     elif scheme == "modal":                     # eigh of the dense pair (its bar: elapsed against this

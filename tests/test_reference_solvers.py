@@ -87,7 +87,7 @@ def test_fe_linear_modal_scheme_against_the_matrix_exponential():
     Kf, Mf = K[free][:, free].tocsc(), M[free][:, free].tocsc()
     (f, profile), = fe_linear.load_vectors(case, K.shape[0])
     g = lambda t: profiles.load_factor(profile, t)
-    a = fe_linear.exact(Kf, Mf, None, lambda t: f[free] * g(t), 1e-4, 10, 51)
+    a = fe_linear.exact(Kf, Mf, None, [(f[free], g)], 1e-4, 10, 51)
     b = fe_linear.modal(Kf, Mf, [(f[free], g)], 1e-4, 10, 51)
     for x, y in zip(a, b):
         assert np.abs(x - y).max() < 1e-7 * np.abs(x).max()
