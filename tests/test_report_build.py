@@ -103,15 +103,19 @@ def test_a_page_whose_inputs_are_unchanged_is_kept_and_any_change_draws_it_again
 
 
 def test_pages_drawn_side_by_side_are_the_pages_drawn_one_after_another(report, tmp_path, monkeypatch):
-    """Two cases whose runs end at once: the second page goes to a second Drawer while the first is
-    busy (one per core at most, build.DRAWERS), and each page is the one a single Drawer draws."""
+    """Two cases whose runs end at once while a third's still go on: the second page goes to a
+    second Drawer while the first is busy (one per core at most, build.DRAWERS), and each page is
+    the one a single Drawer draws. Once every run has ended no Drawer starts: the last page is
+    left to the report's own process."""
     from flexmbd.report import build, loading
     out = tmp_path / "out"
     shutil.copytree(report / "results", out / "results")
-    copy = tmp_path / "cantilever_copy.toml"
-    copy.write_text(cases.find("cantilever_step").read_text())
+    copy, later = tmp_path / "cantilever_copy.toml", tmp_path / "cantilever_later.toml"
+    for path in (copy, later):
+        path.write_text(cases.find("cantilever_step").read_text())
     shutil.copytree(out / "results" / "cantilever_step", out / "results" / "cantilever_copy")
     both = [cases.load("cantilever_step"), cases.load(str(copy))]
+    running = cases.load(str(later))                   # its jobs never told: its runs go on
     names = FAST.split(",")
     pids = []
     send = build.Drawer.send
@@ -127,8 +131,10 @@ def test_pages_drawn_side_by_side_are_the_pages_drawn_one_after_another(report, 
         monkeypatch.setattr(build, "DRAWERS", drawers)
         stage = tmp_path / f"stage{drawers}"
         pids.clear()
-        got = build.drawn_while(run, out, stage, both, names, reuse=False)
+        got = build.drawn_while(run, out, stage, both + [running], names, reuse=False)
         assert sorted(got) == ["cantilever_copy", "cantilever_step"]
         assert len(set(pids)) == drawers, pids
         pages[drawers] = {c.name: (stage / c.name / "index.md").read_text() for c in both}
     assert pages[1] == pages[2]
+    pids.clear()                                        # one case: its runs over, no Drawer starts for its page
+    assert build.drawn_while(run, out, tmp_path / "stage3", both[:1], names, reuse=False) == {} and pids == []
