@@ -100,9 +100,9 @@ def drawn_while(run, out: Path, stage: Path, chosen_cases, names, reuse: bool) -
     as soon as after(case, solver) has been told of its last job (a page that `reuse` keeps is
     not drawn). A page goes to the Drawer with the fewest pages in hand; another Drawer starts
     while every one is busy, up to one per core (`DRAWERS`), so that the pages left when the runs
-    end are drawn side by side; but none starts once every job is done: the page is then left to
-    this process (`_write`), which a Drawer started only then would keep waiting while it imports
-    what drawing needs (about 1.5 s: a one-case report's whole page, later). Returns case name -> (what its page gave, its warnings) of the
+    end are drawn side by side; but the first does not start once every job is done: the page is
+    then left to this process (`_write`), which a Drawer started only then would keep waiting while
+    it imports what drawing needs (about 1.5 s: a one-case report's whole page, later). Returns case name -> (what its page gave, its warnings) of the
     pages drawn."""
     left = {c.name: set(loading.jobs(c, names)) for c in chosen_cases}
     drawers, most = [], min(DRAWERS, len(chosen_cases))
@@ -115,8 +115,8 @@ def drawn_while(run, out: Path, stage: Path, chosen_cases, names, reuse: bool) -
         if todo or (reuse and unchanged(out, case, names)):
             return
         if len(drawers) < most and all(d.pending() for d in drawers):
-            if not any(left.values()):      # the runs are over: this process is free to draw it (`_write`),
-                return                      # sooner than a new one has imported what drawing needs
+            if not drawers and not any(left.values()):  # the runs are over, no page being drawn: this
+                return                      # process draws it (`_write`), sooner than a new one could import
             drawers.append(Drawer(out, stage, True))            # the report writes its index
         min(drawers, key=Drawer.pending).send(case, loading.jobs(case, names))
 
