@@ -351,10 +351,10 @@ def run(quick: bool = False, with_work_precision: bool = True, progress=None, st
         else:
             ours = ([("dopri5", r) for r in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)]
                     + [("fox-goodwin", dt) for dt in (5e-4, 2e-4, 1e-4, 5e-5, 2.5e-5)]
-                    + [("exp-adams", dt) for dt in (4e-3, 2e-3, 1e-3, 5e-4)]
+                    + [("exp-adams", dt) for dt in (3.2e-2, 1.6e-2, 8e-3, 4e-3, 2e-3, 1e-3, 5e-4)]
                     + [("adams", r) for r in (1e-5, 1e-7, 1e-9)])
             theirs = ([("generalized-alpha", dt) for dt in (2e-4, 1e-4, 5e-5, 2.5e-5)]
-                      + [("fox-goodwin", dt) for dt in (4e-4, 2e-4, 1e-4, 5e-5, 2.5e-5)])
+                      + [("fox-goodwin", dt) for dt in (8e-4, 4e-4, 2e-4, 1e-4, 5e-5, 2.5e-5)])
         out["work_precision"], info = work_precision(names, ours, theirs, progress, stored)
         out["exudyn_convergence"], out["models"] = info["convergence"], info["models"]
         out["matched_accuracy"] = matched_accuracy(out["work_precision"])
