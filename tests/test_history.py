@@ -187,6 +187,9 @@ def test_the_stored_bench_runs_are_read_and_a_bench_run_kept_beside_them(tmp_pat
     got = {history.label(r): r for r in stored}
     assert "9af03fa" in got and got["9af03fa"]["machine"]["name"] == history.PROJECT
     assert got["9af03fa"]["recorded"] == "2026-12-01" and "b5ab8cc" in got       # DATE_COMMIT_NOTE.json
+    assert got["a1f709f"]["recorded"] == "2026-12-03T2103"                     # DATETHHMM_COMMIT.json
+    order = [history.label(r) for r in stored]                                  # oldest first, by date and time
+    assert order.index("9af03fa") < order.index("d7370be") < order.index("8fd4385") < order.index("a1f709f")
     raw = json.loads((resources.HISTORY / "2026-12-01_9af03fa.json").read_text())
     series = history.bench_series(stored)
     assert series["exponent"][("flexible chain", history.PROJECT)]["9af03fa"] == raw["flexible_chain_exponent"]

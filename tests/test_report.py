@@ -332,14 +332,17 @@ def bench_run(folder: Path, name: str, machine: str, error: float = 1e-4) -> Non
 
 def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(report, tmp_path, monkeypatch, capsys):
     """With benchmark runs in the history folder the index shows the newest one's work-precision
-    figure, naming its file, commit and machine and saying its times are not this report's; a
-    broken file is passed over with a warning. Without any, the index says nothing about it."""
+    figure, naming its file, commit and machine and saying its times are not this report's (newest
+    by the date and time the name starts with: a name with a date alone counts from the day's
+    start, whatever its name's order); a broken file is passed over with a warning. Without any,
+    the index says nothing about it."""
     out = tmp_path / "rep"
     shutil.copytree(report / "results", out / "results")
     history = tmp_path / "history"
     history.mkdir()
     bench_run(history, "2026-11-22_aaaaaaa.json", "old machine")
-    bench_run(history, "2026-12-01_bbbbbbb.json", "new machine")
+    bench_run(history, "2026-12-01_zzzzzzz.json", "old machine")
+    bench_run(history, "2026-12-01T1700_bbbbbbb.json", "new machine")
     (history / "2026-12-02_ccccccc.json").write_text("{not json")
     monkeypatch.setattr(resources, "HISTORY", history)
     args = ["report", "--no-run", "--cases", "cantilever_step", "--solvers", FAST, "--out", str(out)]
@@ -347,8 +350,9 @@ def test_index_shows_the_latest_work_precision_run_and_nothing_without_one(repor
     assert "2026-12-02_ccccccc.json: benchmark run not shown" in capsys.readouterr().err
     page, md = (out / "index.html").read_text(), (out / "index.md").read_text()
     for text in (page, md):
-        assert "2026-12-01_bbbbbbb.json" in text and "commit bbbbbbb" in text and "machine: new machine" in text
-        assert "not in this report's runs" in text and "aaaaaaa" not in text and "old machine" not in text
+        assert "2026-12-01T1700_bbbbbbb.json" in text and "commit bbbbbbb" in text and "machine: new machine" in text
+        assert "not in this report's runs" in text and "old machine" not in text
+        assert "aaaaaaa" not in text and "zzzzzzz" not in text
     assert "<h2>Work and precision</h2><p><img src='work_precision.png'" in page
     assert "![work_precision.png](work_precision.png)" in md
     assert (out / "work_precision.png").is_file() and (out / "work_precision.svg").is_file()

@@ -5,7 +5,7 @@
                                             (status, verdict, each channel's RMS difference and
                                             tolerance, the worst over its tolerance, wall time)
     OUT/history/MACHINE/COMMIT-bench.json   a `flexmbd bench` run written to OUT/bench
-    benchmarks/history/DATE_COMMIT[_NOTE].json   the project's stored bench runs, read in place
+    benchmarks/history/DATE[THHMM]_COMMIT[_NOTE].json   the project's stored bench runs, read in place
                                             (machine PROJECT, commit from the file name)
     OUT/history.html, history.md            the page; its figures and key in OUT/history-page/
 
@@ -239,17 +239,18 @@ def records(out, warn=None) -> list[dict]:
 
 
 def stored_bench(where: Path | None, warn=None) -> list[dict]:
-    """The project's stored bench runs (benchmarks/history/DATE_COMMIT[_NOTE].json; where None: an
-    installed package, which has none) as bench records of machine PROJECT, their commit from the
-    file name, recorded at their date; a file that cannot be read is passed over (`warn` is told)."""
+    """The project's stored bench runs (benchmarks/history/DATE[THHMM]_COMMIT[_NOTE].json, oldest
+    first: `pages.bench_runs`; where None: an installed package, which has none) as bench records
+    of machine PROJECT, their commit from the file name, recorded at its date and time; a file that
+    cannot be read is passed over (`warn` is told)."""
     got = []
-    for path in sorted(Path(where).glob("*.json") if where else []):
+    for path in pages.bench_runs(where):
         date, _, rest = path.stem.partition("_")
         rev = rest.split("_")[0]
         try:
             run = json.loads(path.read_text())
             if not (isinstance(run, dict) and NAME.fullmatch(rev) and seconds(date) is not None):
-                raise ValueError("not DATE_COMMIT[_NOTE].json holding a JSON object")
+                raise ValueError("not DATE[THHMM]_COMMIT[_NOTE].json holding a JSON object")
         except (OSError, ValueError) as e:
             if warn:
                 warn(f"warning: {path}: benchmark run left out of the history page: {e}")

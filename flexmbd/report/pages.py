@@ -316,14 +316,27 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     return {"accuracy": acc, "runs": runs}
 
 
+def bench_runs(folder: Path | None) -> list[Path]:
+    """The stored bench runs in `folder` (DATE[THHMM]_COMMIT[_NOTE].json; None: an installed
+    package, which has none), oldest first: by the date and time that start the name (a name
+    without a time counts from its day's start, one that is no date before every other), then by
+    name."""
+    def when(path: Path) -> float:
+        try:
+            t = datetime.datetime.fromisoformat(path.stem.partition("_")[0])
+        except ValueError:
+            return -np.inf
+        return (t if t.tzinfo else t.replace(tzinfo=datetime.timezone.utc)).timestamp()
+    return sorted(Path(folder).glob("*.json") if folder else [], key=lambda p: (when(p), p.name))
+
+
 def latest_bench(folder: Path | None, warn=None) -> tuple[Path, dict] | None:
-    """The newest benchmark run in `folder` (None: an installed package, which has none) with
-    work-precision rows: (its file, its contents), or None. Newest by file name
-    (DATE_COMMIT[_NOTE].json, the date first; a day's runs in name order); a file that cannot be
-    read or whose rows lack a key is passed over (`warn` is told)."""
+    """The newest benchmark run in `folder` (`bench_runs`' last) with work-precision rows: (its
+    file, its contents), or None; a file that cannot be read or whose rows lack a key is passed
+    over (`warn` is told)."""
     keys = {"case", "solver", "scheme", "error", "wall_s"}
     number = lambda v: v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
-    for path in sorted(Path(folder).glob("*.json") if folder else [], reverse=True):
+    for path in reversed(bench_runs(folder)):
         try:
             run = json.loads(path.read_text())
             rows = run.get("work_precision") if isinstance(run, dict) else None
