@@ -102,8 +102,8 @@ def drawn_while(run, out: Path, stage: Path, chosen_cases, names, reuse: bool) -
     while every one is busy, up to one per core (`DRAWERS`), so that the pages left when the runs
     end are drawn side by side; but the first does not start once every job is done: the page is
     then left to this process (`_write`), which a Drawer started only then would keep waiting while
-    it imports what drawing needs (about 1.5 s: a one-case report's whole page, later). Returns case name -> (what its page gave, its warnings) of the
-    pages drawn."""
+    it imports what drawing needs (about 1.5 s: a one-case report's whole page, later). Returns
+    case name -> (what its page gave, its warnings) of the pages drawn."""
     left = {c.name: set(loading.jobs(c, names)) for c in chosen_cases}
     drawers, most = [], min(DRAWERS, len(chosen_cases))
 
