@@ -114,9 +114,9 @@ def drawn_while(run, out: Path, stage: Path, chosen_cases, names, reuse: bool) -
         todo.discard(solver)
         if todo or (reuse and unchanged(out, case, names)):
             return
+        if not drawers and not any(left.values()):      # the runs are over, no page being drawn: this
+            return                                      # process draws it (`_write`), sooner than a new one
         if len(drawers) < most and all(d.pending() for d in drawers):
-            if not drawers and not any(left.values()):  # the runs are over, no page being drawn: this
-                return                      # process draws it (`_write`), sooner than a new one could import
             drawers.append(Drawer(out, stage, True))            # the report writes its index
         min(drawers, key=Drawer.pending).send(case, loading.jobs(case, names))
 

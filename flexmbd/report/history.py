@@ -40,6 +40,7 @@ from matplotlib.ticker import FuncFormatter
 from flexmbd import files, resources, results, solvers
 from flexmbd.errors import InputError
 from flexmbd.report import accuracy, figures, pages, tables
+from flexmbd.report.pages import seconds
 from flexmbd.version import __version__
 
 FOLDER = "history"              # in OUT: MACHINE/COMMIT.json, MACHINE/COMMIT-bench.json
@@ -213,15 +214,6 @@ def problem(rec, bench: bool) -> str:
         if bad:
             return f"runs[{k}].{bad[0]} is not a number"
     return ""
-
-
-def seconds(text) -> float | None:
-    """An ISO date and time as seconds since the epoch (UTC when it names no zone); None if it is not one."""
-    try:
-        t = datetime.datetime.fromisoformat(text)
-    except (TypeError, ValueError):
-        return None
-    return (t if t.tzinfo else t.replace(tzinfo=datetime.timezone.utc)).timestamp()
 
 
 def records(out, warn=None) -> list[dict]:

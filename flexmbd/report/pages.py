@@ -316,17 +316,23 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     return {"accuracy": acc, "runs": runs}
 
 
+def seconds(text) -> float | None:
+    """An ISO date and time as seconds since the epoch (UTC when it names no zone); None if it is not one."""
+    try:
+        t = datetime.datetime.fromisoformat(text)
+    except (TypeError, ValueError):
+        return None
+    return (t if t.tzinfo else t.replace(tzinfo=datetime.timezone.utc)).timestamp()
+
+
 def bench_runs(folder: Path | None) -> list[Path]:
     """The stored bench runs in `folder` (DATE[THHMM]_COMMIT[_NOTE].json; None: an installed
     package, which has none), oldest first: by the date and time that start the name (a name
     without a time counts from its day's start, one that is no date before every other), then by
     name."""
     def when(path: Path) -> float:
-        try:
-            t = datetime.datetime.fromisoformat(path.stem.partition("_")[0])
-        except ValueError:
-            return -np.inf
-        return (t if t.tzinfo else t.replace(tzinfo=datetime.timezone.utc)).timestamp()
+        t = seconds(path.stem.partition("_")[0])
+        return -np.inf if t is None else t
     return sorted(Path(folder).glob("*.json") if folder else [], key=lambda p: (when(p), p.name))
 
 
