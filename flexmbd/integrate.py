@@ -9,7 +9,8 @@ Methods (the case's `[integrator] method`):
           method, but one or two evaluations per step
   exp-adams  exponential Adams predictor-corrector (PECE, order 3), fixed step `dt`, compiled
           (`exp_adams`): f(y) = L y + N(y) with L the Jacobian, re-linearized every EXP_REFRESH
-          steps (every EXP_FULL-th time in full, between only its fast eigenvalues), L integrated
+          steps (where dq/dt = v, [[0, I], [d(qdd)/dq, 0]] each time; else every EXP_FULL-th
+          time in full, between only its fast eigenvalues), L integrated
           exactly in its eigenbasis and N through the polynomial of its last values; two
           evaluations a step, stable and phase-exact for the modes of L at any step, so the step
           is set by the accuracy of the slow motion and of the remainder (docs/formulation.md §6)
@@ -588,6 +589,20 @@ def jacobian(ev, nq, t, y):
 
 
 @njit
+def position_jacobian(ev, nq, t, y):
+    """A = d(qdd)/dq (nq, nq) at (t, y) by forward differences (nq + 1 evaluations): the lower-left
+    block of the Jacobian of y = [q; v] when dq/dt = v."""
+    f0 = rhs(ev, t, y, nq)
+    A = np.empty((nq, nq))
+    for k in range(nq):
+        yp = y.copy()
+        d = 1e-7 * max(abs(y[k]), 1.0)
+        yp[k] += d
+        A[:, k] = (rhs(ev, t, yp, nq)[nq:] - f0[nq:]) / d
+    return A
+
+
+@njit
 def phi_functions(z, kmax):
     """phi_0..phi_kmax (kmax+1, n) of the complex numbers z (n,): phi_0 = exp, phi_j(z) =
     (phi_{j-1}(z) - 1/(j-1)!) / z, phi_j(0) = 1/j!; the Taylor series where |z| < 1/2."""
@@ -640,18 +655,53 @@ def exp_weights(lam, h, nodes, frac):
 
 def eigenbasis(J):
     """J = V diag(lam) V^-1: (lam (n,), V, Vi (n, n)), complex, or None when J has no eigenbasis
-    that reproduces it (a defective or nearly defective J: V Λ V^-1 x off J x by more than 1e-6
-    of |J| |x| on a test vector) or is not finite."""
+    that reproduces it (`reproduces`) or is not finite."""
     try:
         lam, V = np.linalg.eig(J)
         Vi = np.linalg.inv(V)
     except np.linalg.LinAlgError:
         return None
     x = np.linspace(1.0, 2.0, J.shape[0])
-    if not np.all(np.isfinite(Vi)) or \
-            np.linalg.norm(V @ (lam * (Vi @ x)) - J @ x) > 1e-6 * np.abs(J).max() * np.linalg.norm(x):
+    return reproduces(J @ x, np.abs(J).max(), x, lam.astype(np.complex128), V.astype(np.complex128),
+                      Vi.astype(np.complex128))
+
+
+def second_order_basis(A):
+    """The eigenbasis of L = [[0, I], [A, 0]] (2m, 2m) from that of A = X diag(mu) X^-1 (m, m):
+    L [x; s x] = s [x; s x] for s^2 = mu, so lam = [s; -s] (s = sqrt(mu)), V = [[X, X], [X S, -X S]]
+    and Vi = 1/2 [[X^-1, S^-1 X^-1], [X^-1, -S^-1 X^-1]] (S = diag(s)): an m x m eigenproblem
+    for the 2m x 2m one. None as `eigenbasis` (mu = 0, a coordinate with no restoring force,
+    makes L's block [[0, 1], [0, 0]] defective)."""
+    m = A.shape[0]
+    try:
+        mu, X = np.linalg.eig(A)
+        Xi = np.linalg.inv(X)
+    except np.linalg.LinAlgError:
         return None
-    return lam.astype(np.complex128), V.astype(np.complex128), Vi.astype(np.complex128)
+    sq = np.sqrt(mu.astype(np.complex128))
+    if not np.all(sq != 0.0):
+        return None
+    X, Xi = X.astype(np.complex128), Xi.astype(np.complex128)
+    XS, SXi = X * sq, Xi / sq[:, None]
+    V = np.empty((2 * m, 2 * m), dtype=np.complex128)
+    V[:m, :m] = V[:m, m:] = X
+    V[m:, :m], V[m:, m:] = XS, -XS
+    Vi = np.empty_like(V)
+    Vi[:m, :m] = Vi[m:, :m] = 0.5 * Xi
+    Vi[:m, m:], Vi[m:, m:] = 0.5 * SXi, -0.5 * SXi
+    x = np.linspace(1.0, 2.0, 2 * m)
+    return reproduces(np.concatenate([x[m:], A @ x[:m]]), max(np.abs(A).max(), 1.0), x,
+                      np.concatenate([sq, -sq]), V, Vi)
+
+
+def reproduces(Jx, size, x, lam, V, Vi):
+    """(lam, V, Vi) if they are finite and V diag(lam) Vi x is Jx, J's product with the test
+    vector x, to 1e-6 of |J| |x| (size: |J|, the largest magnitude of its entries), else None (a
+    defective or nearly defective J has no eigenbasis that does)."""
+    if not np.all(np.isfinite(Vi)) or \
+            np.linalg.norm(V @ (lam * (Vi @ x)) - Jx) > 1e-6 * size * np.linalg.norm(x):
+        return None
+    return lam, V, Vi
 
 
 @njit
@@ -681,8 +731,8 @@ def cmv(Vi, x):
 @njit
 def exp_adams(ev, nq, Yh, Fh, basis, Wz, G, t_out, Y, h, m, p, st, clock, counts):
     """Exponential Adams, predictor-corrector (PECE), fixed step h, from t_out[0] through the
-    instants t_out, writing Y[1:]. f(y) = L y + N(y) with L the finite-difference Jacobian taken
-    every EXP_REFRESH steps; L is integrated exactly through its eigenbasis and N by the
+    instants t_out, writing Y[1:]. f(y) = L y + N(y) with L a finite-difference linearization
+    (`exp_linearize`) taken every EXP_REFRESH steps; L is integrated exactly through its eigenbasis and N by the
     polynomial through its last values (EXP_ORDER nodes: the predictor at 0, -h, -2h, the
     corrector at h, 0, -h), so each step costs two evaluations whatever the frequencies of L.
 
@@ -777,7 +827,15 @@ def directional(ev, nq, t, y, f0, U):
 
 def exp_linearize(ev, nq, t, h, Yh, Fh, basis, Wz, G, st, counts, made) -> bool:
     """A new linear part L for `exp_adams` at (t, Yh[0]) (its eigenbasis into basis, the history
-    into it: Wz, G). Every EXP_FULL-th time (and the first) the finite-difference Jacobian J and
+    into it: Wz, G).
+
+    Where every coordinate's rate is its velocity (dq/dt = v: no quaternion, so 2 nq = n), L =
+    [[0, I], [A, 0]] with A = d(qdd)/dq (`position_jacobian`, nq + 1 evaluations) and its eigenbasis
+    from A's (`second_order_basis`), each time: the velocity coupling d(qdd)/dv (gyroscopic and
+    Coriolis terms, proportional to the slow motion's rates) is left to the remainder N, which
+    follows it as it follows any slow term. A with a zero eigenvalue gets the stiffness below.
+
+    Otherwise every EXP_FULL-th time (and the first) the finite-difference Jacobian J and
     its eigenbasis; between, only the fast eigenvalues move (|lam h| > 1, where the remainder
     polynomial cannot follow a change of L): lam_i = w_i J v_i from two evaluations along the
     real and imaginary parts of each such eigenvector v_i (w_i its row of V^-1), the eigenvectors
@@ -789,6 +847,16 @@ def exp_linearize(ev, nq, t, h, Yh, Fh, basis, Wz, G, st, counts, made) -> bool:
     counts (3,) += -, linearizations, evaluations."""
     n = Yh.shape[1]
     lam, V, Vi = basis[0], basis[1:n + 1], basis[n + 1:]
+    if 2 * nq == n:
+        A = position_jacobian(ev, nq, t, Yh[0])
+        counts[2] += nq + 1
+        e = second_order_basis(A)
+        if e is None:                                   # the stiffness (0.01 / h)^2, as below
+            e = second_order_basis(A - (0.01 / h) ** 2 * np.eye(nq))
+        if e is None:
+            return False
+        lam[:], V[:], Vi[:] = e
+        return _relinearized(Yh, Fh, Vi, Wz, G, st, counts, made)
     full = made[0] % EXP_FULL == 0
     if not full:
         fast = np.flatnonzero((np.abs(lam * h) > 1.0) & (lam.imag > 0.0))     # one of each conjugate pair
@@ -815,6 +883,11 @@ def exp_linearize(ev, nq, t, h, Yh, Fh, basis, Wz, G, st, counts, made) -> bool:
         if e is None:
             return False
         lam[:], V[:], Vi[:] = e
+    return _relinearized(Yh, Fh, Vi, Wz, G, st, counts, made)
+
+
+def _relinearized(Yh, Fh, Vi, Wz, G, st, counts, made) -> bool:
+    """The history in the new eigen-coordinates (Wz, G) and the linearization counted: True."""
     Wz[:st[1]] = Yh[:st[1]] @ Vi.T
     G[:st[1]] = Fh[:st[1]] @ Vi.T
     made[0] += 1
