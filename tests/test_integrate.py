@@ -204,6 +204,16 @@ def test_second_order_basis_is_the_exact_flow_of_the_second_order_linear_part():
     assert np.abs(E.imag).max() < 1e-10 and np.abs(E.real - expm(L * h)).max() < 1e-10 * np.abs(expm(L * h)).max()
 
 
+def test_compiled_dopri5_lands_on_instants_its_summed_max_steps_miss_by_roundoff():
+    """Steps of max_step = 1 ms summed from 1 s do not reach the instant 1.01 s in floating point
+    (1.0099999999999998): the step left, 2e-16 s, once ended the run as `step size too small`
+    (spinup_beam with dopri5 at any tolerance). The landing step now goes to the instant itself."""
+    r = solvers.run(cases.load("pendulum", ["bodies.beam.rigid=true", "integrator.method=dopri5",
+                                            "integrator.max_step=0.001", "integrator.output_dt=0.01"]), "flexmbd", 2.0)
+    assert r.ok, r.status
+    assert len(r.t) == 201 and r.t[-1] == 2.0 and 2000 <= r.steps < 2010
+
+
 def test_compiled_dopri5_stops_on_a_non_finite_or_diverging_state():
     model = from_case(cases.load("pendulum"))
     v0 = model.v0.copy()
