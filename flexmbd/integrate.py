@@ -500,23 +500,24 @@ def _rk4_interval(f, y, t0, t1, dt, nq) -> int:
 # ---------------------------------------------------------------------------------------------
 # closed loops: the constrained right-hand side, projected at every output instant
 
-PROJECTED = {"dopri5": "RK45", "rk45": "RK45", "dop853": "DOP853"}     # case method -> scipy's
+PROJECTED = {"dopri5": "RK45", "rk45": "RK45", "dop853": "DOP853", "rk4": None}  # case method -> scipy's
 
 
 def simulate_loops(loops, t_end: float, method: str = "dopri5", rtol: float = 1e-8, atol: float = 1e-10,
                    max_step: float = 1e-3, output_dt: float = 1e-3, progress: bool = True,
-                   label: str = "") -> Simulation:
+                   label: str = "", dt: float = 1e-4) -> Simulation:
     """Integrate a tree closed by cut joints (`constraints.Loops`) from its assembled start
     (the case's values closed by `loops.close`) over [0, t_end], sampled every output_dt: each
     output interval by an explicit embedded Runge-Kutta pair (scipy's, continuing with the last
-    step size) on the constrained rates, then the state projected onto the constraints
-    (`loops.close`), which therefore hold to its tolerance at every output instant. Only the
-    one-step methods (PROJECTED) restart cleanly after a projection."""
+    step size) or by classical Runge-Kutta in equal steps <= dt (`rk4`) on the constrained
+    rates, then the state projected onto the constraints (`loops.close`), which therefore hold
+    to its tolerance at every output instant. Only the one-step methods (PROJECTED) restart
+    cleanly after a projection."""
     model = loops.model
     n = int(round(t_end / output_dt))
     t_out = np.linspace(0.0, n * output_dt, n + 1)
-    settings = {"method": method, "rtol": rtol, "atol": atol, "max_step": max_step, "output_dt": output_dt,
-                "constraints": "projected at every output instant"}
+    settings = {"method": method, "output_dt": output_dt, "constraints": "projected at every output instant",
+                **({"dt": dt} if method == "rk4" else {"rtol": rtol, "atol": atol, "max_step": max_step})}
     nq = model.nq
     Y = np.full((t_out.size, nq + model.nv), np.nan)
     count = [0]
@@ -535,6 +536,13 @@ def simulate_loops(loops, t_end: float, method: str = "dopri5", rtol: float = 1e
     try:
         Y[0] = np.concatenate(loops.close(0.0, model.q0, model.v0))
         for k in range(1, t_out.size):
+            if method == "rk4":
+                y = Y[k - 1].copy()
+                steps += _rk4_interval(f, y, t_out[k - 1], t_out[k], dt, nq)
+                Y[k] = np.concatenate(loops.close(t_out[k], y[:nq], y[nq:]))
+                if bar:
+                    bar.update(t_out[k])
+                continue
             first = None if h is None else min(h, t_out[k] - t_out[k - 1])
             r = getattr(scipy_ivp, PROJECTED[method])(f, t_out[k - 1], Y[k - 1], t_out[k], rtol=rtol, atol=atol,
                                                      max_step=max_step, first_step=first)

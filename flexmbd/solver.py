@@ -49,7 +49,8 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
     label = f"{case.name} / flexmbd"
     if loops:
         sim = integrate.simulate_loops(loops, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
-                                       max_step=ig.max_step, output_dt=ig.output_dt, progress=progress, label=label)
+                                       max_step=ig.max_step, output_dt=ig.output_dt, progress=progress, label=label,
+                                       dt=ig.dt)
     else:
         sim = integrate.simulate(model, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
                                  max_step=ig.max_step, dt=ig.dt, output_dt=ig.output_dt,

@@ -108,6 +108,27 @@ def test_four_bar_rigid_follows_the_one_equation_four_bar(four_bar_rigid):
     assert np.abs(E.sum(1) - E[0].sum()).max() < 1e-6 * E[:, 0].max()
 
 
+def test_rk4_on_a_loop_converges_at_fourth_order_and_keeps_the_rows():
+    """rk4 restarts after each projection like the embedded pairs: on the rigid four-bar over 0.3 s
+    (output 1 ms) its crank angle against the one-equation oracle falls 17x from 2e-4 to 1e-4 s
+    (measured 3.0e-10 -> 1.7e-11: order 4 is 16x, so at least 8x is asked), and the rows hold
+    to the projection's 1e-12 at every output instant."""
+    case, model, loops = loops_of("four_bar_rigid", ["duration=0.3"])
+    bars = [case.bodies[n] for n in ("crank", "coupler", "rocker")]
+    inert = [beam_inertia(b, "lumped") for b in bars]
+    j = case.joints["crank_pivot"]
+    err = []
+    for dt in (2e-4, 1e-4):
+        sim = integrate.simulate_loops(loops, 0.3, "rk4", output_dt=case.integrator.output_dt, dt=dt, progress=False)
+        assert sim.status.ok and sim.settings["dt"] == dt and sim.steps == round(0.3 / dt)
+        ref = crank_angle(sim.t, j.q0[0], j.qd0[0], (0.15, 0.45, 0.40, 0.50), [m for m, _, _ in inert],
+                          [I[2, 2] for _, _, I in inert], 9.81)
+        err.append(np.abs(sim.q[:, 0] - ref).max())
+        viol = np.array([loops.violation(t, q, v) for t, q, v in zip(sim.t, sim.q, sim.v)])
+        assert viol[:, 0].max() < 1e-10 and viol[:, 1].max() < 1e-10
+    assert err[1] < err[0] / 8 and err[1] < 1e-9, err
+
+
 def test_cut_reaction_balances_the_rocker(four_bar_rigid):
     """The rocker hangs on its pivot and the cut pin only: the pin force (child frame) and the
     pivot's reaction (corrected for the cut's force in its subtree) with gravity give the rocker's
