@@ -282,12 +282,17 @@ def work_precision(names, flexmbd_settings, exudyn_settings, progress=None, stor
     return rows, info
 
 
+def finite(x) -> bool:
+    """Whether an error is a number: a diverged run's is nan, or null (None) in a stored run's JSON."""
+    return x is not None and bool(np.isfinite(x))
+
+
 def convergence(rows: list[dict], name: str, scheme: str) -> dict:
     """Whether exudyn-ffrf's error with `scheme` on case `name` falls steadily over its rows (in
     the order of shrinking step), diverged (non-finite) runs left out. flexmbd rows of a scheme
     of the same name (fox-goodwin) are not part of it."""
     errs = [r["error"] for r in rows if r["case"] == name and r["solver"] == "exudyn-ffrf" and r["scheme"] == scheme]
-    fin = [e for e in errs if np.isfinite(e)]
+    fin = [e for e in errs if finite(e)]
     return {"errors": errs, "decreasing": bool(len(fin) > 1 and all(np.diff(fin) < 0)),
             "smallest": min(fin) if fin else np.nan}
 
@@ -296,7 +301,7 @@ def fastest(rows: list[dict], name: str, solver: str, target: float, key: str = 
     """(wall_s, "scheme setting") of `solver`'s fastest row on case `name` whose `key` error meets
     `target`; (nan, "") when none does."""
     ok = [(r["wall_s"], f"{r['scheme']} {r['setting']}") for r in rows if r["case"] == name
-          and r["solver"] == solver and np.isfinite(r.get(key, np.nan)) and r[key] <= target]
+          and r["solver"] == solver and finite(r.get(key)) and r[key] <= target]
     return min(ok) if ok else (np.nan, "")
 
 
@@ -325,7 +330,7 @@ def against_reference(rows: list[dict], targets=(1e-3, 1e-4)) -> list[dict]:
     for name in sorted({r["case"] for r in rows}):
         for solver in dict.fromkeys(r["solver"] for r in rows if r["case"] == name):
             mine = [r for r in rows if r["case"] == name and r["solver"] == solver
-                    and np.isfinite(r.get("error", np.nan)) and np.isfinite(r.get("error_reference", np.nan))]
+                    and finite(r.get("error")) and finite(r.get("error_reference"))]
             row = {"case": name, "solver": solver,
                    "floor": min(mine, key=lambda r: r["error"])["error_reference"] if mine else np.nan}
             for target in targets:

@@ -57,6 +57,19 @@ def test_against_reference_gives_each_model_its_floor():
     assert out["exudyn-ffrf"]["floor"] == 0.2 and np.isnan(out["exudyn-ffrf"]["wall_s_at_1e-03"])
 
 
+def test_a_stored_run_read_back_gives_the_same_summaries():
+    """A stored run's JSON holds a diverged row's nan as null: the summaries read it as nan."""
+    import json
+    rows = [row("flexmbd-linear", "exp-adams", "dt=4e-3", np.nan, 0.01, np.nan),
+            row("flexmbd-linear", "dopri5", "rtol=1e-4", 5e-4, 2.0, 3e-2),
+            row("exudyn-ffrf", "fox-goodwin", "dt=8e-4", np.nan, 0.04), row("exudyn-ffrf", "fox-goodwin", "dt=1e-4", 8e-4, 4.0, 3e-2)]
+    stored = json.loads(json.dumps(rows).replace("NaN", "null"))
+    assert stored[0]["error"] is None
+    assert bench.matched_accuracy(stored)[0]["ratio"] == bench.matched_accuracy(rows)[0]["ratio"] == 0.5
+    assert bench.against_reference(stored)[0]["floor"] == bench.against_reference(rows)[0]["floor"] == 3e-2
+    assert bench.convergence(stored, "c", "fox-goodwin")["smallest"] == 8e-4
+
+
 def test_linear_turns_stiffening_off_on_every_flexible_beam():
     from flexmbd import cases
     over = bench.linear("double_pendulum")
