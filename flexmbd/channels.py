@@ -255,7 +255,7 @@ def solid_extent(fb: flexbody.FlexBody, eta, block: int = 256) -> dict:
     length, in blocks of samples (a solid has many nodes). A solid's rotations and strains are
     not measured here: its stress channels show them."""
     Pt = fb.Phi[:, 3:, :]
-    out = [np.linalg.norm(np.einsum("pim,nm->npi", Pt, eta[k:k + block]), axis=2).max(axis=1)
+    out = [np.linalg.norm(flexbody.modal_field(Pt, eta[k:k + block]), axis=2).max(axis=1)
            for k in range(0, len(eta), block)]
     return {"deflection": (np.concatenate(out) if out else np.zeros(0)) / fb.length}
 
@@ -299,8 +299,8 @@ def modal_extent(fb: flexbody.FlexBody, eta, sec) -> dict:
     displacement |Phi_t,p eta| / L, the largest elastic node rotation |Phi_r,p eta| (rad), and the
     largest element strain (|du_x| + cy |d theta_z| + cz |d theta_y|) / l between neighbouring
     nodes (the element's mean axial and outer-fibre bending strain)."""
-    u = np.einsum("pim,nm->npi", fb.Phi[:, 3:, :], eta)                  # (n, N, 3)
-    th = np.einsum("pim,nm->npi", fb.Phi[:, :3, :], eta)
+    u = flexbody.modal_field(fb.Phi[:, 3:, :], eta)                     # (n, N, 3)
+    th = flexbody.modal_field(fb.Phi[:, :3, :], eta)
     l = np.diff(fb.x0[:, 0])
     du, dth = np.diff(u, axis=1), np.diff(th, axis=1)
     strain = (np.abs(du[:, :, 0]) + sec.cy * np.abs(dth[:, :, 2]) + sec.cz * np.abs(dth[:, :, 1])) / l
@@ -418,7 +418,7 @@ def fields(case, traj: Trajectory, instants) -> dict:
 def surface_stresses(S: np.ndarray, inverse: np.ndarray, eta) -> object:
     """The `Beam.surface` of a modal solid: k -> (len(k), nf, 6) stresses at its boundary faces
     from the modal stresses S (ne, 6, nm) of their elements (`inverse`: face -> row of S)."""
-    return lambda k: np.einsum("eam,km->kea", S, eta[k])[:, inverse]
+    return lambda k: flexbody.modal_field(S, eta[k])[:, inverse]
 
 
 def stress_vm(strains, E: float, G: float, sec, fibre) -> np.ndarray:

@@ -212,3 +212,13 @@ def test_foreshortening_gives_southwell_coefficients():
     Dh = np.einsum("p,p,pkl->kl", fb.m, fb.x0[:, 0], fb.D)
     flap = [k for k, label in enumerate(fb.labels) if label.startswith("bending xz")][:3]
     assert np.allclose(np.diag(Dh)[flap], [1.1933, 6.4782, 17.8595], rtol=2e-3)
+
+
+def test_modal_field_is_the_shapes_at_each_samples_coordinates():
+    """`modal_field` against the same sum written as an einsum, on a non-contiguous slice of
+    shapes and of states (as solver.node_forces passes them), and with no mode at all."""
+    rng = np.random.default_rng(5)
+    Phi, Q = rng.standard_normal((11, 6, 4)), rng.standard_normal((7, 9))
+    P, eta = Phi[:, 3:, :], Q[:, 2:6]
+    assert np.allclose(flexbody.modal_field(P, eta), np.einsum("pim,nm->npi", P, eta), rtol=0, atol=1e-14)
+    assert flexbody.modal_field(np.zeros((11, 3, 0)), np.zeros((7, 0))).shape == (7, 11, 3)
