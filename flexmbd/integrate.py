@@ -536,26 +536,23 @@ def simulate_loops(loops, t_end: float, method: str = "dopri5", rtol: float = 1e
     try:
         Y[0] = np.concatenate(loops.close(0.0, model.q0, model.v0))
         for k in range(1, t_out.size):
-            if method == "rk4":
+            if method == "rk4":                       # checks the state itself (`_rk4_interval`)
                 y = Y[k - 1].copy()
                 steps += _rk4_interval(f, y, t_out[k - 1], t_out[k], dt, nq)
-                Y[k] = np.concatenate(loops.close(t_out[k], y[:nq], y[nq:]))
-                if bar:
-                    bar.update(t_out[k])
-                continue
-            first = None if h is None else min(h, t_out[k] - t_out[k - 1])
-            r = getattr(scipy_ivp, PROJECTED[method])(f, t_out[k - 1], Y[k - 1], t_out[k], rtol=rtol, atol=atol,
-                                                     max_step=max_step, first_step=first)
-            while r.status == "running":
-                r.step()
-                steps += 1
-            if r.status == "failed":
-                status = results.failed(r.message, r.t)
-                k -= 1
-                break
-            h = r.step_size or None
-            _check(r.y, t_out[k], nq)
-            Y[k] = np.concatenate(loops.close(t_out[k], r.y[:nq], r.y[nq:]))
+            else:
+                first = None if h is None else min(h, t_out[k] - t_out[k - 1])
+                r = getattr(scipy_ivp, PROJECTED[method])(f, t_out[k - 1], Y[k - 1], t_out[k], rtol=rtol,
+                                                         atol=atol, max_step=max_step, first_step=first)
+                while r.status == "running":
+                    r.step()
+                    steps += 1
+                if r.status == "failed":
+                    status = results.failed(r.message, r.t)
+                    k -= 1
+                    break
+                h, y = r.step_size or None, r.y
+                _check(y, t_out[k], nq)
+            Y[k] = np.concatenate(loops.close(t_out[k], y[:nq], y[nq:]))
             if bar:
                 bar.update(t_out[k])
     except Stop as e:
@@ -592,12 +589,12 @@ NOT_DIAGONAL, STALE = 5, 6      # status codes: the linearization has no eigenba
 
 
 @njit
-def jacobian(ev, nq, t, y):
-    """df/dy (n, n) of the right-hand side at (t, y) by forward differences (n + 1 evaluations)."""
-    n = y.size
+def jacobian_columns(ev, nq, t, y, m):
+    """The first m columns of df/dy (n, m) of the right-hand side at (t, y) by forward
+    differences (m + 1 evaluations)."""
     f0 = rhs(ev, t, y, nq)
-    J = np.empty((n, n))
-    for k in range(n):
+    J = np.empty((y.size, m))
+    for k in range(m):
         yp = y.copy()
         d = 1e-7 * max(abs(y[k]), 1.0)
         yp[k] += d
@@ -606,17 +603,16 @@ def jacobian(ev, nq, t, y):
 
 
 @njit
+def jacobian(ev, nq, t, y):
+    """df/dy (n, n) of the right-hand side at (t, y) (n + 1 evaluations)."""
+    return jacobian_columns(ev, nq, t, y, y.size)
+
+
+@njit
 def position_jacobian(ev, nq, t, y):
-    """A = d(qdd)/dq (nq, nq) at (t, y) by forward differences (nq + 1 evaluations): the lower-left
-    block of the Jacobian of y = [q; v] when dq/dt = v."""
-    f0 = rhs(ev, t, y, nq)
-    A = np.empty((nq, nq))
-    for k in range(nq):
-        yp = y.copy()
-        d = 1e-7 * max(abs(y[k]), 1.0)
-        yp[k] += d
-        A[:, k] = (rhs(ev, t, yp, nq)[nq:] - f0[nq:]) / d
-    return A
+    """A = d(qdd)/dq (nq, nq) at (t, y) (nq + 1 evaluations): the lower-left block of the
+    Jacobian of y = [q; v] when dq/dt = v."""
+    return np.ascontiguousarray(jacobian_columns(ev, nq, t, y, nq)[nq:])
 
 
 @njit
