@@ -245,9 +245,12 @@ def modal_solid(fb: flexbody.FlexBody, solid, keys: list, points, eta) -> Beam:
     FlexBody.S_solid) and its largest elastic node displacement over its length (`solid_extent`)."""
     at, x0 = modal_points(fb, keys, eta, {k: solid.node(k) for k in keys})
     stresses = {tuple(p): eta @ fb.S_solid[k].T for k, p in enumerate(points)}
-    _, inverse, S = flexbody.surface_stress_modes(solid, fb)
+    surface = None
+    if not solid.is_frame:                              # a frame's bars have no faces to draw
+        _, inverse, S = flexbody.surface_stress_modes(solid, fb)
+        surface = surface_stresses(S, inverse, eta)
     return Beam(length=fb.length, points=at, x0=x0, root=modal_root(fb, eta), origin=solid.frame,
-                stresses=stresses, extent=solid_extent(fb, eta), surface=surface_stresses(S, inverse, eta))
+                stresses=stresses, extent=solid_extent(fb, eta), surface=surface)
 
 
 def solid_extent(fb: flexbody.FlexBody, eta, block: int = 256) -> dict:

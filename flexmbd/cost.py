@@ -229,7 +229,7 @@ def modes(case, rigid: bool = False) -> list:
                          memory=eig_b + shape_b + 8.0 * 200 * dofs, seconds=seconds))
     for name, b in case.bodies.items():
         if b.type == "solid":
-            dofs = 3 * solid_nodes(b)
+            dofs = solid_dofs(b)
             out.append(Stage(f"assembling and reducing solid {name!r} ({dofs} DOFs, {b.modes.count} modes)",
                              f"bodies.{name}.mesh", memory=SOLID_BYTES * dofs, seconds=SOLID_SECONDS * dofs))
     return out
@@ -245,6 +245,11 @@ def solid_nodes(b) -> int:
     """The node count of a case solid's mesh."""
     import dataclasses
     return flexbody.solid_mesh(**dataclasses.asdict(b.mesh)).n_nodes
+
+
+def solid_dofs(b) -> int:
+    """The DOF count of a case solid's mesh: three a node, six a node of a frame."""
+    return (6 if b.is_frame else 3) * solid_nodes(b)
 
 
 def evaluation(case) -> float:
@@ -337,7 +342,10 @@ def solid_frequency(b) -> float:
     axial frequency of a clamped beam with the solid's largest extent as length and the other two
     as a rectangular section."""
     import dataclasses
-    L, h, w = sorted(np.ptp(flexbody.solid_mesh(**dataclasses.asdict(b.mesh)).nodes, axis=0), reverse=True)
+    mesh = flexbody.solid_mesh(**dataclasses.asdict(b.mesh))
+    L, h, w = sorted(np.ptp(mesh.nodes, axis=0), reverse=True)
+    if mesh.is_frame:                                   # a frame: its bars' largest I / A, as d^2 / 12
+        h = w = math.sqrt(12.0 * float((mesh.bars[:, 1:3].max(axis=1) / mesh.bars[:, 0]).max()))
     E, rho, m = b.material.E, b.material.rho, min(b.modes.count, 10000)
     waves = [(j - 0.5) * math.pi for j in range(1, m + 1)]
     freqs = sorted([(k / L) ** 2 * math.sqrt(E * d * d / (12.0 * rho)) for k in waves for d in (h, w)]
@@ -386,9 +394,10 @@ def fe_linear(case, t_end: float, opt: dict) -> list:
     newmark factorizes once and steps by sparse solves; damping takes a dense eigensolution of all
     n DOFs."""
     (name, body), = case.bodies.items()
-    n = 3 * solid_nodes(body) if body.type == "solid" else 6 * body.elements
+    n = solid_dofs(body) if body.type == "solid" else 6 * body.elements
     damped = body.damping_ratio > 0
-    scheme = opt["scheme"] or ("newmark" if body.type == "solid" else "exact" if damped else "modal")
+    mesh = body.type == "solid" and not body.is_frame   # a 3-D mesh; a frame steps as a beam
+    scheme = opt["scheme"] or ("newmark" if mesh else "exact" if damped else "modal")
     dt = opt["dt"] or (5e-5 if scheme == "newmark" else case.integrator.output_dt)
     out_dt = case.integrator.output_dt
     stride = max(round(out_dt / dt), 1)
@@ -399,7 +408,7 @@ def fe_linear(case, t_end: float, opt: dict) -> list:
         # estimate), then per step O(n) and u = Phi q at every sample (2 n^2 flops each)
         setup_s, setup_b = fe_linear_adapter.EIGH_S * n ** 3, 48.0 * n ** 2
         per_step = 1e-8 * n + 2e-5 + 4e-10 * n * n / stride
-    elif body.type == "solid":                  # a 3-D mesh's factor fills in more: 2.1 ms a step at 5,463 DOFs
+    elif mesh:                                  # a 3-D mesh's factor fills in more: 2.1 ms a step at 5,463 DOFs
         setup_s, setup_b, per_step = 1e-4 * n, SOLID_BYTES * n, 4e-7 * n + 2e-5
     else:
         setup_s, setup_b, per_step = 1e-5 * n, 8.0 * 200 * n, 1e-8 * 12 * n + 2e-5
@@ -413,7 +422,7 @@ def fe_linear(case, t_end: float, opt: dict) -> list:
             Stage(f"stepping {n} DOFs through {steps:.3g} {scheme} steps of {out_dt / stride:.3g} s",
                   steps_key if steps * per_step > setup_s else matrix,
                   memory=32.0 * samples(case, t_end) * n, seconds=steps * per_step,
-                  progress=body.type == "solid")]
+                  progress=mesh)]
 
 
 def analytic(case, t_end: float, opt: dict) -> list:

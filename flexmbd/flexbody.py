@@ -61,7 +61,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from flexmbd.errors import InputError
-from flexmbd.fe import assembly, element, meshfile, modes, section, solid, stress
+from flexmbd.fe import assembly, element, frame, meshfile, modes, section, solid, stress
 from flexmbd.fe import mesh as fe_mesh
 from flexmbd.files import atomic_write
 
@@ -461,8 +461,10 @@ def solid_modes(body, mesh, K, Ms, ref: dict) -> tuple:
 def solid_body(body, stress_points=()) -> FlexBody:
     """Reduce a case solid (`cases.Solid`) to a FlexBody: its mode set (`solid_modes`), orthonormal
     in the consistent mass; `stress_points` (k, 3): body-frame points whose elements' centre
-    stresses the channels need."""
+    stresses the channels need. A frame's mesh (bar elements) reduces by `frame_body`."""
     mesh, mat = solid_mesh(**dataclasses.asdict(body.mesh)), body.material
+    if mesh.is_frame:
+        return frame_body(body, stress_points)
     K, Ms = solid_matrices(body)
     faces = {n: body.interfaces[n] for n in solid_order(body)}
     ref = {n: reference_point(mesh, f.set, f.point) for n, f in faces.items()}
@@ -509,3 +511,81 @@ def surface_stress_modes(body, fb: FlexBody) -> tuple:
     Phi3 = fb.Phi[k:, 3:, :].reshape(-1, fb.n_modes)
     S = [rows @ Phi3[dofs] for rows, dofs in solid.centre_stress_rows(mesh, body.material.E, body.material.nu, elements)]
     return faces, inverse, np.array(S).reshape(len(elements), 6, fb.n_modes)
+
+
+# ---------------------------------------------------------------------------------------------
+# frames: a mesh of bar elements (docs/fe.md, Frames)
+
+def frame_matrices(body) -> tuple:
+    """(K, M) (6N, 6N) of a case solid whose mesh is a frame (`fe.frame.matrices`: stiffness and
+    lumped mass, from its cards; `cases.validate` refuses matrix files for a frame)."""
+    spec = body.mesh
+    mesh = solid_mesh(**dataclasses.asdict(spec))
+    return frame.matrices(mesh, body.material.E, body.material.nu, body.material.rho)
+
+
+def frame_node(body, mesh: fe_mesh.Mesh, interface: str) -> int:
+    """The mesh node (row) of a frame's interface: its set's one node (`cases.validate` checks)."""
+    return int(mesh.node_sets[body.interfaces[interface].set][0])
+
+
+def in_frame(mesh: fe_mesh.Mesh, x) -> bool:
+    """Whether point x (3,), mesh coordinates (m), lies in a frame's bars: within twice the radius
+    of gyration sqrt((I1 + I2) / A) of its nearest element's section from that element's axis."""
+    row, _, offset = frame.nearest(mesh, np.asarray(x, dtype=float))
+    A, I1, I2 = mesh.bars[row, :3]
+    return bool(np.linalg.norm(offset) <= 2.0 * np.sqrt((I1 + I2) / A))
+
+
+def frame_modes(body, mesh: fe_mesh.Mesh, K, M, nodes: dict) -> tuple:
+    """A frame's mode set, (Hz (nm,), Phi (6N, nm)) M-orthonormal and K-diagonal, the frame
+    interface's node held in each: clamped-interface normal modes; Craig-Bampton (the other
+    interfaces' constraint modes and the lowest normal modes with every interface held, the
+    lowest `count` of their span); free-free normal modes less the frame node's rigid motion."""
+    count, boundary = body.modes.count, body.modes.boundary
+    p0 = nodes[body.frame]
+    held = np.arange(6 * p0, 6 * p0 + 6)
+    if boundary == "clamped-interface":
+        return modes.normal_modes(K, M, held, count)
+    if boundary == "craig-bampton":
+        iface = np.array([6 * p + k for n, p in nodes.items() if n != body.frame for k in range(6)], dtype=int)
+        Phi = modes.craig_bampton(K, M, held, iface, max(count - iface.size, 0) + 6)
+    else:
+        Phi = modes.hold_node(modes.normal_modes(K, M, [], count)[1], mesh.nodes, p0)
+    freq, Phi = modes.orthonormalize(K, M, Phi)
+    return freq[:count], Phi[:, :count]
+
+
+def frame_body(body, stress_points=()) -> FlexBody:
+    """Reduce a case solid whose mesh is a frame (bar elements, `fe.frame`) to a FlexBody: nodes
+    with six DOFs, like a beam's, but anywhere in the body frame. The interfaces come first (node
+    k: interface k of `solid_order`, no mass, its node's block), then the mesh's nodes with their
+    lumped masses and rotary inertias (full 3 x 3 in mesh axes); its invariants are the lumped
+    node sums, as a beam's. `stress_points` (k, 3): body-frame points of the bars' volume whose
+    stress the channels need (`fe.frame.fibre_rows`)."""
+    mesh, mat = solid_mesh(**dataclasses.asdict(body.mesh)), body.material
+    K, M = frame_matrices(body)
+    order = solid_order(body)
+    nodes = {n: frame_node(body, mesh, n) for n in order}
+    N, nm, k = mesh.n_nodes, body.modes.count, len(order)
+    freq, Phi6 = frame_modes(body, mesh, K, M, nodes) if nm else (np.zeros(0), np.zeros((6 * N, 0)))
+    blocks = spatial_blocks(Phi6)
+    origin = mesh.nodes[nodes[body.frame]]
+    x = mesh.nodes - origin
+    d = M.diagonal().reshape(N, 6)
+    J = np.zeros((k + N, 3, 3))
+    c = M.tocoo()                                       # each node's rotational block of M
+    on = (c.row // 6 == c.col // 6) & (c.row % 6 >= 3) & (c.col % 6 >= 3)
+    np.add.at(J, (k + c.row[on] // 6, c.row[on] % 6 - 3, c.col[on] % 6 - 3), c.data[on])
+    S = []
+    for point in stress_points:
+        rows, dofs = frame.fibre_rows(mesh, mat.E, mat.nu, np.asarray(point, dtype=float) + origin)
+        S.append(rows @ Phi6[dofs])
+    m = np.concatenate([np.zeros(k), d[:, 0]])
+    return FlexBody(
+        name=body.name, length=solid_length(body.mesh), x0=np.vstack([x[[nodes[n] for n in order]], x]), m=m, J=J,
+        Phi=np.concatenate([blocks[[nodes[n] for n in order]], blocks]), freq_hz=np.asarray(freq),
+        labels=solid_labels(m[k:], blocks[:, 3:, :]), Km=modal_stiffness(K, Phi6),
+        Cm=np.diag(2.0 * body.damping_ratio * 2.0 * np.pi * np.asarray(freq)), boundary=body.modes.boundary,
+        stress_x=np.zeros(0), S_strain=np.zeros((0, 4, nm)), D=np.zeros((k + N, nm, nm)),
+        S_solid=np.array(S).reshape(len(S), 6, nm))

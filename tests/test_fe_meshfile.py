@@ -251,8 +251,7 @@ GRIDS = "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nGRID,3,,0.,1.,0.\nGRID,4,,0.,0.,1.\
 
 
 @pytest.mark.parametrize("case, text, at, fragment", [
-    ("beam", GRIDS + "CTETRA,1,1,1,2,3,4\nCBAR,2,1,1,2,0.,0.,1.\n", "CBAR,2,1,1,2,0.,0.,1.",
-     "CBAR elements are not supported in a solid body (CTETRA, CHEXA)"),
+
     ("shell", GRIDS + "CQUAD4  2       1       1       2       3       4\n",
      "CQUAD4  2       1       1       2       3       4", "CQUAD4 elements are not supported"),
     ("coordinate system", GRIDS + "GRID,5,3,1.,1.,1.\nCTETRA,1,1,1,2,3,4\n", "GRID,5,3,1.,1.,1.",
@@ -267,7 +266,7 @@ GRIDS = "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nGRID,3,,0.,1.,0.\nGRID,4,,0.,0.,1.\
      "node set 'set5' lists node 5, which is not defined"),
     ("two materials", GRIDS + "GRID,5,,1.,1.,1.\nCTETRA,1,1,1,2,3,4\nCTETRA,2,2,2,5,3,4\nPSOLID,1,1\n"
      "PSOLID,2,2\nMAT1,1,2.1+11,,.3,7850.\nMAT1,2,7.+10,,.33,2700.\n", "CTETRA,2,2,2,5,3,4",
-     "element 2 has material mat2 (PSOLID 2) but element 1 mat1 (PSOLID 1): the elements of one body "
+     "element 2 has material mat2 (property 2) but element 1 mat1 (property 1): the elements of one body "
      "must use one material"),
     ("material elastic", GRIDS + "CTETRA,1,1,1,2,3,4\nMAT1,1,2.1+11,,,7850.\n", "MAT1,1,2.1+11,,,7850.",
      "MAT1 1: two of E, G, NU are needed"),
@@ -278,6 +277,11 @@ GRIDS = "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nGRID,3,,0.,1.,0.\nGRID,4,,0.,0.,1.\
 ])
 def test_nastran_refusals(tmp_path, case, text, at, fragment):
     refused(write(tmp_path, "bad.bdf", text), fragment, line=line_of(text, at))
+
+
+def test_a_file_of_both_bars_and_solids_is_refused(tmp_path):
+    text = GRIDS + "CTETRA,1,1,1,2,3,4\nCBAR,2,1,1,2,0.,0.,1.\nPBAR,1,1,1.-4,1.-9,1.-9,2.-9\nMAT1,1,2.1+11,,.3,7850.\n"
+    refused(write(tmp_path, "mixed.bdf", text), "both bar and solid elements: a body is either a solid or a frame")
 
 
 def msh22(nodes, elements, names=()) -> str:
@@ -299,7 +303,7 @@ TET_NODES = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 1), (1, 1, 0)]
     ("truncated", msh22(TET_NODES, [(4, 1, (1, 2, 3, 4))]).split("2 1 0 0")[0], "not a readable Gmsh file (ValueError"),
     ("wedge", msh22(TET_NODES, [(6, 1, (1, 2, 3, 4, 5, 6))]), "Gmsh element type wedge is not supported "
      "(supported: tetra, tetra10, hexahedron, hexahedron20)"),
-    ("surfaces only", msh22(TET_NODES, [(2, 1, (1, 2, 3))]), "no solid elements"),
+    ("surfaces only", msh22(TET_NODES, [(2, 1, (1, 2, 3))]), "no elements (tetrahedra, hexahedra"),
     ("inverted", msh22(TET_NODES, [(4, 1, (1, 2, 3, 4)), (4, 1, (1, 3, 2, 4))]),
      "element 2 (tet4) has a non-positive volume"),
 ])
@@ -318,8 +322,8 @@ def test_gmsh_physical_groups_without_names_and_facets(tmp_path):
 
 @pytest.mark.parametrize("name, text", [("nodes.inp", TET), ("nodes.bdf", GRIDS),
                                         ("nodes.nas", "BEGIN BULK\n" + GRIDS + "ENDDATA\n")])
-def test_a_file_without_solid_elements_is_refused(tmp_path, name, text):
-    refused(write(tmp_path, name, text), "no solid elements (tetrahedra or hexahedra) in the file")
+def test_a_file_without_elements_is_refused(tmp_path, name, text):
+    refused(write(tmp_path, name, text), "no elements (tetrahedra, hexahedra, or bars in a NASTRAN file) in the file")
 
 
 @pytest.mark.parametrize("ext", ["inp", "bdf", "nas", "dat", "msh"])

@@ -112,6 +112,10 @@ def version() -> str:
 
 
 def applies(case) -> str:
+    frames = [b.name for b in case.bodies.values() if b.type == "solid" and b.is_frame]
+    if frames:
+        return (f"body {frames[0]!r} is a frame (bar elements): Exudyn's ObjectFFRFreducedOrder holds three position "
+                f"coordinates a mesh node, and a frame's nodes also rotate")
     none = [b.name for b in case.bodies.values() if b.type in ("beam", "solid") and not b.rigid and b.modes.count == 0]
     if none:
         return (f"body {none[0]!r} retains no modes (modes.count = 0): an FFRF body needs at least one; "

@@ -34,10 +34,16 @@ stresses are those at the centres of the channels' elements. It steps by one of
            that what differs from a reduced body is its truncation alone.
 
 Modal damping of a solid is not modelled (all of its modes for C, or a dense exponential).
+
+A frame (a solid whose mesh is of bar elements, `fe.frame`; `run_frame`) keeps every DOF of its
+nodes, six each, with the frame interface's node held; its loads act on their interfaces' nodes,
+gravity on its lumped node masses; its stresses are `fe.frame.fibre_rows`'. It steps by the
+schemes of a beam (default modal, undamped; exact with damping).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -47,7 +53,7 @@ from scipy.sparse.linalg import splu
 
 from flexmbd import channels, flexbody, profiles
 from flexmbd.adapters import common
-from flexmbd.fe import solid, stress
+from flexmbd.fe import frame, solid, stress
 from flexmbd.progress import Progress, Ticking
 
 SETTINGS = {
@@ -68,18 +74,20 @@ EIGH_S = 1e-9                           # s per n^3 of the dense generalized eig
 
 def applies(case) -> str:
     name, why = common.clamped_beam(case, solids=True)
-    if name and case.bodies[name].type == "solid" and case.bodies[name].damping_ratio > 0:
+    body = case.bodies[name] if name else None
+    if body and body.type == "solid" and not body.is_frame and body.damping_ratio > 0:
         return ("modal damping of a solid's full model needs all of its modes (a dense eigenproblem of the mesh's "
                 "size)")
     return why
 
 
-def load_vectors(case, n_dof: int) -> list:
-    """(f (n_dof,), profile) per point load on its node, in the body frame."""
+def load_vectors(case, n_dof: int, node=None) -> list:
+    """(f (n_dof,), profile) per point load on its node, in the body frame; `node` maps a frame's
+    interface to its mesh node (a beam's load knows its node)."""
     out = []
     for ld in case.loads.values():
         f = np.zeros(n_dof)
-        p = ld.point.node
+        p = node(ld.point.x) if node else ld.point.node
         f[6 * p: 6 * p + 3] = common.body_force(case, ld)
         out.append((f, ld.profile))
     return out
@@ -90,14 +98,21 @@ def run(case, t_end, settings):
     t_start = time.perf_counter()
     name, _ = common.clamped_beam(case, solids=True)
     body = case.bodies[name]
-    if body.type == "solid":
+    if body.type == "solid" and not body.is_frame:
         return run_solid(case, name, t_end, settings, t_start)
-    nodes, elements, sec, K, M, _ = flexbody.fe_model(body)
+    if body.type == "solid":
+        K, M = flexbody.frame_matrices(body)
+        mesh = flexbody.solid_mesh(**dataclasses.asdict(body.mesh))
+        nodes = mesh.nodes - mesh.nodes[flexbody.frame_node(body, mesh, body.frame)]
+        held = flexbody.frame_node(body, mesh, body.frame)
+    else:
+        nodes, elements, sec, K, M, _ = flexbody.fe_model(body)
+        held = 0
     n_dof = K.shape[0]
-    free = np.arange(6, n_dof)                         # root node clamped by the fixed joint
+    free = np.setdiff1d(np.arange(n_dof), np.arange(6 * held, 6 * held + 6))   # clamped by the fixed joint
 
     # external loads: point loads with their profiles, gravity as constant nodal forces
-    loads = load_vectors(case, n_dof)
+    loads = load_vectors(case, n_dof, (lambda k: flexbody.frame_node(body, mesh, k)) if body.type == "solid" else None)
     g = common.gravity_body(case)
     fg = M @ np.tile(np.r_[g, 0.0, 0.0, 0.0], nodes.shape[0])
 
@@ -128,13 +143,17 @@ def run(case, t_end, settings):
     u_full[:, free] = U
     v_full = np.zeros_like(u_full)
     v_full[:, free] = V
-    traj = trajectory(case, name, t_out, u_full, nodes, elements, sec)
+    if body.type == "solid":
+        traj = frame_trajectory(case, name, t_out, u_full, mesh, nodes)
+    else:
+        traj = trajectory(case, name, t_out, u_full, nodes, elements, sec)
     if channels.wants_energy(case):
         traj.energy = {"total": energy(u_full, v_full, K, M, fg)}
     return Result(solver="fe-linear", case=case.name, t=t_out, wall_s=wall_s,
                   setup_s=setup_s, steps=(t_out.size - 1) * stride, rhs_evals=(t_out.size - 1) * stride,
                   settings={"dt": dt, "scheme": scheme, "dofs": int(free.size),
-                            "elements": body.elements, "mass": body.mass}, trajectory=traj)
+                            **({"mesh": mesh.source, "nodes": mesh.n_nodes} if body.type == "solid" else
+                               {"elements": body.elements, "mass": body.mass})}, trajectory=traj)
 
 
 def trajectory(case, name: str, t, U, nodes, elements, sec) -> channels.Trajectory:
@@ -154,10 +173,26 @@ def trajectory(case, name: str, t, U, nodes, elements, sec) -> channels.Trajecto
     return channels.Trajectory(t=t, beams={name: beam})
 
 
+def frame_trajectory(case, name: str, t, U, mesh, nodes) -> channels.Trajectory:
+    """The channels' view of the nodal displacements U (n, 6N) of the clamped frame `name`: its
+    interfaces' nodes in the body frame (origin at the frame interface's node, `nodes` (N, 3)),
+    and the stresses at its stress points (`fe.frame.fibre_rows`)."""
+    body, mat = case.bodies[name], case.bodies[name].material
+    keys = channels.points_needed(case, name)
+    at = {k: flexbody.frame_node(body, mesh, k) for k in keys}
+    origin = mesh.nodes[at[body.frame]]
+    stresses = {}
+    for p in case.stress_sections(name):
+        S, d = frame.fibre_rows(mesh, mat.E, mat.nu, np.asarray(p) + origin)
+        stresses[p] = U[:, d] @ S.T
+    beam = channels.Beam(length=body.length, points={k: nodes[p] + U[:, 6 * p:6 * p + 3] for k, p in at.items()},
+                         x0={k: nodes[p] for k, p in at.items()}, root=np.tile(np.eye(3), (len(t), 1, 1)),
+                         origin=body.frame, stresses=stresses)
+    return channels.Trajectory(t=t, beams={name: beam})
+
+
 def run_solid(case, name: str, t_end, settings, t_start: float):
     """The full-order transient of a clamped solid (module docstring)."""
-    import dataclasses
-
     from flexmbd.results import Result
     scheme = settings.get("scheme") or "newmark"
     if scheme == "exact":

@@ -151,6 +151,11 @@ class Solid:
         """The mesh's largest extent, m: the size its deflections are measured against."""
         return flexbody.solid_length(self.mesh)
 
+    @property
+    def is_frame(self) -> bool:
+        """True when the mesh is a frame of bar elements (`fe.frame`), False for a solid's."""
+        return flexbody.solid_mesh(**dataclasses.asdict(self.mesh)).is_frame
+
     def node(self, interface: str) -> int:
         """The FlexBody node of an interface's reference point."""
         return flexbody.solid_order(self).index(interface)

@@ -598,6 +598,9 @@ def _check_solid(b, d, where, k):
                 m[key] = str(f)
     mesh = flexbody.solid_mesh(**m)                 # an import error is an InputError naming the file and line
     for key in ("stiffness", "mass"):               # read (and checked) once here, kept by content
+        if m[key] is not None and mesh.is_frame:
+            _fail(where, f"{k}.mesh.{key}", f"{mesh.source} is a frame (bar elements): its matrices come from "
+                  "its cards, not from matrix files")
         if m[key] is not None:
             flexbody.matrix_file(m[key], m["units"], tuple(mesh.node_ids), key)
     if b["material"] is None:
@@ -614,10 +617,17 @@ def _check_solid(b, d, where, k):
         if i["set"] not in mesh.node_sets:
             _fail(where, f"{key}.set", f"no node set {i['set']!r} in {mesh.source} (it has: "
                   f"{', '.join(sorted(mesh.node_sets)) or 'none'})")
-        if name == b["frame"] and boundary != "free-free" and i["kind"] != "rigid":
+        if mesh.is_frame:                           # a frame's interface is a node: its six DOFs
+            if len(mesh.node_sets[i["set"]]) != 1:
+                _fail(where, f"{key}.set", f"a frame's interface is one node (its rotations are the interface's); "
+                      f"set {i['set']!r} has {len(mesh.node_sets[i['set']])}")
+            if i["kind"] != "rigid" or i["point"] is not None:
+                _fail(where, f"{key}.kind" if i["kind"] != "rigid" else f"{key}.point",
+                      "a frame's interface moves with its one node: kind = \"rigid\" and no point")
+        elif name == b["frame"] and boundary != "free-free" and i["kind"] != "rigid":
             _fail(where, f"{key}.kind", f"{boundary} modes hold the frame's interface, so it moves rigidly: "
                   "kind = \"rigid\"")
-        if name == b["frame"] and boundary == "free-free" and i["kind"] != "averaging":
+        elif name == b["frame"] and boundary == "free-free" and i["kind"] != "averaging":
             _fail(where, f"{key}.kind", "free-free modes leave the frame's interface free: its reference point is "
                   "their rigid fit, kind = \"averaging\" (a rigid frame interface makes them clamped-interface modes)")
         if i["kind"] == "rigid":                    # a rigid set's nodes are its reference point's: no other's
@@ -630,7 +640,8 @@ def _check_solid(b, d, where, k):
         _fail(where, f"{k}.modes.count", f"craig-bampton modes hold six per interface besides the frame's: at least "
               f"{6 * (len(b['interfaces']) - 1)}, got {b['modes']['count']}")
     held = len(mesh.node_sets[b["interfaces"][b["frame"]]["set"]]) if boundary != "free-free" else 0
-    free = 3 * (mesh.n_nodes - held) - (6 if boundary == "free-free" else 0)
+    dofs = 6 if mesh.is_frame else 3
+    free = dofs * (mesh.n_nodes - held) - (6 if boundary == "free-free" else 0)
     if b["modes"]["count"] > free:
         _fail(where, f"{k}.modes.count", f"{b['modes']['count']} modes requested but the mesh has {free} free DOFs")
 
@@ -653,7 +664,11 @@ def _check_solid_channel(c, body, where, k):
     mesh = flexbody.solid_mesh(**body["mesh"])
     frame = body["interfaces"][body["frame"]]
     origin = flexbody.reference_point(mesh, frame["set"], frame["point"])
-    if flexbody.element_at(mesh, [x + o for x, o in zip(c["point"], origin)]) is None:
+    x = [v + o for v, o in zip(c["point"], origin)]
+    if mesh.is_frame and not flexbody.in_frame(mesh, x):
+        _fail(where, f"{k}.point", f"point {c['point']} m lies in no bar of the frame (farther from every axis "
+              "than twice its section's radius of gyration)")
+    if not mesh.is_frame and flexbody.element_at(mesh, x) is None:
         _fail(where, f"{k}.point", f"point {c['point']} m lies in no element of the solid's mesh")
 
 

@@ -9,9 +9,12 @@
     source     str          where the mesh came from (a file name, or "box"), for messages
     node_ids   (N,) int     the file's number of each node (messages, sets); box: 1..N
     elem_ids   {kind: (ne,) int}       the file's number of each element; box: 1..ne
+    bars       (ne, 7)      a frame's elements (kind "bar2", `fe.frame`): [A m^2, I1, I2, J m^4,
+                            orientation vector v (3,)] of each row of cells["bar2"]; (0, 7) for a solid
 
 Kinds and node orders (corner nodes first, then the mid-edge nodes of the quadratic elements):
 
+    bar2   end nodes a, b (a frame's straight beam element, `fe.frame`)
     tet4   corners 0-3 (right-handed: (x1-x0) x (x2-x0) . (x3-x0) > 0)
     tet10  corners, then mid-edge nodes of edges 01 12 20 03 13 23
     hex8   bottom face 0-3 counter-clockwise seen from the top face, top face 4-7 above 0-3
@@ -24,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-NODES_PER = {"tet4": 4, "tet10": 10, "hex8": 8, "hex20": 20}
+NODES_PER = {"tet4": 4, "tet10": 10, "hex8": 8, "hex20": 20, "bar2": 2}
 
 # mid-edge node k of a quadratic element lies between corners EDGES[kind][k]
 EDGES = {
@@ -43,10 +46,16 @@ class Mesh(NamedTuple):
     source: str
     node_ids: np.ndarray
     elem_ids: dict
+    bars: np.ndarray = np.zeros((0, 7))
 
     @property
     def n_nodes(self) -> int:
         return self.nodes.shape[0]
+
+    @property
+    def is_frame(self) -> bool:
+        """True for a frame (bar elements, six DOFs a node: `fe.frame`), False for a solid."""
+        return "bar2" in self.cells
 
 
 def box(L: float, h: float, b: float, n: tuple, kind: str = "hex8") -> Mesh:

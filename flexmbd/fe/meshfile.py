@@ -1,4 +1,5 @@
-"""Solid meshes from Abaqus (.inp), NASTRAN bulk data (.bdf, .nas, .dat) and Gmsh (.msh) files.
+"""Solid meshes from Abaqus (.inp), NASTRAN bulk data (.bdf, .nas, .dat) and Gmsh (.msh) files, and
+frames (bar elements) from NASTRAN files.
 
     mesh = meshfile.read("arm.inp", units="mm")                  # Mesh (fe.mesh), always SI
     clamp = meshfile.node_set(mesh, "clamp")                      # (k,) node rows
@@ -32,7 +33,9 @@ present. GRID (basic coordinate system only), CTETRA, CHEXA (the 20-grid mid-edg
 needed), PSOLID (the elements of one body use one material), and as node sets: SPC/SPC1
 "spc<SID>", SET1 "set<SID>", RBE2 "rbe2_<EID>" (dependent grids), RBE3 "rbe3_<EID>" (the weighted
 grids; the weights are not kept), each with its reference grid in "rbe2_<EID>_ref"/"rbe3_<EID>_ref".
-Materials are named "mat<MID>". Other element cards are refused; other cards are skipped.
+Materials are named "mat<MID>". CBAR and CBEAM with PBAR and PBEAM make a frame ("bar2" cells and
+`Mesh.bars`: docs/fe.md, Frames; a file holds bars or 3-D elements, not both). Other element cards
+are refused; other cards are skipped.
 
 Gmsh (through meshio, MSH 2.2 and 4.1): the 3-D cells, and every physical group as a node set (the
 nodes of its cells, facets included) and, for volume groups, an element set. meshio does not keep
@@ -85,10 +88,10 @@ CORNERS = {"tet": ((0, 1, 2, 3),),
 
 
 def read(path, units: str = "m") -> Mesh:
-    """The solid mesh of an Abaqus (.inp), NASTRAN (.bdf, .nas, .dat) or Gmsh (.msh) file, in SI.
+    """The mesh of an Abaqus (.inp), NASTRAN (.bdf, .nas, .dat) or Gmsh (.msh) file, in SI.
 
     `units` is the file's unit system: "m" (m, N, kg, s, Pa) or "mm" (mm, N, t, s, MPa).
-    Raises InputError for a file that cannot be read or is not a valid solid mesh.
+    Raises InputError for a file that cannot be read or is not a valid solid mesh or frame.
     """
     source = str(path)
     if units not in UNITS:
@@ -190,19 +193,22 @@ def _mtx_dofs(source, lines, node, dof, node_ids) -> np.ndarray:
 # checks and conversion, common to the three formats
 
 
-def _build(source, units, ids, xyz, node_lines, elems, nsets, esets, materials) -> Mesh:
+def _build(source, units, ids, xyz, node_lines, elems, nsets, esets, materials, bars=None) -> Mesh:
     """Check one file's contents and convert them into an SI Mesh.
 
     ids (N,) the file's node numbers, xyz (N, 3) in file units, node_lines (N,) the line of each
     (0: none); elems {kind: (numbers (ne,), node numbers (ne, nn), lines (ne,))}; nsets and esets
     {name: (node or element numbers (k,), lines (k,))}; materials {name: (E, nu, rho, line)} in file
-    units, None where the file gives no value.
+    units, None where the file gives no value; bars (ne, 7) the section and orientation vector of
+    each element of elems["bar2"] (`fe.mesh`), file units.
     """
     ids = np.asarray(ids, dtype=np.int64).reshape(-1)
     xyz = np.asarray(xyz, dtype=float).reshape(-1, 3)
     node_lines = np.asarray(node_lines, dtype=np.int64).reshape(-1)
     if not elems:
-        raise InputError(f"{source}: no solid elements (tetrahedra or hexahedra) in the file")
+        raise InputError(f"{source}: no elements (tetrahedra, hexahedra, or bars in a NASTRAN file) in the file")
+    if "bar2" in elems and len(elems) > 1:
+        raise InputError(f"{source}: both bar and solid elements: a body is either a solid or a frame")
     _unique(source, "node", ids, node_lines)
     bad = np.flatnonzero(~np.isfinite(xyz).all(axis=1))
     if bad.size:
@@ -230,7 +236,12 @@ def _build(source, units, ids, xyz, node_lines, elems, nsets, esets, materials) 
     length, to_pa, to_kgm3 = UNITS[units]
     nodes = xyz * length
     for kind in kinds:
-        _positive_volumes(source, kind, nodes, cells[kind], elem_ids[kind], elem_lines[kind], ids)
+        if kind != "bar2":
+            _positive_volumes(source, kind, nodes, cells[kind], elem_ids[kind], elem_lines[kind], ids)
+    frame = np.zeros((0, 7))
+    if "bar2" in cells:
+        frame = np.asarray(bars, dtype=float) * np.array([length ** 2] + [length ** 4] * 3 + [1.0] * 3)
+        _straight(source, nodes, cells["bar2"], frame[:, 4:], elem_ids["bar2"], elem_lines["bar2"])
 
     node_sets = {}
     for name, (numbers, lines) in nsets.items():
@@ -260,7 +271,22 @@ def _build(source, units, ids, xyz, node_lines, elems, nsets, esets, materials) 
     for name, (E, nu, rho, line) in materials.items():
         mats[name] = _material(source, units, name, E, nu, rho, line, to_pa, to_kgm3)
     return Mesh(nodes=nodes, cells=cells, node_sets=node_sets, elem_sets=elem_sets, materials=mats,
-                source=source, node_ids=ids, elem_ids=elem_ids)
+                source=source, node_ids=ids, elem_ids=elem_ids, bars=frame)
+
+
+def _straight(source, nodes, cells, v, numbers, lines) -> None:
+    """InputError naming the first bar element whose end nodes coincide or whose orientation vector
+    v (ne, 3) is (nearly) parallel to its axis."""
+    d = nodes[cells[:, 1]] - nodes[cells[:, 0]]
+    l, size = np.linalg.norm(d, axis=1), np.ptp(nodes, axis=0).max()
+    bad = np.flatnonzero(l <= 1e-9 * size)
+    if bad.size:
+        raise InputError(f"{_at(source, lines[bad[0]])}: element {numbers[bad[0]]} (bar) has coincident end nodes")
+    s = np.linalg.norm(np.cross(d, v), axis=1) / np.maximum(l * np.linalg.norm(v, axis=1), 1e-300)
+    bad = np.flatnonzero(s < 1e-6)
+    if bad.size:
+        raise InputError(f"{_at(source, lines[bad[0]])}: element {numbers[bad[0]]} (bar) has an orientation vector "
+                         "along its axis (or none): plane 1 is undefined")
 
 
 def _material(source, units, name, E, nu, rho, line, to_pa, to_kgm3) -> tuple:
@@ -531,6 +557,7 @@ def _nastran(source, text) -> tuple:
     elems = {}
     nsets = {}
     mat1, psolid, pids = {}, {}, []            # MID -> (E, nu, rho, line); PID -> (MID, line); (EID, PID, line)
+    bars, pbar = [], {}                         # (EID, PID, GA, X or G0, line); PID -> (MID, [A, I1, I2, J], line)
     for name, f, no in _cards(source, text):
         at = f"{source}:{no}"
         if name == "GRID":
@@ -555,8 +582,52 @@ def _nastran(source, text) -> tuple:
             el[1].append(grids)
             el[2].append(no)
             pids.append((eid, _int(f[1], at, f"{name} PID") if f[1] else eid, no))
+        elif name in ("CBAR", "CBEAM"):
+            eid = _int(f[0], at, f"{name} EID")
+            ga, gb = (_int(v, at, f"{name} G{e}") for v, e in zip(f[2:4], "AB"))
+            if f[4] and _is_int(f[4]) and not (f[5] or f[6]):
+                orient = _int(f[4], at, f"{name} G0")
+            elif f[4] or f[5] or f[6]:
+                orient = np.array([_real(v, at, f"{name} X{k + 1}") if v else 0.0 for k, v in enumerate(f[4:7])])
+            else:
+                raise InputError(f"{at}: {name} {eid} has no orientation vector (X1-X3 or G0; BAROR is not read)")
+            if f[7] not in ("", "GGG"):
+                raise InputError(f"{at}: {name} {eid}: OFFT {f[7]!r}: only GGG (the default) is read")
+            for v, w in zip(f[8:16], ("PA", "PB", "W1A", "W2A", "W3A", "W1B", "W2B", "W3B")):
+                if v and (_real(v, at, f"{name} {w}") if w[0] == "W" else _int(v, at, f"{name} {w}")) != 0:
+                    raise InputError(f"{at}: {name} {eid}: {w} = {v}: pin flags and offsets are not supported")
+            el = elems.setdefault("bar2", ([], [], []))
+            el[0].append(eid)
+            el[1].append([ga, gb])
+            el[2].append(no)
+            bars.append((eid, _int(f[1], at, f"{name} PID") if f[1] else eid, ga, orient, no))
+        elif name in ("PBAR", "PBEAM"):
+            pid = _int(f[0], at, f"{name} PID")
+            if pid in pbar:
+                raise InputError(f"{at}: {name} {pid} is defined twice (first on line {pbar[pid][2]})")
+            if name == "PBAR":                          # PID MID A I1 I2 J NSM; C1..F2; K1 K2 I12
+                values, nsm, i12 = f[2:6], f[6], f[18] if len(f) > 18 else ""
+            else:                                       # PID MID A I1 I2 I12 J NSM (end A); C1..F2; stations
+                values, nsm, i12 = [f[2], f[3], f[4], f[6]], f[7], f[5]
+                for k in range(16, len(f) - 7, 16):
+                    if f[k].upper() not in ("YES", "YESA", "NO"):
+                        break
+                    if f[k].upper() != "YESA" and any(_real(a or "0", at, name) != _real(b or "0", at, name)
+                                                      for a, b in zip(f[k + 2:k + 8], f[2:8])):
+                        raise InputError(f"{at}: PBEAM {pid}: a tapered beam (its stations' sections differ): "
+                                         "only a constant section is read")
+            A, I1, I2, J = (_real(v, at, f"{name} {w}") if v else 0.0 for v, w in zip(values, ("A", "I1", "I2", "J")))
+            for v, w in ((nsm, "NSM"), (i12, "I12")):
+                if v and _real(v, at, f"{name} {w}") != 0:
+                    raise InputError(f"{at}: {name} {pid}: {w} = {v}: only sections without non-structural mass "
+                                     "and with principal axes along the element's y and z are read")
+            if not min(A, I1, I2, J) > 0:
+                raise InputError(f"{at}: {name} {pid}: A, I1, I2 and J must be positive (got {A:g}, {I1:g}, "
+                                 f"{I2:g}, {J:g})")
+            pbar[pid] = (_int(f[1], at, f"{name} MID"), [A, I1, I2, J], no)
         elif name in NASTRAN_ELEMENTS:
-            raise InputError(f"{at}: {name} elements are not supported in a solid body (CTETRA, CHEXA)")
+            raise InputError(f"{at}: {name} elements are not supported (CTETRA and CHEXA make a solid body, "
+                             "CBAR and CBEAM a frame)")
         elif name == "MAT1":
             mid = _int(f[0], at, "MAT1 MID")
             if mid in mat1:
@@ -603,18 +674,31 @@ def _nastran(source, text) -> tuple:
 
     materials = {f"mat{mid}": m for mid, m in mat1.items()}
     used = {}                                           # MID -> (EID, PID, line) of its first element
-    for eid, pid, no in pids:
-        if pid in psolid:
-            mid, pline = psolid[pid]
+    for eid, pid, no in pids + [b[:2] + b[4:] for b in bars]:
+        card, (mid, pline) = ("PSOLID", psolid[pid]) if pid in psolid else ("PBAR", pbar[pid][::2]) if pid in pbar \
+            else (None, (None, None))
+        if card:
             if mid not in mat1:
-                raise InputError(f"{source}:{pline}: PSOLID {pid} refers to material {mid}, which has no MAT1 card")
+                raise InputError(f"{source}:{pline}: {card} {pid} refers to material {mid}, which has no MAT1 card")
             used.setdefault(mid, (eid, pid, no))
     if len(used) > 1:
         (m1, (e1, p1, _)), (m2, (e2, p2, no)) = list(used.items())[:2]
-        raise InputError(f"{source}:{no}: element {e2} has material mat{m2} (PSOLID {p2}) but element {e1} "
-                         f"mat{m1} (PSOLID {p1}): the elements of one body must use one material")
-    return (ids, np.array(xyz, dtype=float).reshape(-1, 3), node_lines, elems,
-            {k: (np.array(v[0], dtype=np.int64), v[1]) for k, v in nsets.items()}, {}, materials)
+        raise InputError(f"{source}:{no}: element {e2} has material mat{m2} (property {p2}) but element {e1} "
+                         f"mat{m1} (property {p1}): the elements of one body must use one material")
+    xyz = np.array(xyz, dtype=float).reshape(-1, 3)
+    section = np.zeros((len(bars), 7))
+    where = dict(zip(ids, range(len(ids))))
+    for k, (eid, pid, ga, orient, no) in enumerate(bars):
+        if pid not in pbar:
+            raise InputError(f"{source}:{no}: element {eid} refers to property {pid}, which has no PBAR or PBEAM card")
+        if not isinstance(orient, np.ndarray):
+            if orient not in where or ga not in where:
+                raise InputError(f"{source}:{no}: element {eid} refers to node {orient if orient not in where else ga}, "
+                                 "which is not defined")
+            orient = xyz[where[orient]] - xyz[where[ga]]
+        section[k] = pbar[pid][1] + list(orient)
+    return (ids, xyz, node_lines, elems,
+            {k: (np.array(v[0], dtype=np.int64), v[1]) for k, v in nsets.items()}, {}, materials, section)
 
 
 def _cards(source, text):

@@ -1,0 +1,138 @@
+"""Frames: bodies of straight 3-D beam elements in any orientation (NASTRAN CBAR/CBEAM), SI units.
+
+A mesh whose cells are "bar2" (`fe.mesh`) carries in `mesh.bars` (ne, 7) each element's section
+[A, I1, I2, J] and orientation vector v (3,), as NASTRAN defines them:
+
+    element x   from node a to node b
+    plane 1     the plane of x and v: element y = (x cross v) cross x / |..|, z = x cross y
+    I1          second moment of area for bending in plane 1 (about element z): `Section.Iz`
+    I2          for bending in plane 2 (about element y): `Section.Iy`
+    J           torsion constant
+
+Each element is `fe.element`'s Euler-Bernoulli element in its element frame, turned into the
+mesh's frame by its triad R (rows: element x, y, z in mesh coordinates): k = T^T k_e T with
+T = diag(R, R, R, R). DOF order: node p owns 6 p + [ux, uy, uz, rx, ry, rz], as a beam's
+(`fe.assembly`). The mass is lumped (`element.mass_lumped`, turned the same way): half of each
+element's mass on each node, and its slice's rotary inertia, which in mesh axes is a full 3 x 3
+block.
+
+Stress at a point of the bar's volume (`fibre_rows`): of the element whose axis passes nearest,
+the section at the point's station along it and the fibre at its offset (y, z) from the axis:
+sigma_xx = E (eps - kappa_z y + kappa_y z) and, from the twist rate theta', the shear
+G theta' r across the fibre's radius r (St Venant's for a circular section; for other sections
+a shear of that size at the fibre, an approximation said in docs/fe.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from flexmbd.fe import element
+from flexmbd.fe.section import Section
+
+
+def triads(nodes: np.ndarray, cells: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(ne, 3, 3) each element's triad R, rows its x, y, z axes in mesh coordinates, from its end
+    nodes (rows of `nodes` (N, 3), cells (ne, 2)) and orientation vectors v (ne, 3)."""
+    d = nodes[cells[:, 1]] - nodes[cells[:, 0]]
+    x = d / np.linalg.norm(d, axis=1, keepdims=True)
+    z = np.cross(x, v)
+    z /= np.linalg.norm(z, axis=1, keepdims=True)
+    return np.stack([x, np.cross(z, x), z], axis=1)
+
+
+def lengths(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(ne,) element lengths, m."""
+    return np.linalg.norm(nodes[cells[:, 1]] - nodes[cells[:, 0]], axis=1)
+
+
+def section(bar: np.ndarray) -> Section:
+    """The `fe.section.Section` of one element's row of `mesh.bars`: A, Iz = I1, Iy = I2, J; the
+    polar moment Ip = I1 + I2 (the slice's rotary inertia about the axis). Shear factors and fibre
+    distances are not known from the card and are not used (Euler-Bernoulli, stress by `fibre_rows`)."""
+    A, I1, I2, J = (float(c) for c in bar[:4])
+    return Section(A=A, Iy=I2, Iz=I1, J=J, Ip=I1 + I2, ky=1.0, kz=1.0, cy=0.0, cz=0.0, tau_factor=0.0,
+                   shape="general")
+
+
+def turned(k: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """(12, 12) an element matrix k in element axes turned into mesh axes: T^T k T, T = diag(R x 4)."""
+    T = np.kron(np.eye(4), R)
+    return T.T @ k @ T
+
+
+def element_matrices(nodes: np.ndarray, cells: np.ndarray, bars: np.ndarray, E: float, G: float,
+                     rho: float) -> tuple:
+    """(k (ne, 12, 12), m (ne, 12, 12)): each element's stiffness and lumped mass in mesh axes."""
+    R, ls = triads(nodes, cells, bars[:, 4:7]), lengths(nodes, cells)
+    k = np.array([turned(element.stiffness(E, G, section(b), l), r) for b, l, r in zip(bars, ls, R)])
+    m = np.array([turned(element.mass_lumped(rho, section(b), l), r) for b, l, r in zip(bars, ls, R)])
+    return k, m
+
+
+def assemble(blocks: np.ndarray, cells: np.ndarray, n_nodes: int) -> sp.csr_matrix:
+    """(6N, 6N) the sum of element blocks (ne, 12, 12) over their nodes' DOFs (cells (ne, 2))."""
+    dofs = (6 * cells[:, :, None] + np.arange(6)).reshape(-1, 12)
+    rows = np.repeat(dofs, 12, axis=1).ravel()
+    cols = np.tile(dofs, (1, 12)).ravel()
+    n = 6 * n_nodes
+    return sp.coo_matrix((blocks.ravel(), (rows, cols)), shape=(n, n)).tocsr()
+
+
+def matrices(mesh, E: float, nu: float, rho: float) -> tuple:
+    """(K, M) (6N, 6N) of a frame mesh: stiffness and lumped mass in mesh axes."""
+    cells = mesh.cells["bar2"]
+    k, m = element_matrices(mesh.nodes, cells, mesh.bars, E, E / (2.0 * (1.0 + nu)), rho)
+    return assemble(k, cells, mesh.n_nodes), assemble(m, cells, mesh.n_nodes)
+
+
+def nearest(mesh, x: np.ndarray) -> tuple:
+    """(row, s, offset): the element whose axis passes nearest to point x (3,) (mesh coordinates),
+    the station s in [0, 1] along it and the point's offset (3,) from the axis there, mesh axes."""
+    cells = mesh.cells["bar2"]
+    a, b = mesh.nodes[cells[:, 0]], mesh.nodes[cells[:, 1]]
+    d = b - a
+    s = np.clip(np.einsum("ni,ni->n", x - a, d) / np.einsum("ni,ni->n", d, d), 0.0, 1.0)
+    off = x - (a + s[:, None] * d)
+    row = int(np.argmin(np.linalg.norm(off, axis=1)))
+    return row, float(s[row]), off[row]
+
+
+def fibre_rows(mesh, E: float, nu: float, x: np.ndarray) -> tuple:
+    """(rows (6, 12), dofs (12,)): the stress at point x (3,) of the frame's volume (`nearest`
+    element, its station and fibre) per unit nodal displacement of that element's 12 DOFs, as a
+    Voigt vector in mesh axes [xx, yy, zz, yz, zx, xy], Pa: the fibre's axial stress
+    E (eps - kappa_z y + kappa_y z) along the element's x and the torsion shear G theta' r across
+    the fibre's radius."""
+    row, s, off = nearest(mesh, np.asarray(x, dtype=float))
+    cells = mesh.cells["bar2"]
+    R = triads(mesh.nodes, cells[row:row + 1], mesh.bars[row:row + 1, 4:7])[0]
+    l = float(lengths(mesh.nodes, cells[row:row + 1])[0])
+    y, z = R[1] @ off, R[2] @ off
+    G = E / (2.0 * (1.0 + nu))
+    # element-axis strains per local DOF: eps = (u2 - u1)/l, twist rate (rx2 - rx1)/l, and the
+    # Hermite curvatures kappa_z = v'' (x-y plane) and -w'' = kappa_y (x-z plane, ry = -w')
+    xi = s
+    dd = np.array([(-6 + 12 * xi) / l ** 2, (-4 + 6 * xi) / l, (6 - 12 * xi) / l ** 2, (-2 + 6 * xi) / l])
+    axial, twist, kz, ky = (np.zeros(12) for _ in range(4))
+    axial[[0, 6]] = [-1.0 / l, 1.0 / l]
+    twist[[3, 9]] = [-1.0 / l, 1.0 / l]
+    kz[element.BENDING_XY] = dd                         # v'' with (v1, rz1, v2, rz2)
+    ky[element.BENDING_XZ] = -(dd * np.array([1.0, -1.0, 1.0, -1.0]))   # -w'' with (w1, ry1, w2, ry2), ry = -w'
+    sigma = E * (axial - kz * y + ky * z)
+    tau = G * twist * np.hypot(y, z)
+    # the local stress tensor [[sigma, -tau sin, tau cos], ...] with the shear along the fibre's
+    # circumferential direction (-z, y)/r, turned into mesh axes: R^T s R
+    r = np.hypot(y, z)
+    cy, cz = (-z / r, y / r) if r > 0 else (0.0, 0.0)
+    e = np.eye(3)
+    T = np.kron(np.eye(4), R)
+    out = np.empty((6, 12))
+    for k, (i, j) in enumerate(((0, 0), (1, 1), (2, 2), (1, 2), (2, 0), (0, 1))):
+        # s_mesh[i, j] = sum_ab R[a, i] R[b, j] s_local[a, b]; s_local = sigma e0 e0 + tau (e0 c + c e0)
+        c = cy * e[1] + cz * e[2]
+        w_sigma = R[0, i] * R[0, j]
+        w_tau = R[0, i] * (c @ R[:, j]) + (c @ R[:, i]) * R[0, j]
+        out[k] = (w_sigma * sigma + w_tau * tau) @ T
+    return out, (6 * cells[row][:, None] + np.arange(6)).ravel()
