@@ -196,7 +196,8 @@ def _precondition(case, name: str) -> results.Status | None:
                                       f"closes one)")
     solid = next((b.name for b in case.bodies.values() if b.type == "solid"), None)
     if solid and not getattr(mod, "SOLIDS", False):         # a solver models solid bodies only when it says so
-        return results.not_applicable(f"solid bodies are not modelled (body {solid!r} is one)")
+        kind = "a frame" if case.bodies[solid].is_frame else "one"
+        return results.not_applicable(f"solid bodies and frames are not modelled (body {solid!r} is {kind})")
     try:
         why = mod.applies(case)
     except Exception as e:                              # noqa: BLE001 - a plug-in's failure is its status

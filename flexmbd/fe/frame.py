@@ -103,36 +103,28 @@ def fibre_rows(mesh, E: float, nu: float, x: np.ndarray) -> tuple:
     """(rows (6, 12), dofs (12,)): the stress at point x (3,) of the frame's volume (`nearest`
     element, its station and fibre) per unit nodal displacement of that element's 12 DOFs, as a
     Voigt vector in mesh axes [xx, yy, zz, yz, zx, xy], Pa: the fibre's axial stress
-    E (eps - kappa_z y + kappa_y z) along the element's x and the torsion shear G theta' r across
-    the fibre's radius."""
-    row, s, off = nearest(mesh, np.asarray(x, dtype=float))
+    sigma = E (eps - kappa_z y + kappa_y z) along the element's x and the torsion shear
+    tau = G theta' r along the fibre's circumferential direction c = (-z, y) / r."""
+    row, xi, off = nearest(mesh, np.asarray(x, dtype=float))
     cells = mesh.cells["bar2"]
     R = triads(mesh.nodes, cells[row:row + 1], mesh.bars[row:row + 1, 4:7])[0]
     l = float(lengths(mesh.nodes, cells[row:row + 1])[0])
     y, z = R[1] @ off, R[2] @ off
-    G = E / (2.0 * (1.0 + nu))
-    # element-axis strains per local DOF: eps = (u2 - u1)/l, twist rate (rx2 - rx1)/l, and the
-    # Hermite curvatures kappa_z = v'' (x-y plane) and -w'' = kappa_y (x-z plane, ry = -w')
-    xi = s
-    dd = np.array([(-6 + 12 * xi) / l ** 2, (-4 + 6 * xi) / l, (6 - 12 * xi) / l ** 2, (-2 + 6 * xi) / l])
-    axial, twist, kz, ky = (np.zeros(12) for _ in range(4))
-    axial[[0, 6]] = [-1.0 / l, 1.0 / l]
-    twist[[3, 9]] = [-1.0 / l, 1.0 / l]
-    kz[element.BENDING_XY] = dd                         # v'' with (v1, rz1, v2, rz2)
-    ky[element.BENDING_XZ] = -(dd * np.array([1.0, -1.0, 1.0, -1.0]))   # -w'' with (w1, ry1, w2, ry2), ry = -w'
-    sigma = E * (axial - kz * y + ky * z)
-    tau = G * twist * np.hypot(y, z)
-    # the local stress tensor [[sigma, -tau sin, tau cos], ...] with the shear along the fibre's
-    # circumferential direction (-z, y)/r, turned into mesh axes: R^T s R
     r = np.hypot(y, z)
-    cy, cz = (-z / r, y / r) if r > 0 else (0.0, 0.0)
-    e = np.eye(3)
-    T = np.kron(np.eye(4), R)
+    # per local DOF: eps = (u2 - u1) / l, theta' = (rx2 - rx1) / l, and the Hermite curvatures
+    # kappa_z = v'' (x-y plane, DOFs v1, rz1, v2, rz2) and kappa_y = -w'' (x-z plane, ry = -w')
+    dd = np.array([(-6 + 12 * xi) / l ** 2, (-4 + 6 * xi) / l, (6 - 12 * xi) / l ** 2, (-2 + 6 * xi) / l])
+    eps, twist, kz, ky = (np.zeros(12) for _ in range(4))
+    eps[[0, 6]] = twist[[3, 9]] = [-1.0 / l, 1.0 / l]
+    kz[element.BENDING_XY] = dd
+    ky[element.BENDING_XZ] = -dd * [1.0, -1.0, 1.0, -1.0]
+    sigma = E * (eps - kz * y + ky * z)
+    tau = E / (2.0 * (1.0 + nu)) * twist * r
+    # the element-axes tensor sigma e_x e_x^T + tau (e_x c^T + c e_x^T), turned into mesh axes:
+    # s[i, j] = sum_ab R[a, i] R[b, j] s_local[a, b]; rows per mesh DOF through T
+    c = np.array([0.0, -z / r, y / r]) @ R if r > 0 else np.zeros(3)
+    ex = R[0]
     out = np.empty((6, 12))
     for k, (i, j) in enumerate(((0, 0), (1, 1), (2, 2), (1, 2), (2, 0), (0, 1))):
-        # s_mesh[i, j] = sum_ab R[a, i] R[b, j] s_local[a, b]; s_local = sigma e0 e0 + tau (e0 c + c e0)
-        c = cy * e[1] + cz * e[2]
-        w_sigma = R[0, i] * R[0, j]
-        w_tau = R[0, i] * (c @ R[:, j]) + (c @ R[:, i]) * R[0, j]
-        out[k] = (w_sigma * sigma + w_tau * tau) @ T
-    return out, (6 * cells[row][:, None] + np.arange(6)).ravel()
+        out[k] = ex[i] * ex[j] * sigma + (ex[i] * c[j] + c[i] * ex[j]) * tau
+    return out @ np.kron(np.eye(4), R), (6 * cells[row][:, None] + np.arange(6)).ravel()

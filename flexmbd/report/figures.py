@@ -176,7 +176,9 @@ def where(case, name: str) -> str:
     if c.kind in ("deflection", "stress_vm"):
         comp = f", {c.component}" if c.kind == "deflection" else ""
         if c.where is not None:                     # a solid's stress point
-            at = f"the element holding ({', '.join(f'{v:g}' for v in c.where)}) m"
+            point = f"({', '.join(f'{v:g}' for v in c.where)}) m"
+            at = f"the fibre {point} of the nearest bar" if case.bodies[c.body].is_frame else \
+                f"the element holding {point}"
         else:
             at = f"interface {c.at}" if isinstance(c.at, str) else f"x = {c.at:g} m"
         return f"{case.name}: {name} ({c.kind}{comp}) of {c.body} at {at}"
