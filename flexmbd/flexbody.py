@@ -540,8 +540,9 @@ def in_frame(mesh: fe_mesh.Mesh, x) -> bool:
 def frame_modes(body, mesh: fe_mesh.Mesh, K, M, nodes: dict) -> tuple:
     """A frame's mode set, (Hz (nm,), Phi (6N, nm)) M-orthonormal and K-diagonal, the frame
     interface's node held in each: clamped-interface normal modes; Craig-Bampton (the other
-    interfaces' constraint modes and the lowest normal modes with every interface held, the
-    lowest `count` of their span); free-free normal modes less the frame node's rigid motion."""
+    interfaces' nodes' six constraint modes each and the lowest normal modes with every interface
+    held, as many as make `count`: the whole set, as a solid's); free-free normal modes less the
+    frame node's rigid motion."""
     count, boundary = body.modes.count, body.modes.boundary
     p0 = nodes[body.frame]
     held = np.arange(6 * p0, 6 * p0 + 6)
@@ -549,7 +550,7 @@ def frame_modes(body, mesh: fe_mesh.Mesh, K, M, nodes: dict) -> tuple:
         return modes.normal_modes(K, M, held, count)
     if boundary == "craig-bampton":
         iface = np.array([6 * p + k for n, p in nodes.items() if n != body.frame for k in range(6)], dtype=int)
-        Phi = modes.craig_bampton(K, M, held, iface, max(count - iface.size, 0) + 6)
+        Phi = modes.craig_bampton(K, M, held, iface, count - iface.size)
     else:
         Phi = modes.hold_node(modes.normal_modes(K, M, [], count)[1], mesh.nodes, p0)
     freq, Phi = modes.orthonormalize(K, M, Phi)

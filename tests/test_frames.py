@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from flexmbd import cases, solvers
+from flexmbd import cases, flexbody, solvers
 from flexmbd.cli import main
 from flexmbd.fe import section
 
@@ -194,6 +194,47 @@ def test_other_mode_sets_hold_the_frame_node(tmp_path, boundary, count):
         np.einsum("p,pam,pan->mn", fb.m, fb.Phi[:, 3:], fb.Phi[:, 3:])
     assert np.abs(I9 - np.eye(count)).max() < 1e-10
     assert solvers.run(case, "flexmbd").status.ok
+    if boundary == "craig-bampton":                 # the tip's constraint modes: any static tip load exactly
+        K, _ = flexbody.frame_matrices(case.bodies["rod"])
+        free = np.arange(6, K.shape[0])
+        f = np.zeros(K.shape[0])
+        f[6 * 20:6 * 20 + 6] = [1.0, -2.0, 3.0, 0.1, 0.2, -0.3]         # the tip node's force and moment
+        u = np.zeros(K.shape[0])
+        u[free] = np.linalg.solve(K.toarray()[np.ix_(free, free)], f[free])
+        P = np.concatenate([fb.Phi[2:, 3:], fb.Phi[2:, :3]], axis=1).reshape(-1, count)   # FE order [u; theta]
+        reduced = P @ np.linalg.solve(fb.Km, P.T @ f)
+        assert np.abs(reduced - u).max() <= 1e-9 * np.abs(u).max()
+
+
+CHILD = """[bodies.bob]
+type = "rigid"
+mass = 0.5
+com = [0.1, 0.0, 0.0]
+inertia = [1e-4, 2e-3, 2e-3, 0.0, 0.0, 0.0]
+[joints.elbow]
+type = "revolute"
+parent = "rod"
+child = "bob"
+at = {at}
+axis = [0.0, 0.0, 1.0]
+q0 = 0.3
+[channels.elbow]
+kind = "joint_angle"
+joint = "elbow"
+"""
+
+
+def test_a_body_hinged_on_a_frames_interface_moves_as_on_the_beams_tip(tmp_path):
+    """A rigid bob hinged at the rod's tip, the joint on the frame's tip interface or on the
+    beam's tip node: the same double pendulum to round-off."""
+    bar_file(tmp_path)
+    frame = solvers.run(frame_case(tmp_path, extra=CHILD.format(at='"tip"')), "flexmbd")
+    (tmp_path / "beam.toml").write_text(BEAM.replace("[integrator]", CHILD.format(at="1.5") + "[integrator]"))
+    beam = solvers.run(cases.load(str(tmp_path / "beam.toml")), "flexmbd")
+    assert frame.status.ok and beam.status.ok
+    for c in ("angle", "elbow", "tip_y"):
+        scale = np.abs(beam.channels[c]).max()
+        assert np.abs(frame.channels[c] - beam.channels[c]).max() <= 1e-9 * scale, c
 
 
 def test_solvers_without_frames_say_so(tmp_path):
