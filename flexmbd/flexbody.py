@@ -27,7 +27,9 @@ need of it is kept here as plain arrays, in the body frame (beam along +x from t
 A solid (`solid_body`) is held the same way: its nodes are the mesh's, after one node per
 interface (its reference point: no mass, its motion the interface's, node 0 the frame's), with
 three translational DOFs (rotation rows and J zero), no foreshortening (D zero), `length` its
-largest extent; docs/fe.md, Solids.
+largest extent; docs/fe.md, Solids. A frame (`frame_body`: a mesh of bar elements) is held as a
+beam is, six DOFs and lumped masses and rotary inertias (full 3 x 3) at its nodes, after one node
+per interface as a solid's; docs/fe.md, Frames.
 
 The node masses m_p, J_p are always the lumped ones: the floating-frame invariants are node sums,
 and their modal mass I9 = sum Phi_r^T J_p Phi_r + m_p Phi_t^T Phi_t is Phi^T M_lumped Phi. The
@@ -519,8 +521,7 @@ def surface_stress_modes(body, fb: FlexBody) -> tuple:
 def frame_matrices(body) -> tuple:
     """(K, M) (6N, 6N) of a case solid whose mesh is a frame (`fe.frame.matrices`: stiffness and
     lumped mass, from its cards; `cases.validate` refuses matrix files for a frame)."""
-    spec = body.mesh
-    mesh = solid_mesh(**dataclasses.asdict(spec))
+    mesh = solid_mesh(**dataclasses.asdict(body.mesh))
     return frame.matrices(mesh, body.material.E, body.material.nu, body.material.rho)
 
 
@@ -583,9 +584,10 @@ def frame_body(body, stress_points=()) -> FlexBody:
         rows, dofs = frame.fibre_rows(mesh, mat.E, mat.nu, np.asarray(point, dtype=float) + origin)
         S.append(rows @ Phi6[dofs])
     m = np.concatenate([np.zeros(k), d[:, 0]])
+    at = [nodes[n] for n in order]                      # the interfaces' nodes, then every node
     return FlexBody(
-        name=body.name, length=solid_length(body.mesh), x0=np.vstack([x[[nodes[n] for n in order]], x]), m=m, J=J,
-        Phi=np.concatenate([blocks[[nodes[n] for n in order]], blocks]), freq_hz=np.asarray(freq),
+        name=body.name, length=solid_length(body.mesh), x0=np.vstack([x[at], x]), m=m, J=J,
+        Phi=np.concatenate([blocks[at], blocks]), freq_hz=np.asarray(freq),
         labels=solid_labels(m[k:], blocks[:, 3:, :]), Km=modal_stiffness(K, Phi6),
         Cm=np.diag(2.0 * body.damping_ratio * 2.0 * np.pi * np.asarray(freq)), boundary=body.modes.boundary,
         stress_x=np.zeros(0), S_strain=np.zeros((0, 4, nm)), D=np.zeros((k + N, nm, nm)),
