@@ -18,14 +18,16 @@ SEC = section.rectangle(b=0.015, h=0.01)        # h along element y (plane 1), b
 TURN = Rotation.from_rotvec([0.3, -0.7, 1.1]).as_matrix()
 
 
-def bdf(path, nodes, bars, v=(0.0, 1.0, 0.0), sec=SEC, extra="") -> str:
+def bdf(path, nodes, bars, v=(0.0, 1.0, 0.0), sec=SEC, extra="", shear=None) -> str:
     """A NASTRAN file of GRIDs at `nodes` (N, 3), CBARs `bars` [(a, b)] (0-based) with orientation
-    vector v, one PBAR of `sec` (I1 = Iz, I2 = Iy) and steel."""
+    vector v, one PBAR of `sec` (I1 = Iz, I2 = Iy; shear factors K1, K2 = `shear` when given) and
+    steel."""
     r = lambda x: repr(float(x))                        # every digit, free field
     lines = ["BEGIN BULK"] + [f"GRID,{i + 1},,{r(x)},{r(y)},{r(z)}" for i, (x, y, z) in enumerate(np.asarray(nodes))]
     lines += [f"CBAR,{e + 1},7,{a + 1},{b + 1},{r(v[0])},{r(v[1])},{r(v[2])}" for e, (a, b) in enumerate(bars)]
-    lines += [f"PBAR,7,3,{r(sec.A)},{r(sec.Iz)},{r(sec.Iy)},{r(sec.J)}", f"MAT1,3,{r(E)},,{r(NU)},{r(RHO)}", extra,
-              "ENDDATA"]
+    lines += [f"PBAR,7,3,{r(sec.A)},{r(sec.Iz)},{r(sec.Iy)},{r(sec.J)}"]
+    lines += [",,,,,,,,", f",{r(shear[0])},{r(shear[1])}"] if shear else []
+    lines += [f"MAT1,3,{r(E)},,{r(NU)},{r(RHO)}", extra, "ENDDATA"]
     path.write_text("\n".join(lines) + "\n")
     return str(path)
 
@@ -119,8 +121,9 @@ def test_fibre_stress_of_a_tip_loaded_cantilever_is_the_beam_formula(tmp_path, t
 
 
 def test_nastran_bar_cards(tmp_path):
-    """G0 for the orientation, PBEAM (a constant section given at a second station with YESA and
-    with equal numbers), large fields and continuations, mm units: one mesh."""
+    """G0 for the orientation, PBEAM (a constant section given at a second station with YESA, its
+    shear factors NASTRAN's default 1.0) and PBAR (none: Euler-Bernoulli), large fields and
+    continuations, mm units: one mesh."""
     text = "\n".join([
         "BEGIN BULK",
         "GRID*   1                               0.              0.",
@@ -136,8 +139,27 @@ def test_nastran_bar_cards(tmp_path):
     np.testing.assert_allclose(mesh.nodes[:3, 0], [0.0, 0.5, 1.0], rtol=0, atol=1e-15)
     want = [1.5e-4, 1.25e-9, 2.8125e-9, 2.9e-9]
     np.testing.assert_allclose(mesh.bars[:, :4], [want, want], rtol=1e-14)
-    np.testing.assert_allclose(mesh.bars[0, 4:], [0.0, 300.0, 0.0])          # G0 9: x_G0 - x_GA, file units
+    assert mesh.bars[:, 4:6].tolist() == [[1.0, 1.0], [0.0, 0.0]]             # PBEAM: K1 = K2 = 1; PBAR: none
+    np.testing.assert_allclose(mesh.bars[0, 6:], [0.0, 300.0, 0.0])          # G0 9: x_G0 - x_GA, file units
     assert mesh.materials["mat1"] == pytest.approx((2.1e11, 0.3, 7850.0), rel=1e-14)
+
+
+def test_shear_factors_make_timoshenko_bars(tmp_path):
+    """K1, K2 on a PBAR (and a PBEAM's default 1.0): a tip force on a cantilever moves it by
+    P L^3 / 3EI + P L / (K G A) in each plane, which the Timoshenko element gives at its nodes; the
+    fibre stress is still the moment's (the element's moment is linear: exact under end loads)."""
+    X, bars = straight(4, 0.3)
+    k1, k2 = 5.0 / 6.0, 0.7
+    mesh = meshfile.read(bdf(tmp_path / "t.bdf", X, bars, shear=(k1, k2)))
+    assert np.all(mesh.bars[:, 4:6] == [k1, k2])
+    P, L = 3.0e3, 0.3
+    for load, I, k in (([0.0, P, 0.0], SEC.Iz, k1), ([0.0, 0.0, P], SEC.Iy, k2)):
+        u, cond = static(mesh, 0, 4, np.r_[load, 0.0, 0.0, 0.0])
+        want = P * L ** 3 / (3 * E * I) + P * L / (k * G * SEC.A)
+        assert abs(np.linalg.norm(u[4, :3]) / want - 1.0) <= 10 * EPS * cond
+    rows, dofs = frame.fibre_rows(mesh, E, NU, [0.1, 0.0, 0.006])
+    u, cond = static(mesh, 0, 4, [0.0, 0.0, P, 0.0, 0.0, 0.0])
+    assert abs((rows @ u.ravel()[dofs])[0] / (-P * (L - 0.1) * 0.006 / SEC.Iy) - 1.0) <= 10 * EPS * cond
 
 
 BARS = "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nPBAR,7,1,1.-4,1.-9,1.-9,2.-9\nMAT1,1,2.1+11,,.3,7850.\n"
@@ -152,6 +174,8 @@ BARS = "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nPBAR,7,1,1.-4,1.-9,1.-9,2.-9\nMAT1,1
     ("property", "CBAR,1,8,1,2,0.,1.,0.", "element 1 refers to property 8, which has no PBAR or PBEAM card"),
     ("orientation node", "CBAR,1,7,1,2,5", "element 1 refers to node 5, which is not defined"),
     ("offset type", "CBAR,1,7,1,2,0.,1.,0.,BGG", "OFFT 'BGG': only GGG (the default) is read"),
+    ("displacement system", "CBAR,1,7,3,2,0.,1.,0.\nGRID,3,,0.,0.,0.,4",
+     "element 1's orientation vector is in the displacement coordinate system CD=4 of its node 3"),
 ])
 def test_bar_refusals(tmp_path, case, line, fragment):
     path = tmp_path / "bad.bdf"

@@ -1,15 +1,17 @@
 """Frames: bodies of straight 3-D beam elements in any orientation (NASTRAN CBAR/CBEAM), SI units.
 
-A mesh whose cells are "bar2" (`fe.mesh`) carries in `mesh.bars` (ne, 7) each element's section
-[A, I1, I2, J] and orientation vector v (3,), as NASTRAN defines them:
+A mesh whose cells are "bar2" (`fe.mesh`) carries in `mesh.bars` (ne, 9) each element's section
+[A, I1, I2, J, K1, K2] and orientation vector v (3,), as NASTRAN defines them:
 
     element x   from node a to node b
     plane 1     the plane of x and v: element y = (x cross v) cross x / |..|, z = x cross y
     I1          second moment of area for bending in plane 1 (about element z): `Section.Iz`
     I2          for bending in plane 2 (about element y): `Section.Iy`
     J           torsion constant
+    K1, K2      shear factors of planes 1 and 2 (shear stiffness K A G): Timoshenko bending in
+                that plane; 0 for none (Euler-Bernoulli), as NASTRAN reads 0 or (PBAR) blank
 
-Each element is `fe.element`'s Euler-Bernoulli element in its element frame, turned into the
+Each element is `fe.element`'s element (Timoshenko, Euler-Bernoulli where K is 0) in its element frame, turned into the
 mesh's frame by its triad R (rows: element x, y, z in mesh coordinates): k = T^T k_e T with
 T = diag(R, R, R, R). DOF order: node p owns 6 p + [ux, uy, uz, rx, ry, rz], as a beam's
 (`fe.assembly`). The mass is lumped (`element.mass_lumped`, turned the same way): half of each
@@ -18,7 +20,8 @@ block.
 
 Stress at a point of the bar's volume (`fibre_rows`): of the element whose axis passes nearest,
 the section at the point's station along it and the fibre at its offset (y, z) from the axis:
-sigma_xx = E (eps - kappa_z y + kappa_y z) and, from the twist rate theta', the shear
+sigma_xx = E (eps - kappa_z y + kappa_y z) (the curvatures `fe.stress.curvature_rows`') and, from
+the twist rate theta', the shear
 G theta' r across the fibre's radius r (St Venant's for a circular section; for other sections
 a shear of that size at the fibre, an approximation said in docs/fe.md).
 """
@@ -28,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from flexmbd.fe import element
+from flexmbd.fe import element, stress
 from flexmbd.fe.section import Section
 
 
@@ -49,11 +52,12 @@ def lengths(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
 
 def section(bar: np.ndarray) -> Section:
     """The `fe.section.Section` of one element's row of `mesh.bars`: A, Iz = I1, Iy = I2, J; the
-    polar moment Ip = I1 + I2 (the slice's rotary inertia about the axis). Shear factors and fibre
-    distances are not known from the card and are not used (Euler-Bernoulli, stress by `fibre_rows`)."""
-    A, I1, I2, J = (float(c) for c in bar[:4])
-    return Section(A=A, Iy=I2, Iz=I1, J=J, Ip=I1 + I2, ky=1.0, kz=1.0, cy=0.0, cz=0.0, tau_factor=0.0,
-                   shape="general")
+    polar moment Ip = I1 + I2 (the slice's rotary inertia about the axis); shear factors ky = K1,
+    kz = K2, infinite where 0 (no shear flexibility: the Timoshenko element is then exactly the
+    Euler-Bernoulli one). Fibre distances are not on the card (stress by `fibre_rows`)."""
+    A, I1, I2, J, K1, K2 = (float(c) for c in bar[:6])
+    return Section(A=A, Iy=I2, Iz=I1, J=J, Ip=I1 + I2, ky=K1 or np.inf, kz=K2 or np.inf, cy=0.0, cz=0.0,
+                   tau_factor=0.0, shape="general")
 
 
 def turned(k: np.ndarray, R: np.ndarray) -> np.ndarray:
@@ -65,8 +69,8 @@ def turned(k: np.ndarray, R: np.ndarray) -> np.ndarray:
 def element_matrices(nodes: np.ndarray, cells: np.ndarray, bars: np.ndarray, E: float, G: float,
                      rho: float) -> tuple:
     """(k (ne, 12, 12), m (ne, 12, 12)): each element's stiffness and lumped mass in mesh axes."""
-    R, ls = triads(nodes, cells, bars[:, 4:7]), lengths(nodes, cells)
-    k = np.array([turned(element.stiffness(E, G, section(b), l), r) for b, l, r in zip(bars, ls, R)])
+    R, ls = triads(nodes, cells, bars[:, 6:9]), lengths(nodes, cells)
+    k = np.array([turned(element.stiffness(E, G, section(b), l, shear=True), r) for b, l, r in zip(bars, ls, R)])
     m = np.array([turned(element.mass_lumped(rho, section(b), l), r) for b, l, r in zip(bars, ls, R)])
     return k, m
 
@@ -107,19 +111,17 @@ def fibre_rows(mesh, E: float, nu: float, x: np.ndarray) -> tuple:
     tau = G theta' r along the fibre's circumferential direction c = (-z, y) / r."""
     row, xi, off = nearest(mesh, np.asarray(x, dtype=float))
     cells = mesh.cells["bar2"]
-    R = triads(mesh.nodes, cells[row:row + 1], mesh.bars[row:row + 1, 4:7])[0]
+    R = triads(mesh.nodes, cells[row:row + 1], mesh.bars[row:row + 1, 6:9])[0]
     l = float(lengths(mesh.nodes, cells[row:row + 1])[0])
     y, z = R[1] @ off, R[2] @ off
-    r = np.hypot(y, z)
-    # per local DOF: eps = (u2 - u1) / l, theta' = (rx2 - rx1) / l, and the Hermite curvatures
-    # kappa_z = v'' (x-y plane, DOFs v1, rz1, v2, rz2) and kappa_y = -w'' (x-z plane, ry = -w')
-    dd = np.array([(-6 + 12 * xi) / l ** 2, (-4 + 6 * xi) / l, (6 - 12 * xi) / l ** 2, (-2 + 6 * xi) / l])
-    eps, twist, kz, ky = (np.zeros(12) for _ in range(4))
+    r, G = np.hypot(y, z), E / (2.0 * (1.0 + nu))
+    # per local DOF: eps = (u2 - u1) / l, theta' = (rx2 - rx1) / l, and the curvatures
+    # kappa_z = v'' (x-y plane) and kappa_y = -w'' (x-z plane, ry = -w')
+    eps, twist = np.zeros(12), np.zeros(12)
     eps[[0, 6]] = twist[[3, 9]] = [-1.0 / l, 1.0 / l]
-    kz[element.BENDING_XY] = dd
-    ky[element.BENDING_XZ] = -dd * [1.0, -1.0, 1.0, -1.0]
+    kz, ky = stress.curvature_rows(E, G, section(mesh.bars[row]), xi, l, shear=True)
     sigma = E * (eps - kz * y + ky * z)
-    tau = E / (2.0 * (1.0 + nu)) * twist * r
+    tau = G * twist * r
     # the element-axes tensor sigma e_x e_x^T + tau (e_x c^T + c e_x^T), turned into mesh axes:
     # s[i, j] = sum_ab R[a, i] R[b, j] s_local[a, b]; rows per mesh DOF through T
     c = np.array([0.0, -z / r, y / r]) @ R if r > 0 else np.zeros(3)

@@ -9,8 +9,9 @@
     source     str          where the mesh came from (a file name, or "box"), for messages
     node_ids   (N,) int     the file's number of each node (messages, sets); box: 1..N
     elem_ids   {kind: (ne,) int}       the file's number of each element; box: 1..ne
-    bars       (ne, 7)      a frame's elements (kind "bar2", `fe.frame`): [A m^2, I1, I2, J m^4,
-                            orientation vector v (3,)] of each row of cells["bar2"]; (0, 7) for a solid
+    bars       (ne, 9)      a frame's elements (kind "bar2", `fe.frame`): [A m^2, I1, I2, J m^4, shear
+                            factors K1, K2 (0: none), orientation vector v (3,)] of each row of
+                            cells["bar2"]; (0, 9) for a solid
 
 Kinds and node orders (corner nodes first, then the mid-edge nodes of the quadratic elements):
 
@@ -46,7 +47,7 @@ class Mesh(NamedTuple):
     source: str
     node_ids: np.ndarray
     elem_ids: dict
-    bars: np.ndarray = np.zeros((0, 7))
+    bars: np.ndarray = np.zeros((0, 9))
 
     @property
     def n_nodes(self) -> int:

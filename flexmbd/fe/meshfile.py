@@ -28,14 +28,16 @@ body); *INSTANCE positioning data is not applied. *INCLUDE is refused; any other
 
 NASTRAN (own parser): small (8-character), large (GRID*, 16-character) and free (comma) fields,
 continuation lines (first field blank, '+...' or '*...'), '$' comments, BEGIN BULK / ENDDATA when
-present. GRID (basic coordinate system only), CTETRA, CHEXA (the 20-grid mid-edge order 12 23 34 41,
-15 26 37 48, 56 67 78 85 is reordered to fe.mesh's), MAT1 (two of E, G, NU give the third; RHO
-needed), PSOLID (the elements of one body use one material), and as node sets: SPC/SPC1
-"spc<SID>", SET1 "set<SID>", RBE2 "rbe2_<EID>" (dependent grids), RBE3 "rbe3_<EID>" (the weighted
-grids; the weights are not kept), each with its reference grid in "rbe2_<EID>_ref"/"rbe3_<EID>_ref".
+present. GRID (the basic coordinate system for positions; a displacement system CD only on grids
+that orient no bar by X1-X3), CTETRA, CHEXA (the 20-grid mid-edge order 12 23 34 41, 15 26 37 48,
+56 67 78 85 is reordered to fe.mesh's), MAT1 (two of E, G, NU give the third; RHO needed), PSOLID
+(the elements of one body use one material), and as node sets: SPC/SPC1 "spc<SID>", SET1
+"set<SID>", RBE2 "rbe2_<EID>" (dependent grids), RBE3 "rbe3_<EID>" (the weighted grids; the
+weights are not kept), each with its reference grid in "rbe2_<EID>_ref"/"rbe3_<EID>_ref".
 Materials are named "mat<MID>". CBAR and CBEAM with PBAR and PBEAM make a frame ("bar2" cells and
-`Mesh.bars`: docs/fe.md, Frames; a file holds bars or 3-D elements, not both). Other element cards
-are refused; other cards are skipped.
+`Mesh.bars`, with the shear factors K1, K2: a PBAR's blank 0, a PBEAM's NASTRAN's 1.0; docs/fe.md,
+Frames; a file holds bars or 3-D elements, not both). Other element cards are refused; other
+cards are skipped.
 
 Gmsh (through meshio, MSH 2.2 and 4.1): the 3-D cells, and every physical group as a node set (the
 nodes of its cells, facets included) and, for volume groups, an element set. meshio does not keep
@@ -238,10 +240,10 @@ def _build(source, units, ids, xyz, node_lines, elems, nsets, esets, materials, 
     for kind in kinds:
         if kind != "bar2":
             _positive_volumes(source, kind, nodes, cells[kind], elem_ids[kind], elem_lines[kind], ids)
-    frame = np.zeros((0, 7))
+    frame = np.zeros((0, 9))
     if "bar2" in cells:
-        frame = np.asarray(bars, dtype=float) * np.array([length ** 2] + [length ** 4] * 3 + [1.0] * 3)
-        _straight(source, nodes, cells["bar2"], frame[:, 4:], elem_ids["bar2"], elem_lines["bar2"])
+        frame = np.asarray(bars, dtype=float) * np.array([length ** 2] + [length ** 4] * 3 + [1.0] * 5)
+        _straight(source, nodes, cells["bar2"], frame[:, 6:], elem_ids["bar2"], elem_lines["bar2"])
 
     node_sets = {}
     for name, (numbers, lines) in nsets.items():
@@ -557,13 +559,16 @@ def _nastran(source, text) -> tuple:
     elems = {}
     nsets = {}
     mat1, psolid, pids = {}, {}, []            # MID -> (E, nu, rho, line); PID -> (MID, line); (EID, PID, line)
-    bars, pbar = [], {}                         # (EID, PID, GA, X or G0, line); PID -> (MID, [A, I1, I2, J], line)
+    bars, pbar = [], {}                         # (EID, PID, GA, X or G0, line); PID -> (MID, [A .. K2], line)
+    local = {}                                  # GRID ID -> its displacement coordinate system CD, where not basic
     for name, f, no in _cards(source, text):
         at = f"{source}:{no}"
         if name == "GRID":
             if f[1] not in ("", "0"):
                 raise InputError(f"{at}: GRID {f[0]} has coordinate system CP={f[1]}: only the basic system "
                                  "(CP blank or 0) is supported")
+            if f[5] not in ("", "0"):
+                local[_int(f[0], at, "GRID ID")] = f[5]
             ids.append(_int(f[0], at, "GRID ID"))
             xyz.append([_real(v, at, "GRID X") if v else 0.0 for v in f[2:5]])
             node_lines.append(no)
@@ -605,26 +610,29 @@ def _nastran(source, text) -> tuple:
             pid = _int(f[0], at, f"{name} PID")
             if pid in pbar:
                 raise InputError(f"{at}: {name} {pid} is defined twice (first on line {pbar[pid][2]})")
+            f = f + [""] * 19                           # the optional fields read as blank
             if name == "PBAR":                          # PID MID A I1 I2 J NSM; C1..F2; K1 K2 I12
-                values, nsm, i12 = f[2:6], f[6], f[18] if len(f) > 18 else ""
-            else:                                       # PID MID A I1 I2 I12 J NSM (end A); C1..F2; stations
-                values, nsm, i12 = [f[2], f[3], f[4], f[6]], f[7], f[5]
-                for k in range(16, len(f) - 7, 16):
-                    if f[k].upper() not in ("YES", "YESA", "NO"):
-                        break
+                values, nsm, i12, shear = f[2:6], f[6], f[18], (f[16] or "0", f[17] or "0")
+            else:                                       # PID MID A I1 I2 I12 J NSM (end A); C1..F2;
+                values, nsm, i12 = [f[2], f[3], f[4], f[6]], f[7], f[5]     # stations; K1 K2 ...
+                k = 16
+                while k < len(f) and f[k].upper() in ("YES", "YESA", "NO"):
                     if f[k].upper() != "YESA" and any(_real(a or "0", at, name) != _real(b or "0", at, name)
                                                       for a, b in zip(f[k + 2:k + 8], f[2:8])):
                         raise InputError(f"{at}: PBEAM {pid}: a tapered beam (its stations' sections differ): "
                                          "only a constant section is read")
+                    k += 16
+                shear = tuple((f[j] if j < len(f) else "") or "1.0" for j in (k, k + 1))   # NASTRAN's default 1.0
             A, I1, I2, J = (_real(v, at, f"{name} {w}") if v else 0.0 for v, w in zip(values, ("A", "I1", "I2", "J")))
+            K1, K2 = (_real(v, at, f"{name} {w}") for v, w in zip(shear, ("K1", "K2")))
             for v, w in ((nsm, "NSM"), (i12, "I12")):
                 if v and _real(v, at, f"{name} {w}") != 0:
                     raise InputError(f"{at}: {name} {pid}: {w} = {v}: only sections without non-structural mass "
                                      "and with principal axes along the element's y and z are read")
-            if not min(A, I1, I2, J) > 0:
-                raise InputError(f"{at}: {name} {pid}: A, I1, I2 and J must be positive (got {A:g}, {I1:g}, "
-                                 f"{I2:g}, {J:g})")
-            pbar[pid] = (_int(f[1], at, f"{name} MID"), [A, I1, I2, J], no)
+            if not min(A, I1, I2, J) > 0 or min(K1, K2) < 0:
+                raise InputError(f"{at}: {name} {pid}: A, I1, I2 and J must be positive and K1, K2 not negative (got "
+                                 f"{A:g}, {I1:g}, {I2:g}, {J:g}, {K1:g}, {K2:g})")
+            pbar[pid] = (_int(f[1], at, f"{name} MID"), [A, I1, I2, J, K1, K2], no)
         elif name in NASTRAN_ELEMENTS:
             raise InputError(f"{at}: {name} elements are not supported (CTETRA and CHEXA make a solid body, "
                              "CBAR and CBEAM a frame)")
@@ -686,11 +694,14 @@ def _nastran(source, text) -> tuple:
         raise InputError(f"{source}:{no}: element {e2} has material mat{m2} (property {p2}) but element {e1} "
                          f"mat{m1} (property {p1}): the elements of one body must use one material")
     xyz = np.array(xyz, dtype=float).reshape(-1, 3)
-    section = np.zeros((len(bars), 7))
+    section = np.zeros((len(bars), 9))
     where = dict(zip(ids, range(len(ids))))
     for k, (eid, pid, ga, orient, no) in enumerate(bars):
         if pid not in pbar:
             raise InputError(f"{source}:{no}: element {eid} refers to property {pid}, which has no PBAR or PBEAM card")
+        if isinstance(orient, np.ndarray) and ga in local:
+            raise InputError(f"{source}:{no}: element {eid}'s orientation vector is in the displacement coordinate "
+                             f"system CD={local[ga]} of its node {ga}: only the basic system is supported (or give G0)")
         if not isinstance(orient, np.ndarray):
             if orient not in where or ga not in where:
                 raise InputError(f"{source}:{no}: element {eid} refers to node {orient if orient not in where else ga}, "

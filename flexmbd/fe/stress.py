@@ -75,6 +75,13 @@ def _curvatures_from_moments(E, G, sec, xi, l):
     return kz, ky
 
 
+def curvature_rows(E, G, sec, xi, l, shear=False):
+    """(kappa_z, kappa_y) rows (12,) on an element's local DOFs at station xi in [0, 1] of an
+    element of length l: the Hermite curvatures, or with `shear` the Timoshenko element's, from
+    its end moments (the two agree for an Euler-Bernoulli section)."""
+    return _curvatures_from_moments(E, G, sec, xi, l) if shear else _curvatures_hermite(xi, l)
+
+
 def strain_rows(nodes, elements, E, G, sec, x, shear=False):
     """Linear maps (4, 6N) from the nodal displacements u (6N,) to the section strains at ``x``:
     rows [eps, kappa_y, kappa_z, twist rate] (1, 1/m, 1/m, rad/m).
@@ -88,7 +95,7 @@ def strain_rows(nodes, elements, E, G, sec, x, shear=False):
     rows = np.zeros((4, 12))
     rows[0, element.AXIAL] = np.array([-1.0, 1.0]) / l
     rows[3, element.TORSION] = np.array([-1.0, 1.0]) / l
-    kz, ky = _curvatures_from_moments(E, G, sec, xi, l) if shear else _curvatures_hermite(xi, l)
+    kz, ky = curvature_rows(E, G, sec, xi, l, shear)
     rows[1], rows[2] = ky, kz
     out = np.zeros((4, 6 * nodes.shape[0]))
     out[:, element_dofs(elements[e:e + 1])[0]] = rows
