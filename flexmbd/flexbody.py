@@ -329,7 +329,8 @@ def load(path) -> FlexBody:
 def solid_mesh(file=None, units="m", box=None, divisions=None, element="hex20", stiffness=None,
                mass=None) -> fe_mesh.Mesh:
     """The mesh of a case solid's `mesh` table (validated: `file` absolute), read or built once
-    per content (an import error is an InputError naming the file and line)."""
+    per content (an import error is an InputError naming the file and line), less the nodes on
+    no element (`fe.mesh.without_orphans`)."""
     if file is not None:
         return _mesh_file(str(file), units, digest(file))
     return _mesh_box(tuple(box), tuple(int(n) for n in divisions), element)
@@ -346,7 +347,7 @@ def digest(path) -> str:
 
 @functools.lru_cache(maxsize=8)
 def _mesh_file(path: str, units: str, sha256: str) -> fe_mesh.Mesh:
-    return meshfile.read(path, units)
+    return fe_mesh.without_orphans(meshfile.read(path, units))
 
 
 @functools.lru_cache(maxsize=8)

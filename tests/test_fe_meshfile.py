@@ -14,7 +14,7 @@ import pytest
 
 from flexmbd.errors import InputError
 from flexmbd.fe import meshfile
-from flexmbd.fe.mesh import EDGES, box
+from flexmbd.fe.mesh import EDGES, box, without_orphans
 
 DATA = Path(__file__).parent / "data"
 _spec = importlib.util.spec_from_file_location("make_block", DATA / "make_block.py")
@@ -201,6 +201,12 @@ def test_nastran_fields_continuations_and_cards(tmp_path):
     E, nu, rho = m.materials["mat3"]
     assert (E, rho) == (2.1e11, 7850.0) and nu == pytest.approx(0.3, rel=1e-6)
     assert m.materials["mat4"] == (2 * 8e10 * 1.25, 0.25, 2700.0)
+    # a body's mesh drops the reference grid 100, on no element: its sets lose it
+    b = without_orphans(m)
+    np.testing.assert_array_equal(b.node_ids, range(1, 13))
+    np.testing.assert_array_equal(b.node_ids[b.cells["hex8"]], c)
+    assert {k: b.node_ids[v].tolist() for k, v in b.node_sets.items()} == {**sets, "rbe2_31_ref": [], "rbe3_41_ref": []}
+    assert without_orphans(b) is b
 
 
 # ---------------------------------------------------------------------------------------------

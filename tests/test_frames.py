@@ -91,14 +91,17 @@ output_dt = 1e-3
 """
 
 
-def bar_file(folder, turn=np.eye(3), n=20, length=1.5, extra="") -> None:
-    """bar.bdf: a straight rod of n CBARs from the origin along turn's x, plane 1 turn's x-y; SET1
-    1 its root node, SET1 2 its tip node, SET1 3 its first two."""
+def bar_file(folder, turn=np.eye(3), n=20, length=1.5, extra="", g0=False) -> None:
+    """bar.bdf: a straight rod of n CBARs from the origin along turn's x, plane 1 turn's x-y (by
+    the vector, or with `g0` by an orientation grid 999 on no element); SET1 1 its root node, SET1
+    2 its tip node, SET1 3 its first two, SET1 4 the grid 999."""
     X = np.c_[np.linspace(0.0, length, n + 1), np.zeros(n + 1), np.zeros(n + 1)] @ turn.T
     r = lambda x: repr(float(x))
     v = turn @ [0.0, 1.0, 0.0]
     lines = ["BEGIN BULK"] + [f"GRID,{i + 1},,{r(x)},{r(y)},{r(z)}" for i, (x, y, z) in enumerate(X)]
-    lines += [f"CBAR,{e + 1},7,{e + 1},{e + 2},{r(v[0])},{r(v[1])},{r(v[2])}" for e in range(n)]
+    lines += ["GRID,999,,{},{},{}".format(*map(r, turn @ [0.0, 5.0, 0.0])), "SET1,4,999"]
+    lines += [f"CBAR,{e + 1},7,{e + 1},{e + 2},999" if g0 else f"CBAR,{e + 1},7,{e + 1},{e + 2},{r(v[0])},{r(v[1])},{r(v[2])}"
+              for e in range(n)]
     lines += [f"PBAR,7,3,{r(SEC.A)},{r(SEC.Iz)},{r(SEC.Iy)},{r(SEC.J)}", "MAT1,3,2.1e11,,0.3,7850.",
               "SET1,1,1", f"SET1,2,{n + 1}", "SET1,3,1,2", extra, "ENDDATA"]
     (folder / "bar.bdf").write_text("\n".join(lines) + "\n")
@@ -127,6 +130,23 @@ def test_a_straight_frame_pendulum_runs_as_the_beam_does(tmp_path):
     for c in ("angle", "tip_y"):
         scale = np.abs(beam.channels[c]).max()
         assert np.abs(frame.channels[c] - beam.channels[c]).max() <= 1e-9 * scale, c   # seen: 0
+
+
+def test_an_orientation_grid_on_no_element_gives_the_same_frame(tmp_path):
+    """The rod oriented by a G0 grid (on no element: the body's mesh drops it) against the same
+    rod oriented by the vector: the same body."""
+    bodies = []
+    for g0 in (False, True):
+        folder = tmp_path / str(g0)
+        folder.mkdir()
+        bar_file(folder, TURN, g0=g0)
+        bodies.append(frame_case(folder, TURN).reduced("rod"))
+    a, b = bodies
+    assert a.x0.shape == b.x0.shape == (23, 3)
+    # the two triads agree to round-off, which moves the lowest eigenvalues by up to eps times
+    # the highest over the lowest (about 1e8 here: axial against first bending) relative
+    assert np.abs(a.freq_hz / b.freq_hz - 1.0).max() < 1e-8         # seen: 4e-11
+    assert np.abs(a.Phi - b.Phi).max() < 1e-8 * np.abs(a.Phi).max()
 
 
 def test_a_turned_frame_in_a_turned_world_swings_the_same(tmp_path):
@@ -248,6 +268,7 @@ def test_solvers_without_frames_say_so(tmp_path):
     (('set = "set2"', 'set = "set3"'), "bodies.rod.interfaces.tip.set"),
     (('set = "set2"\nkind = "rigid"', 'set = "set2"\nkind = "averaging"'), "bodies.rod.interfaces.tip.kind"),
     (('mesh = { file = "bar.bdf" }', 'mesh = { file = "bar.bdf", mass = "bar.bdf" }'), "bodies.rod.mesh.mass"),
+    (('set = "set2"', 'set = "set4"'), "bodies.rod.interfaces.tip.set"),
     (("[integrator]", '[channels.s]\nkind = "stress_vm"\nbody = "rod"\npoint = [0.5, 0.2, 0.0]\n[integrator]'),
      "channels.s.point"),
 ])

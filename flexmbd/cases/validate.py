@@ -617,6 +617,9 @@ def _check_solid(b, d, where, k):
         if i["set"] not in mesh.node_sets:
             _fail(where, f"{key}.set", f"no node set {i['set']!r} in {mesh.source} (it has: "
                   f"{', '.join(sorted(mesh.node_sets)) or 'none'})")
+        if not len(mesh.node_sets[i["set"]]):
+            _fail(where, f"{key}.set", f"node set {i['set']!r} has no node on an element (an RBE's reference grid "
+                  "or an orientation grid alone): name the set of the nodes it ties, and its point")
         if mesh.is_frame:                           # a frame's interface is a node: its six DOFs
             if len(mesh.node_sets[i["set"]]) != 1:
                 _fail(where, f"{key}.set", f"a frame's interface is one node (its rotations are the interface's); "

@@ -59,6 +59,21 @@ class Mesh(NamedTuple):
         return "bar2" in self.cells
 
 
+def without_orphans(mesh: Mesh) -> Mesh:
+    """The mesh less its nodes on no element (a NASTRAN file's RBE reference grids, a bar's G0
+    orientation grid): with no stiffness and no mass of their own they would make a body's
+    matrices singular. Node sets keep their other nodes (a set of orphans alone comes out empty);
+    the mesh itself when every node is on an element."""
+    used = np.unique(np.concatenate([c.ravel() for c in mesh.cells.values()]))
+    if used.size == mesh.n_nodes:
+        return mesh
+    row = np.full(mesh.n_nodes, -1)
+    row[used] = np.arange(used.size)
+    return mesh._replace(nodes=mesh.nodes[used], cells={k: row[c] for k, c in mesh.cells.items()},
+                         node_sets={k: row[v][row[v] >= 0] for k, v in mesh.node_sets.items()},
+                         node_ids=mesh.node_ids[used])
+
+
 def box(L: float, h: float, b: float, n: tuple, kind: str = "hex8") -> Mesh:
     """A structured mesh of the box [0, L] x [-h/2, h/2] x [-b/2, b/2] (m) with n = (nx, ny, nz)
     divisions, of `kind` elements (tetrahedra: six per hexahedral cell, Kuhn's split, conforming).
