@@ -262,6 +262,8 @@ GRIDS = "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nGRID,3,,0.,1.,0.\nGRID,4,,0.,0.,1.\
      "CQUAD4  2       1       1       2       3       4", "CQUAD4 elements are not supported"),
     ("coordinate system", GRIDS + "GRID,5,3,1.,1.,1.\nCTETRA,1,1,1,2,3,4\n", "GRID,5,3,1.,1.,1.",
      "GRID 5 has coordinate system CP=3: only the basic system (CP blank or 0) is supported"),
+    ("point mass", GRIDS + "CTETRA,1,1,1,2,3,4\nCONM2,9,1,,1.5\n", "CONM2,9,1,,1.5",
+     "CONM2 9: its grid 1 is on a solid (a point mass sits on a frame's node)"),
     ("undefined grid", GRIDS + "CTETRA,1,1,1,2,3,6\n", "CTETRA,1,1,1,2,3,6",
      "element 1 refers to node 6, which is not defined"),
     ("duplicate grid", GRIDS + "GRID,3,,1.,1.,1.\nCTETRA,1,1,1,2,3,4\n", "GRID,3,,1.,1.,1.",

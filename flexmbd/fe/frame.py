@@ -85,10 +85,20 @@ def assemble(blocks: np.ndarray, cells: np.ndarray, n_nodes: int) -> sp.csr_matr
 
 
 def matrices(mesh, E: float, nu: float, rho: float) -> tuple:
-    """(K, M) (6N, 6N) of a frame mesh: stiffness and lumped mass in mesh axes."""
+    """(K, M) (6N, 6N) of a frame mesh: stiffness and lumped mass (with its point masses) in mesh axes."""
     cells = mesh.cells["bar2"]
     k, m = element_matrices(mesh.nodes, cells, mesh.bars, E, E / (2.0 * (1.0 + nu)), rho)
-    return assemble(k, cells, mesh.n_nodes), assemble(m, cells, mesh.n_nodes)
+    return assemble(k, cells, mesh.n_nodes), assemble(m, cells, mesh.n_nodes) + point_masses(mesh)
+
+
+def point_masses(mesh) -> sp.csr_matrix:
+    """(6N, 6N) the frame's point masses (`mesh.masses`, CONM2) on their nodes' DOFs: m on the
+    translations, Ixx, Iyy, Izz on the rotations."""
+    n = 6 * mesh.n_nodes
+    d = np.zeros(n)
+    for row, m, *inertia in mesh.masses:
+        d[6 * int(row):6 * int(row) + 6] += [m, m, m, *inertia]
+    return sp.diags(d, format="csr") if d.any() else sp.csr_matrix((n, n))
 
 
 def nearest(mesh, x: np.ndarray) -> tuple:

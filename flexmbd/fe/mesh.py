@@ -9,6 +9,8 @@
     source     str          where the mesh came from (a file name, or "box"), for messages
     node_ids   (N,) int     the file's number of each node (messages, sets); box: 1..N
     elem_ids   {kind: (ne,) int}       the file's number of each element; box: 1..ne
+    masses     (k, 5)       a frame's point masses (NASTRAN CONM2): [node row, m kg, Ixx, Iyy, Izz kg m^2]
+                            (mesh axes, about the node); (0, 5) without
     bars       (ne, 9)      a frame's elements (kind "bar2", `fe.frame`): [A m^2, I1, I2, J m^4, shear
                             factors K1, K2 (0: none), orientation vector v (3,)] of each row of
                             cells["bar2"]; (0, 9) for a solid
@@ -48,6 +50,7 @@ class Mesh(NamedTuple):
     node_ids: np.ndarray
     elem_ids: dict
     bars: np.ndarray = np.zeros((0, 9))
+    masses: np.ndarray = np.zeros((0, 5))
 
     @property
     def n_nodes(self) -> int:
@@ -69,9 +72,11 @@ def without_orphans(mesh: Mesh) -> Mesh:
         return mesh
     row = np.full(mesh.n_nodes, -1)
     row[used] = np.arange(used.size)
+    masses = mesh.masses.copy()
+    masses[:, 0] = row[masses[:, 0].astype(int)]       # on nodes of elements (`fe.meshfile` checks)
     return mesh._replace(nodes=mesh.nodes[used], cells={k: row[c] for k, c in mesh.cells.items()},
                          node_sets={k: row[v][row[v] >= 0] for k, v in mesh.node_sets.items()},
-                         node_ids=mesh.node_ids[used])
+                         node_ids=mesh.node_ids[used], masses=masses)
 
 
 def box(L: float, h: float, b: float, n: tuple, kind: str = "hex8") -> Mesh:

@@ -36,8 +36,9 @@ that orient no bar by X1-X3), CTETRA, CHEXA (the 20-grid mid-edge order 12 23 34
 weights are not kept), each with its reference grid in "rbe2_<EID>_ref"/"rbe3_<EID>_ref".
 Materials are named "mat<MID>". CBAR and CBEAM with PBAR and PBEAM make a frame ("bar2" cells and
 `Mesh.bars`, with the shear factors K1, K2: a PBAR's blank 0, a PBEAM's NASTRAN's 1.0; docs/fe.md,
-Frames; a file holds bars or 3-D elements, not both). Other element cards are refused; other
-cards are skipped.
+Frames; a file holds bars or 3-D elements, not both), with CONM2 point masses on its nodes
+(`Mesh.masses`: no offset, basic axes, no products of inertia). Other element cards are refused;
+other cards are skipped.
 
 Gmsh (through meshio, MSH 2.2 and 4.1): the 3-D cells, and every physical group as a node set (the
 nodes of its cells, facets included) and, for volume groups, an element set. meshio does not keep
@@ -195,14 +196,15 @@ def _mtx_dofs(source, lines, node, dof, node_ids) -> np.ndarray:
 # checks and conversion, common to the three formats
 
 
-def _build(source, units, ids, xyz, node_lines, elems, nsets, esets, materials, bars=None) -> Mesh:
+def _build(source, units, ids, xyz, node_lines, elems, nsets, esets, materials, bars=None, conm2=()) -> Mesh:
     """Check one file's contents and convert them into an SI Mesh.
 
     ids (N,) the file's node numbers, xyz (N, 3) in file units, node_lines (N,) the line of each
     (0: none); elems {kind: (numbers (ne,), node numbers (ne, nn), lines (ne,))}; nsets and esets
     {name: (node or element numbers (k,), lines (k,))}; materials {name: (E, nu, rho, line)} in file
     units, None where the file gives no value; bars (ne, 7) the section and orientation vector of
-    each element of elems["bar2"] (`fe.mesh`), file units.
+    each element of elems["bar2"] (`fe.mesh`), file units; conm2 [(EID, grid, [M, I11, I22, I33],
+    line)] a frame's point masses, file units.
     """
     ids = np.asarray(ids, dtype=np.int64).reshape(-1)
     xyz = np.asarray(xyz, dtype=float).reshape(-1, 3)
@@ -269,11 +271,21 @@ def _build(source, units, ids, xyz, node_lines, elems, nsets, esets, materials, 
         elem_sets[name] = {k: np.unique(row_of[at][kind_of[at] == i]) for i, k in enumerate(kinds)
                            if (kind_of[at] == i).any()}
 
+    masses = np.zeros((len(conm2), 5))
+    on = np.unique(np.concatenate([c.ravel() for c in cells.values()])) if conm2 else ()
+    for k, (eid, grid, values, line) in enumerate(conm2):
+        row = int(rows_of(np.array([grid]))[0])
+        if "bar2" not in cells or row < 0 or row not in on:
+            why = ("is not defined" if row < 0 else "is on no bar") if "bar2" in cells else "is on a solid"
+            raise InputError(f"{_at(source, line)}: CONM2 {eid}: its grid {grid} {why} (a point mass sits on a "
+                             "frame's node)")
+        masses[k] = [row, values[0] * to_kgm3 * length ** 3, *(np.array(values[1:]) * to_kgm3 * length ** 5)]
+
     mats = {}
     for name, (E, nu, rho, line) in materials.items():
         mats[name] = _material(source, units, name, E, nu, rho, line, to_pa, to_kgm3)
     return Mesh(nodes=nodes, cells=cells, node_sets=node_sets, elem_sets=elem_sets, materials=mats,
-                source=source, node_ids=ids, elem_ids=elem_ids, bars=frame)
+                source=source, node_ids=ids, elem_ids=elem_ids, bars=frame, masses=masses)
 
 
 def _straight(source, nodes, cells, v, numbers, lines) -> None:
@@ -561,6 +573,7 @@ def _nastran(source, text) -> tuple:
     mat1, psolid, pids = {}, {}, []            # MID -> (E, nu, rho, line); PID -> (MID, line); (EID, PID, line)
     bars, pbar = [], {}                         # (EID, PID, GA, X or G0, line); PID -> (MID, [A .. K2], line)
     local = {}                                  # GRID ID -> its displacement coordinate system CD, where not basic
+    conm2 = []                                  # (EID, G, [M, I11, I22, I33], line)
     for name, f, no in _cards(source, text):
         at = f"{source}:{no}"
         if name == "GRID":
@@ -633,9 +646,23 @@ def _nastran(source, text) -> tuple:
                 raise InputError(f"{at}: {name} {pid}: A, I1, I2 and J must be positive and K1, K2 not negative (got "
                                  f"{A:g}, {I1:g}, {I2:g}, {J:g}, {K1:g}, {K2:g})")
             pbar[pid] = (_int(f[1], at, f"{name} MID"), [A, I1, I2, J, K1, K2], no)
+        elif name == "CONM2":                           # EID G CID M X1 X2 X3; I11 I21 I22 I31 I32 I33
+            f = f + [""] * 14
+            eid = _int(f[0], at, "CONM2 EID")
+            if f[2] not in ("", "0"):
+                raise InputError(f"{at}: CONM2 {eid}: CID = {f[2]}: only the basic system (blank or 0) is supported")
+            for v, w in zip(f[4:7] + [f[9], f[11], f[12]], ("X1", "X2", "X3", "I21", "I31", "I32")):
+                if v and _real(v, at, f"CONM2 {w}") != 0:
+                    raise InputError(f"{at}: CONM2 {eid}: {w} = {v}: only a mass at its grid with principal axes along "
+                                     "the basic ones is read (no offset, no products of inertia)")
+            values = [_real(v, at, f"CONM2 {w}") if v else 0.0 for v, w in zip([f[3], f[8], f[10], f[13]],
+                                                                             ("M", "I11", "I22", "I33"))]
+            if min(values) < 0:
+                raise InputError(f"{at}: CONM2 {eid}: M and I11, I22, I33 must not be negative")
+            conm2.append((eid, _int(f[1], at, "CONM2 G"), values, no))
         elif name in NASTRAN_ELEMENTS:
             raise InputError(f"{at}: {name} elements are not supported (CTETRA and CHEXA make a solid body, "
-                             "CBAR and CBEAM a frame)")
+                             "CBAR and CBEAM a frame, CONM2 a point mass on a frame)")
         elif name == "MAT1":
             mid = _int(f[0], at, "MAT1 MID")
             if mid in mat1:
@@ -709,7 +736,7 @@ def _nastran(source, text) -> tuple:
             orient = xyz[where[orient]] - xyz[where[ga]]
         section[k] = pbar[pid][1] + list(orient)
     return (ids, xyz, node_lines, elems,
-            {k: (np.array(v[0], dtype=np.int64), v[1]) for k, v in nsets.items()}, {}, materials, section)
+            {k: (np.array(v[0], dtype=np.int64), v[1]) for k, v in nsets.items()}, {}, materials, section, conm2)
 
 
 def _cards(source, text):
