@@ -6,10 +6,13 @@ loads); the cards' fields and every refusal."""
 import numpy as np
 import pytest
 import scipy.linalg as sl
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from flexmbd.errors import InputError
-from flexmbd.fe import assembly, frame, meshfile, section, solid
+from flexmbd.fe import assembly, frame, meshfile, modes, section, solid
+from flexmbd.fe.mesh import Mesh
 
 EPS = np.finfo(float).eps
 E, NU, RHO = 2.1e11, 0.3, 7850.0
@@ -241,3 +244,29 @@ def test_point_mass_refusals(tmp_path, card, fragment):
         meshfile.read(str(path))
     msg = str(e.value)
     assert "\n" not in msg and msg.startswith(f"{path}:7: ") and fragment in msg, msg
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), n=st.integers(1, 6))
+def test_any_frame_has_exactly_the_six_rigid_motions_free(seed, n):
+    """A random connected frame (a chain of n bars in random directions, random orientation
+    vectors, random sections): K is symmetric, the six rigid motions of the whole frame are in its
+    null space, and nothing else is (the turned elements leave no spurious mechanism and no
+    spurious stiffness of rigid motion); M is symmetric positive definite. Tolerances: a rigid
+    field's force K r against |K| |r| at round-off (1e-12, the turned sums of 12 x 12 blocks);
+    the seventh eigenvalue of K against its largest well above that (a real bending mode)."""
+    rng = np.random.default_rng(seed)
+    steps = rng.normal(size=(n, 3))
+    X = np.vstack([np.zeros(3), np.cumsum(0.2 * steps / np.linalg.norm(steps, axis=1, keepdims=True), axis=0)])
+    cells = np.array([(i, i + 1) for i in range(n)])
+    v = rng.normal(size=(n, 3))
+    bars = np.c_[rng.uniform(1e-4, 2e-4, n), rng.uniform(1e-9, 3e-9, (n, 3)), np.zeros((n, 2)), v]
+    mesh = Mesh(nodes=X, cells={"bar2": cells}, node_sets={}, elem_sets={}, materials={}, source="random",
+                node_ids=np.arange(1, n + 2), elem_ids={"bar2": np.arange(1, n + 1)}, bars=bars)
+    K, M = (A.toarray() for A in frame.matrices(mesh, E, NU, RHO))
+    assert np.abs(K - K.T).max() <= 1e-14 * np.abs(K).max() and np.abs(M - M.T).max() <= 1e-14 * np.abs(M).max()
+    R = modes.rigid_body_fields(X, 0)
+    assert np.abs(K @ R).max() <= 1e-12 * np.abs(K).max() * np.abs(R).max()
+    lam = np.linalg.eigvalsh(K)
+    assert lam[6] > 1e-8 * lam[-1]
+    assert np.linalg.eigvalsh(M)[0] > 0.0
