@@ -130,8 +130,9 @@ def animate(case, results: dict, path: Path, reference: str | None, fps: int) ->
     writers (Pillow, ffmpeg), one frame per instant; the number of frames."""
     name, rows, times = writer(path), panels(case, results), frame_times(results)
     if not rows or not times:
-        raise InputError(f"{case.path}: no solver's run recorded a deformed shape (the case has no flexible beam, "
-                         f"or every run ended before its first sample)")
+        raise InputError(f"{case.path}: no solver's run recorded a deformed shape (the case has no flexible beam: "
+                         f"a solid's field is exported by `flexmbd export`, a frame's shape is not recorded; or every "
+                         f"run ended before its first sample)")
     half = 0.5 * case.integrator.output_dt * (1.0 + 1e-9)
     boxes = [limits(case, results, body, c, factor) for body, c, factor in rows]
     tall = sum(6.8 * (y1 - y0) / (x1 - x0) + 1.0 for (x0, x1), (y0, y1) in boxes)
@@ -263,7 +264,8 @@ def vtk(case, result, folder: Path) -> tuple:
     got = meshes(case, result)
     if not got:
         raise InputError(f"{case.path}: {result.solver}'s run recorded no deformed shape or surface stress (the "
-                         f"case has no flexible body, or the run ended before its first sample)")
+                         f"case has no flexible beam or solid, a frame's shape is not recorded; or the run ended "
+                         f"before its first sample)")
     folder = files.make_dir(folder)
     entries = []
     for part, (body, series) in enumerate(got.items()):
