@@ -35,10 +35,10 @@ stresses are those at the centres of the channels' elements. It steps by one of
 
 Modal damping of a solid is not modelled (all of its modes for C, or a dense exponential).
 
-A frame (a solid whose mesh is of bar elements, `fe.frame`; `run_frame`) keeps every DOF of its
-nodes, six each, with the frame interface's node held; its loads act on their interfaces' nodes,
-gravity on its lumped node masses; its stresses are `fe.frame.fibre_rows`'. It steps by the
-schemes of a beam (default modal, undamped; exact with damping).
+A frame (a solid whose mesh is of bar elements, `fe.frame`; `run`, `frame_trajectory`) keeps
+every DOF of its nodes, six each, with the frame interface's node held; its loads act on their
+interfaces' nodes, gravity on its lumped node masses; its stresses are `fe.frame.fibre_rows`'. It
+steps by the schemes of a beam (default modal, undamped; exact with damping).
 """
 
 from __future__ import annotations
@@ -103,8 +103,8 @@ def run(case, t_end, settings):
     if body.type == "solid":
         K, M = flexbody.frame_matrices(body)
         mesh = flexbody.solid_mesh(**dataclasses.asdict(body.mesh))
-        nodes = mesh.nodes - mesh.nodes[flexbody.frame_node(body, mesh, body.frame)]
         held = flexbody.frame_node(body, mesh, body.frame)
+        nodes = mesh.nodes - mesh.nodes[held]
     else:
         nodes, elements, sec, K, M, _ = flexbody.fe_model(body)
         held = 0
