@@ -65,3 +65,17 @@ def test_forward_is_the_same_evaluation_into_data():
     a = entry.forward(m, data, 0.3, q, v, tau)
     assert np.array_equal(a, entry.forward_dynamics(m, make_data(m), q, v, tau, t=0.3))
     assert a is data.qdd and np.abs(data.f[1:]).max() > 0
+
+
+def test_forward_follows_the_model_and_data_it_is_given():
+    """`forward` keeps the last (model, data) bound apart: alternating two Data of one model, and
+    two models, each call writes its own Data and gives its own model's accelerations."""
+    m2, m3 = (from_case(bench.chain_case(n, flexible=False)) for n in (2, 3))
+    d2a, d2b, d3 = make_data(m2), make_data(m2), make_data(m3)
+    q2, q2b, q3 = np.array([0.3, -0.2]), np.array([0.1, 0.5]), np.array([0.1, 0.2, 0.3])
+    first = entry.forward(m2, d2a, 0.0, q2, np.zeros(2), np.zeros(2)).copy()
+    other = entry.forward(m2, d2b, 0.0, q2b, np.zeros(2), np.zeros(2)).copy()
+    three = entry.forward(m3, d3, 0.0, q3, np.zeros(3), np.zeros(3)).copy()
+    assert np.array_equal(d2a.qdd, first) and np.array_equal(d2b.qdd, other) and np.array_equal(d3.qdd, three)
+    assert not np.array_equal(first, other)
+    assert np.array_equal(entry.forward(m2, d2a, 0.0, q2b, np.zeros(2), np.zeros(2)), other)
