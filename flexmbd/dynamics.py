@@ -41,38 +41,56 @@ from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, 
 
 
 @njit
-def node_kinematics(Phi, D, x0, eta, eta_d):
+def node_kinematics(Phi, D, x0, eta, eta_d, stiff=True):
     """Deformed node with mode block Phi (6, nm), foreshortening matrix D (nm, nm) and undeformed
     position x0 (3,) on the beam axis: Xn (6, 6) body -> node frame, Sn (6, nm) modal motion
-    subspace in the node frame, cn (6,) velocity product.
+    subspace in the node frame, cn (6,) velocity product. `stiff` False: D is zero (no geometric
+    stiffening) and its terms are skipped.
 
     Node frame: origin r = x0 + Phi_t eta - 1/2 (eta^T D eta) e_x, rotation exp(theta~),
     theta = Phi_r eta. The origin moves with T(eta) eta_d, T = Phi_t - e_x (D eta)^T. Relative
     velocity (node frame): [E J(theta) theta_d; E T eta_d], E = exp(theta~)^T, J the left Jacobian
     of exp; cn = [E J'(theta) theta_d; -E (w_rel x T eta_d) - E e_x (eta_d^T D eta_d)].
     """
-    Pr = Phi[:3]
-    T = Phi[3:].copy()
-    De = mv(D, eta)
-    for l in range(eta.size):
-        T[0, l] -= De[l]
-    theta, theta_d = mv(Pr, eta), mv(Pr, eta_d)
+    nm = eta.size
+    theta, theta_d, r, rd = np.empty(3), np.empty(3), x0.copy(), np.empty(3)
+    for a in range(3):                                  # Phi_r eta, Phi_r eta_d, Phi_t eta, Phi_t eta_d
+        t, td, p, pd = 0.0, 0.0, 0.0, 0.0
+        for l in range(nm):
+            t += Phi[a, l] * eta[l]
+            td += Phi[a, l] * eta_d[l]
+            p += Phi[3 + a, l] * eta[l]
+            pd += Phi[3 + a, l] * eta_d[l]
+        theta[a], theta_d[a] = t, td
+        r[a] += p
+        rd[a] = pd
+    De = np.zeros(nm)
+    shorten = 0.0
+    if stiff:
+        mv_into(D, eta, De)
+        r[0] -= 0.5 * (eta @ De)
+        rd[0] -= De @ eta_d                             # rd = T eta_d
+        shorten = eta_d @ mv(D, eta_d)
     E = expm_so3(theta).T
-    r = x0 + mv(Phi[3:], eta)
-    r[0] -= 0.5 * (eta @ De)
-    Xn = plux(E, r)
     Jl = jac_left_so3(theta)
-    Sn = np.empty((6, eta.size))
-    Sn[:3] = mm(E, mm(Jl, Pr))
-    Sn[3:] = mm(E, T)
+    EJ = mm(E, Jl)
+    Sn = np.empty((6, nm))
+    for a in range(3):                                  # [E J Phi_r; E T]
+        for l in range(nm):
+            s, st = 0.0, 0.0
+            for b in range(3):
+                s += EJ[a, b] * Phi[b, l]
+                st += E[a, b] * Phi[3 + b, l]
+            Sn[a, l] = s
+            Sn[3 + a, l] = st - E[a, 0] * De[l]
     w_rel = mv(Jl, theta_d)
-    rd = mv(T, eta_d)
+    g = np.cross(w_rel, rd)
+    g[0] += shorten
     cn = np.empty(6)
     cn[:3] = mv(E, jac_left_so3_dot(theta, theta_d))
-    shorten = np.zeros(3)
-    shorten[0] = eta_d @ mv(D, eta_d)
-    cn[3:] = -mv(E, np.cross(w_rel, rd) + shorten)
-    return Xn, Sn, cn
+    for a in range(3):
+        cn[3 + a] = -(E[a, 0] * g[0] + E[a, 1] * g[1] + E[a, 2] * g[2])
+    return plux(E, r), Sn, cn
 
 
 # ---------------------------------------------------------------------------------------------
@@ -112,14 +130,15 @@ def forward_kinematics(model, data, q, v):
         jcalc(model.jnt_type[i], model.jnt_axis[i], q, model.jnt_qadr[i], data.XJ[i], data.S[i])
         mv_into(data.S[i, :, :nvj], v[kv:kv + nvj], data.vJ[i])
         if model.jnt_node[i] >= 0:                      # triad on a node of a flexible parent
-            XJT = mm(data.XJ[i], model.jnt_Xtriad[i])
+            XJT = np.empty((6, 6))
+            xmul_into(data.XJ[i], model.jnt_Xtriad[i], XJT)
             a, nm = model.body_madr[lam], model.body_nm[lam]
             eta_d = v[a:a + nm]
             Xn, Sn, cn = node_kinematics(model.jnt_Phi[i, :, :nm], model.jnt_D[i, :nm, :nm], model.jnt_x0[i],
-                                         q[a:a + nm], eta_d)
+                                         q[a:a + nm], eta_d, model.inv.stiff[lam] != 0.0)
             vn_rel = mv(Sn, eta_d)
             vn = mv(Xn, data.v[lam]) + vn_rel
-            mm_into(XJT, Xn, data.Xup[i])
+            xmul_into(XJT, Xn, data.Xup[i])
             mm_into(XJT, Sn, data.U[i, :, :nm])
             data.v[i] = mv(XJT, vn) + data.vJ[i]
             data.c[i] = mv(XJT, cn + cross_motion(vn, vn_rel)) + cross_motion(data.v[i], data.vJ[i])

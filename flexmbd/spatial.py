@@ -37,8 +37,22 @@ def skew(a) -> np.ndarray:
 def expm_so3(theta) -> np.ndarray:
     """exp(theta~) (3, 3), Rodrigues' formula with series for small |theta|."""
     a, b = _ab(theta)
-    T = skew(theta)
-    return np.eye(3) + a * T + b * mm(T, T)
+    out = np.empty((3, 3))
+    rodrigues_into(theta, a, b, out)
+    return out
+
+
+@njit(inline="always")
+def rodrigues_into(theta, a, b, out):
+    """out = I + a theta~ + b theta~^2 (3, 3), with theta~^2 = theta theta^T - |theta|^2 I: exp(theta~)
+    for (a, b) = `_ab` (its transpose for (-a, b)), the left Jacobian for `_cd`. No temporaries."""
+    x, y, z = theta[0], theta[1], theta[2]
+    out[0, 0] = 1.0 - b * (y * y + z * z)
+    out[1, 1] = 1.0 - b * (x * x + z * z)
+    out[2, 2] = 1.0 - b * (x * x + y * y)
+    out[0, 1], out[1, 0] = b * x * y - a * z, b * x * y + a * z
+    out[0, 2], out[2, 0] = b * x * z + a * y, b * x * z - a * y
+    out[1, 2], out[2, 1] = b * y * z - a * x, b * y * z + a * x
 
 
 @njit
@@ -58,8 +72,9 @@ def jac_left_so3(theta) -> np.ndarray:
     J = I + (1 - cos s)/s^2 theta~ + (s - sin s)/s^3 theta~^2,  s = |theta|.
     """
     a, b = _cd(theta)
-    T = skew(theta)
-    return np.eye(3) + a * T + b * mm(T, T)
+    out = np.empty((3, 3))
+    rodrigues_into(theta, a, b, out)
+    return out
 
 
 @njit
