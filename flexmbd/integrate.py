@@ -8,8 +8,8 @@ Methods (the case's `[integrator] method`):
           its tolerance). Phase error (w h)^4/480, stable for w_max h < sqrt(6) like an explicit
           method, but one or two evaluations per step
   exp-adams  exponential Adams predictor-corrector (PECE, order 3), fixed step `dt`, compiled
-          (`exp_adams`): f(y) = L y + N(y) with L the Jacobian, re-linearized every EXP_REFRESH
-          steps (where dq/dt = v, [[0, I], [d(qdd)/dq, 0]] each time; else every EXP_FULL-th
+          (`exp_adams`): f(y) = L y + N(y) with L the Jacobian, re-linearized every `refresh`
+          steps (the case's `integrator.refresh`, default EXP_REFRESH) (where dq/dt = v, [[0, I], [d(qdd)/dq, 0]] each time; else every EXP_FULL-th
           time in full, between only its fast eigenvalues), L integrated
           exactly in its eigenbasis and N through the polynomial of its last values; two
           evaluations a step, stable and phase-exact for the modes of L at any step, so the step
@@ -184,10 +184,12 @@ def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
 
 def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e-8, atol: float = 1e-10,
              max_step: float = 1e-3, dt: float = 1e-4, output_dt: float = 1e-3, progress: bool = True,
-             label: str = "", check=None) -> Simulation:
+             label: str = "", check=None, refresh: int | None = None) -> Simulation:
     """Integrate from (model.q0, model.v0) over [0, t_end]; states sampled every output_dt.
     check(t (m,), Q (m, nq), V (m, nv)) -> (i, Status) | None: the first of new output samples at
-    which the run has failed (`judge`); the run ends there, that sample its last."""
+    which the run has failed (`judge`); the run ends there, that sample its last. refresh: exp-adams'
+    steps between two linearizations (None: EXP_REFRESH)."""
+    refresh = EXP_REFRESH if refresh is None else refresh
     n = int(round(t_end / output_dt))
     t_out = np.linspace(0.0, n * output_dt, n + 1)
     f, count = rhs_function(model)
@@ -198,7 +200,7 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
     if method == "fox-goodwin":
         settings = {"method": method, "dt": dt, "rtol": rtol, "atol": atol, "output_dt": output_dt}
     if method == "exp-adams":
-        settings = {"method": method, "dt": dt, "output_dt": output_dt}
+        settings = {"method": method, "dt": dt, "refresh": refresh, "output_dt": output_dt}
     bar = Progress(t_end, label) if progress else None
     Y = np.full((t_out.size, y0.size), np.nan)
     Y[0] = y0
@@ -212,7 +214,8 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
             k, steps, evals, status = _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, judged=judged)
             count[0] += evals
         elif method == "exp-adams":
-            k, steps, evals, status = _exp_adams(model, y0, t_out, Y, dt, output_dt, bar, judged=judged)
+            k, steps, evals, status = _exp_adams(model, y0, t_out, Y, dt, output_dt, bar, judged=judged,
+                                                 refresh=refresh)
             count[0] += evals
         elif method == "dopri5":
             k, steps, evals, status = _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, judged=judged)
@@ -582,7 +585,7 @@ def _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step):
 # Exponential Adams (predictor-corrector) on a refreshed linearization, fixed step, compiled
 
 EXP_ORDER = 3       # nodes of the predictor's and the corrector's polynomials (order 3 each)
-EXP_REFRESH = 25    # steps between two linearizations (`exp_linearize`)
+EXP_REFRESH = 25    # steps between two linearizations (`exp_linearize`) unless the case sets integrator.refresh
 EXP_FULL = 8        # every EXP_FULL-th of them in full (Jacobian, eigenbasis), between only the fast eigenvalues,
 EXP_TURN = 0.02     # unless a fast eigenvector has turned by more than this (|J v - lam v| / |lam v|)
 NOT_DIAGONAL, STALE = 5, 6      # status codes: the linearization has no eigenbasis; it is due again
@@ -745,7 +748,7 @@ def cmv(Vi, x):
 def exp_adams(ev, nq, Yh, Fh, basis, Wz, G, t_out, Y, h, m, p, st, clock, counts):
     """Exponential Adams, predictor-corrector (PECE), fixed step h, from t_out[0] through the
     instants t_out, writing Y[1:]. f(y) = L y + N(y) with L a finite-difference linearization
-    (`exp_linearize`) taken every EXP_REFRESH steps; L is integrated exactly through its eigenbasis and N by the
+    (`exp_linearize`) taken every st[3] steps; L is integrated exactly through its eigenbasis and N by the
     polynomial through its last values (EXP_ORDER nodes: the predictor at 0, -h, -2h, the
     corrector at h, 0, -h), so each step costs two evaluations whatever the frequencies of L.
 
@@ -909,10 +912,10 @@ def _relinearized(Yh, Fh, Vi, Wz, G, st, counts, made) -> bool:
     return True
 
 
-def _exp_adams(model, y0, t_out, Y, dt, output_dt, bar, chunk=50, judged=None):
-    """Drive the compiled `exp_adams` over chunks of whole steps, linearizing between its calls:
-    steps of m output intervals (m = round(dt / output_dt) when dt >= output_dt) or of 1/p of one
-    (p = ceil(output_dt / dt))."""
+def _exp_adams(model, y0, t_out, Y, dt, output_dt, bar, chunk=50, judged=None, refresh=EXP_REFRESH):
+    """Drive the compiled `exp_adams` over chunks of whole steps, linearizing between its calls
+    every `refresh` steps: steps of m output intervals (m = round(dt / output_dt) when
+    dt >= output_dt) or of 1/p of one (p = ceil(output_dt / dt))."""
     b, nq = bind(model, make_data(model)), model.nq
     ev = handle(b)
     f0 = rhs(ev, 0.0, y0, nq)
@@ -924,7 +927,7 @@ def _exp_adams(model, y0, t_out, Y, dt, output_dt, bar, chunk=50, judged=None):
     Yh[0], Fh[0] = y0, f0
     basis = np.zeros((2 * n + 1, n), dtype=np.complex128)
     Wz, G = np.zeros((EXP_ORDER, n), dtype=np.complex128), np.zeros((EXP_ORDER, n), dtype=np.complex128)
-    st = np.array([0, 1, -1, EXP_REFRESH], dtype=np.int64)
+    st = np.array([0, 1, -1, refresh], dtype=np.int64)
     clock, counts, made = np.zeros(1), np.zeros(3, dtype=np.int64), np.zeros(1, dtype=np.int64)
     counts[2] += 1
 

@@ -155,7 +155,10 @@ def contractions(inv, j, eta, eta_d, w):
                 IOd[a, b] += ed * n2
                 s += w[a] * n2 * w[b]
         wN2w[k] = s
-    N1 = inv.I6[j, :, :nm] + inv.I10[j, :, :nm]        # the body's own nm of the padded columns
+    N1 = np.empty((3, nm))                              # I6 + I10, the body's own nm of the padded columns
+    for a in range(3):
+        for l in range(nm):
+            N1[a, l] = inv.I6[j, a, l] + inv.I10[j, a, l]
     N1d = np.zeros((3, nm))
     wI7e = np.zeros(nm)
     for k in range(nm):

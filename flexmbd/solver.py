@@ -53,7 +53,7 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
                                        dt=ig.dt)
     else:
         sim = integrate.simulate(model, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
-                                 max_step=ig.max_step, dt=ig.dt, output_dt=ig.output_dt,
+                                 max_step=ig.max_step, dt=ig.dt, output_dt=ig.output_dt, refresh=ig.refresh,
                                  progress=progress, label=label, check=watch(case, model))
     E = energies(model, sim.q, sim.v)
     traj = trajectory(case, model, sim.t, sim.q, sim.v, E, loops)

@@ -155,6 +155,25 @@ def test_exp_adams_converges_at_third_order_on_the_rigid_pendulum():
     assert 6 < err[0] / err[1] < 11 and err[1] < 1e-6, err
 
 
+def test_exp_adams_linearizes_every_refresh_steps():
+    """`integrator.refresh` sets the steps between two linearizations: on the rigid pendulum
+    (nq = 1: a linearization is 2 evaluations) 250 steps take 2 evaluations each, 1 at the start,
+    and 2 per linearization, ceil(250 / refresh) of them; the run reports its setting, whose
+    default is EXP_REFRESH, and a refresh below 1 is refused naming the key."""
+    from flexmbd.cases.schema import INTEGRATOR
+    from flexmbd.errors import InputError
+    assert INTEGRATOR["refresh"][1] == integrate.EXP_REFRESH
+    for refresh in (5, 25):
+        case = cases.load("pendulum", ["bodies.beam.rigid=true", "integrator.method=exp-adams",
+                                       "integrator.dt=4e-3", f"integrator.refresh={refresh}"])
+        r = solvers.run(case, "flexmbd", 1.0)
+        assert r.ok and r.steps == 250 and r.settings["refresh"] == refresh
+        assert r.rhs_evals == 1 + 2 * 250 + 2 * -(-250 // refresh)
+    assert cases.load("pendulum").integrator.refresh == integrate.EXP_REFRESH
+    with pytest.raises(InputError, match="integrator.refresh"):
+        cases.load("pendulum", ["integrator.refresh=0"])
+
+
 def test_exp_adams_turns_a_free_coordinate_at_its_constant_rate():
     """Without gravity the rigid pendulum's Jacobian is [[0, 1], [0, 0]], with no eigenbasis: the
     linear part gets a small stiffness that the remainder takes back, and the uniform rotation

@@ -246,6 +246,7 @@ class Integrator:
     max_step: float     # s
     dt: float           # s, fixed-step methods
     output_dt: float    # s, sampling of the result table
+    refresh: int        # exp-adams: steps between two linearizations of its linear part
 
 
 @dataclass(frozen=True)

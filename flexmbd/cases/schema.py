@@ -151,6 +151,7 @@ INTEGRATOR = {
     "atol": ("float+", 1e-10),
     "max_step": ("float+", 1e-3),       # s
     "dt": ("float+", 1e-4),             # s, fixed-step methods
+    "refresh": ("int+", 25),            # exp-adams: steps between two linearizations (integrate.EXP_REFRESH)
     "output_dt": ("float+", 1e-3),      # s, sampling of the result table
 }
 
