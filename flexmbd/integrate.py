@@ -721,9 +721,20 @@ def reproduces(Jx, size, x, lam, V, Vi):
 
 
 @njit
-def cmv_real(V, w, out):
-    """out (n,) = Re(V w), V (n, n) and w (n,) complex."""
+def cmv_real(V, w, out, half=0):
+    """out (n,) = Re(V w), V (n, n) and w (n,) complex. half = m > 0: V is `second_order_basis`'
+    [[X, X], [X S, -X S]] (n = 2m), taken through its blocks: Re([X (w1 + w2); X S (w1 - w2)]),
+    half the products."""
     n = w.size
+    if half:
+        c, d = w[:half] + w[half:], w[:half] - w[half:]
+        for i in range(half):
+            s, sd = 0.0, 0.0
+            for k in range(half):
+                s += V[i, k].real * c[k].real - V[i, k].imag * c[k].imag
+                sd += V[half + i, k].real * d[k].real - V[half + i, k].imag * d[k].imag
+            out[i], out[half + i] = s, sd
+        return
     for i in range(n):
         s = 0.0
         for m in range(n):
@@ -732,10 +743,20 @@ def cmv_real(V, w, out):
 
 
 @njit
-def cmv(Vi, x):
-    """Vi x (n,) complex for x (n,) real."""
+def cmv(Vi, x, half=0):
+    """Vi x (n,) complex for x (n,) real. half = m > 0: Vi is `second_order_basis`'
+    1/2 [[X^-1, S^-1 X^-1], [X^-1, -S^-1 X^-1]] (n = 2m), taken through its blocks: with
+    a = Vi[:m, :m] x1 and b = Vi[:m, m:] x2, [a + b; a - b], half the products."""
     n = x.size
     out = np.empty(n, dtype=np.complex128)
+    if half:
+        for i in range(half):
+            a, b = 0.0 + 0.0j, 0.0 + 0.0j
+            for k in range(half):
+                a += Vi[i, k] * x[k]
+                b += Vi[i, half + k] * x[half + k]
+            out[i], out[half + i] = a + b, a - b
+        return out
     for i in range(n):
         s = 0.0 + 0.0j
         for m in range(n):
@@ -763,6 +784,7 @@ def exp_adams(ev, nq, Yh, Fh, basis, Wz, G, t_out, Y, h, m, p, st, clock, counts
     again from instant k); counts (3,) += steps, evaluations."""
     K = EXP_ORDER
     n = Yh.shape[1]
+    half = nq if 2 * nq == n else 0                     # the second-order basis: its products by blocks
     t = clock[0]
     y1 = np.empty(n)
     lam, V, Vi = basis[0], basis[1:n + 1], basis[n + 1:]
@@ -792,8 +814,8 @@ def exp_adams(ev, nq, Yh, Fh, basis, Wz, G, t_out, Y, h, m, p, st, clock, counts
         wp = Ep * Wz[0]
         for j in range(kp):
             wp += Wp[j] * (G[j] - lam * Wz[j])
-        cmv_real(V, wp, y1)
-        gp = cmv(Vi, rhs(ev, t + h, y1, nq))
+        cmv_real(V, wp, y1, half)
+        gp = cmv(Vi, rhs(ev, t + h, y1, nq), half)
         Nw[0] = gp - lam * wp
         w1 = Ec * Wz[0]
         for j in range(kc):
@@ -803,13 +825,13 @@ def exp_adams(ev, nq, Yh, Fh, basis, Wz, G, t_out, Y, h, m, p, st, clock, counts
                 wd = Ed[j - 1] * Wz[0]
                 for i in range(kc):
                     wd += Wd[j - 1, i] * Nw[i]
-                cmv_real(V, wd, Y[k + j])
-        cmv_real(V, w1, y1)
+                cmv_real(V, wd, Y[k + j], half)
+        cmv_real(V, w1, y1, half)
         f1 = rhs(ev, t + h, y1, nq)
         counts[2] += 2
         for j in range(K - 1, 0, -1):
             Yh[j], Fh[j], Wz[j], G[j] = Yh[j - 1], Fh[j - 1], Wz[j - 1], G[j - 1]
-        Yh[0], Fh[0], Wz[0], G[0] = y1, f1, cmv(Vi, y1), cmv(Vi, f1)    # the real state's coordinates
+        Yh[0], Fh[0], Wz[0], G[0] = y1, f1, cmv(Vi, y1, half), cmv(Vi, f1, half)    # the real state's coordinates
         st[0] += 1
         st[1] = min(st[1] + 1, K)
         counts[0] += 1
