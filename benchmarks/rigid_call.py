@@ -59,10 +59,10 @@ def main(ns) -> None:
         t0 = time.perf_counter()
         loop(fn, address, 0.0, q, v, tau, q, ACCELERATIONS, calls)
         compiled = (time.perf_counter() - t0) / calls * 1e6
-        row = [bench.median_us(lambda: forward(model, data, 0.0, q, v, tau)),
-               bench.median_us(lambda: empty(fn, address, 0.0, q, v, tau)), 0.0, compiled,
+        whole = bench.median_us(lambda: forward(model, data, 0.0, q, v, tau))
+        dispatch = bench.median_us(lambda: empty(fn, address, 0.0, q, v, tau))
+        row = [whole, dispatch, whole - dispatch - compiled, compiled,
                bench.median_us(lambda: pin.aba(pm, pd, q, v, tau))]
-        row[2] = row[0] - row[1] - row[3]
         print(f"| {n} | " + " | ".join(f"{x:.2f}" for x in row) + " |")
 
 

@@ -9,9 +9,10 @@ Methods (the case's `[integrator] method`):
           method, but one or two evaluations per step
   exp-adams  exponential Adams predictor-corrector (PECE, order 3), fixed step `dt`, compiled
           (`exp_adams`): f(y) = L y + N(y) with L the Jacobian, re-linearized every `refresh`
-          steps (the case's `integrator.refresh`, default EXP_REFRESH) (where dq/dt = v, [[0, I], [d(qdd)/dq, 0]] each time; else every EXP_FULL-th
-          time in full, between only its fast eigenvalues), L integrated
-          exactly in its eigenbasis and N through the polynomial of its last values; two
+          steps, the case's `integrator.refresh` (default EXP_REFRESH): where dq/dt = v,
+          [[0, I], [d(qdd)/dq, 0]] each time; else every EXP_FULL-th time in full, between only
+          its fast eigenvalues. L is integrated exactly in its eigenbasis (its products by the
+          m x m blocks of the second-order one) and N through the polynomial of its last values; two
           evaluations a step, stable and phase-exact for the modes of L at any step, so the step
           is set by the accuracy of the slow motion and of the remainder (docs/formulation.md §6)
   adams   variable-step, variable-order (1-12) Adams-Moulton predictor-corrector with

@@ -10,6 +10,8 @@ from scipy.integrate import solve_ivp
 from flexmbd import cases, flexbody, integrate, results, solver, solvers
 from flexmbd.adapters import pinocchio_model
 from flexmbd.build import from_case
+from flexmbd.cases.schema import INTEGRATOR
+from flexmbd.errors import InputError
 from flexmbd.model import make_data
 from flexmbd.kernel import entry
 
@@ -160,8 +162,6 @@ def test_exp_adams_linearizes_every_refresh_steps():
     (nq = 1: a linearization is 2 evaluations) 250 steps take 2 evaluations each, 1 at the start,
     and 2 per linearization, ceil(250 / refresh) of them; the run reports its setting, whose
     default is EXP_REFRESH, and a refresh below 1 is refused naming the key."""
-    from flexmbd.cases.schema import INTEGRATOR
-    from flexmbd.errors import InputError
     assert INTEGRATOR["refresh"][1] == integrate.EXP_REFRESH
     for refresh in (5, 25):
         case = cases.load("pendulum", ["bodies.beam.rigid=true", "integrator.method=exp-adams",
