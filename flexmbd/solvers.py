@@ -217,21 +217,24 @@ def source_sha256() -> str:
     return h.hexdigest()
 
 
-def content_key(case, name: str) -> str | None:
-    """SHA-256 (hex) of everything a run of solver `name` on `case` depends on: the case's content
-    (`Case.content_sha256`), the solver's name, settings and version, a plug-in's own source file,
-    and flexmbd's source (`source_sha256`). A run with the key of a stored result would give that
+def content_key(case, name: str, t_end: float | None = None) -> str | None:
+    """SHA-256 (hex) of everything a run of solver `name` on `case` to `t_end` (s; None: the case's
+    duration) depends on: the case's content (`Case.content_sha256`), the run's end time, the
+    solver's name, settings and version, a plug-in's own source file, and flexmbd's source
+    (`source_sha256`). A run with the key of a stored result would give that
     result again: `flexmbd report` and `compare` keep it (`--rerun`: run anyway). None when the
     solver cannot run the case here (unavailable, not applicable: nothing to keep)."""
     if _precondition(case, name) is not None:
         return None
-    return _key(case, name, module(name), settings(case, name))
+    return _key(case, name, module(name), settings(case, name), t_end)
 
 
-def _key(case, name: str, mod, chosen: dict) -> str:
+def _key(case, name: str, mod, chosen: dict, t_end: float | None) -> str:
     """`content_key` of a solver that can run the case, its module and settings at hand."""
     own = Path(getattr(mod, "__file__", None) or "") if name not in BUILT_IN else None
-    parts = {"case": case.content_sha256, "solver": name, "settings": chosen, "version": mod.version(),
+    t_end = case.duration if t_end is None else t_end
+    parts = {"case": case.content_sha256, "t_end": float(t_end), "solver": name, "settings": chosen,
+             "version": mod.version(),
              "module": hashlib.sha256(own.read_bytes()).hexdigest() if own and own.is_file() else "",
              "flexmbd": source_sha256()}
     return hashlib.sha256(json.dumps(parts, sort_keys=True, default=str).encode()).hexdigest()
@@ -250,7 +253,7 @@ def run(case, name: str, t_end: float | None = None) -> Result:
         return Result(solver=name, case=case.name, status=pre, case_sha256=case.sha256)
     mod = module(name)
     chosen = settings(case, name)
-    key = _key(case, name, mod, chosen)
+    key = _key(case, name, mod, chosen, t_end)
     start = time.perf_counter()
     try:
         with threadpool_limits(limits=1):               # one BLAS thread: the same bytes on any machine

@@ -131,6 +131,22 @@ def test_a_stored_result_with_the_runs_key_is_kept_and_any_change_runs_again(tmp
     assert len(ran) == 6 and (na.stat().st_ino, na.read_bytes()) == before
 
 
+def test_a_short_run_is_not_kept_as_the_whole_case_and_report_runs_it_again(tmp_path, capsys):
+    """The run key holds the end time: a `run --t-end` result is another run than the case's."""
+    from flexmbd import cases, results, solvers
+    out = tmp_path / "rep"
+    case = cases.load("cantilever_step")
+    assert solvers.content_key(case, "analytic", 0.5) != solvers.content_key(case, "analytic")
+    assert solvers.content_key(case, "analytic", case.duration) == solvers.content_key(case, "analytic")
+    assert main(["run", "cantilever_step", "--solver", "analytic", "--t-end", "0.5", "--out", str(out)]) == 0
+    assert results.read(results.folder(out), case.name, "analytic").t[-1] == pytest.approx(0.5)
+    capsys.readouterr()
+    assert main(["report", "--cases", "cantilever_step", "--solvers", "analytic", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "analytic (stored, unchanged)" not in err, err
+    assert results.read(results.folder(out), case.name, "analytic").t[-1] == pytest.approx(case.duration)
+
+
 def test_a_case_s_content_hash_ignores_comments_and_follows_values(tmp_path):
     from flexmbd import cases
     text = (cases.CASES_DIR / "cantilever_step.toml").read_text()
