@@ -270,8 +270,20 @@ class Loops:
                 if m.jnt_nv[i] == 1 and not m.jnt_prescribed[i] and m.jnt_qadr[i] == m.jnt_vadr[i]]
         cand += [k for i in range(m.nb, 0, -1) if m.jnt_qadr[i] == m.jnt_vadr[i]
                  for k in range(m.body_madr[i] + m.body_nm[i] - 1, m.body_madr[i] - 1, -1)]
-        dep = closure.pick(G[:, cand], cand)
+        dep = closure.pick(G[:, cand], cand, [self.size(k) for k in cand])
         return np.array(sorted(dep), dtype=int)
+
+    def size(self, k: int) -> float:
+        """The most coordinate k (an index into v) can move the cut frames by, per unit: a modal
+        coordinate's largest entry (slope or translation) in the mode blocks of the cut sides on
+        its body; 0 for a joint coordinate (its column is its own size)."""
+        m = self.model
+        for i in range(1, m.nb + 1):
+            a, nm = m.body_madr[i], m.body_nm[i]
+            if m.jnt_qadr[i] == m.jnt_vadr[i] and a <= k < a + nm:
+                blocks = [s.Phi[:, k - a] for c in self.cuts for s in (c.P, c.C) if s.body == i and s.Phi is not None]
+                return float(max((np.abs(b).max() for b in blocks), default=0.0))
+        return 0.0
 
     def close(self, t, q, v, iterations: int = 30):
         """(q, v) with the dependent coordinates corrected: Newton on the position rows, then the
