@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from flexmbd import flexbody, invariants, profiles, spatial
+from flexmbd.cases import Rigid
 from flexmbd.joints import JOINT_CODES, NQ, NV, initial_q
 from flexmbd.model import Arrays, Model, empty_arrays, empty_loads
 
@@ -40,7 +41,7 @@ def from_case(case, bodies: dict | None = None) -> Model:
         nq, nv = nq + NQ[t], nv + NV[t]
 
         body = case.bodies[name]
-        if body.type == "rigid":
+        if isinstance(body, Rigid):                     # a point mass too: its com at the origin, no inertia
             A["body_inertia"][i] = spatial.inertia(body.mass, np.asarray(body.com, dtype=float),
                                                    inertia_matrix(body.inertia))
             A["body_mass"][i] = body.mass
@@ -73,7 +74,7 @@ def attach(A: dict, i: int, j, pbody, fb: flexbody.FlexBody | None) -> None:
     a rigid body or a beam declared rigid at its offset (a beam's snapped node); on a flexible beam
     at its snapped node, which carries it."""
     R = np.array(j.triad)
-    if pbody is None or pbody.type == "rigid" or pbody.rigid:
+    if pbody is None or isinstance(pbody, Rigid) or pbody.rigid:
         A["jnt_Xtriad"][i] = spatial.plux(R.T, np.asarray(j.offset, dtype=float))
     else:
         p = j.point.node
@@ -111,7 +112,7 @@ def point_loads(case, index: dict, bodies: dict, nm: int):
         L["load_global"][k] = ld.frame == "global"
         L["load_kind"][k], L["load_par"][k] = profiles.encode_load(ld.profile)
         body = case.bodies[ld.body]
-        if body.type == "rigid" or body.rigid:          # a beam declared rigid: its snapped node
+        if isinstance(body, Rigid) or body.rigid:       # a beam declared rigid: its snapped node
             L["load_point"][k] = ld.offset
         else:
             fb = bodies[ld.body]

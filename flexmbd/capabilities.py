@@ -2,7 +2,8 @@
 small probe cases, one feature each, so that the table cannot drift from the adapters.
 
 A solver models a feature when it can run at least one of the feature's probes. The probes are
-built here from plain dicts (a 1 m steel beam of 8 elements and 2 modes, a 1 kg rigid body);
+built here from plain dicts (a 1 m steel beam of 8 elements and 2 modes, a 1 kg rigid body or
+point mass);
 loops and solids are probed with the shipped cases `four_bar`, `four_bar_rigid`,
 `cantilever_solid` and `brick_pendulum`. docs/solvers.md holds the table (`markdown`), and
 `flexmbd list --solvers` prints it.
@@ -19,6 +20,7 @@ STEEL = {"E": 2.06e11, "nu": 0.29, "rho": 7820.0}
 BEAM = {"type": "beam", "material": "steel", "length": 1.0, "elements": 8,
         "section": {"shape": "rectangle", "b": 0.01, "h": 0.015}, "modes": {"count": 2}}
 MASS = {"type": "rigid", "mass": 1.0, "inertia": [1e-3, 1e-3, 1e-3, 0.0, 0.0, 0.0]}
+POINT = {"type": "point_mass", "mass": 1.0}
 TIP = {"kind": "deflection", "body": "beam", "at": 1.0}
 GRAVITY = [0.0, -9.81, 0.0]
 CLAMP = {"type": "fixed", "parent": "ground", "child": "beam"}
@@ -29,14 +31,15 @@ MASS_AT_TIP = {"type": "fixed", "parent": "beam", "child": "mass", "at": 1.0}
 
 
 def probe(joint: dict, gravity=(0.0, 0.0, 0.0), loads=(), mass=False, beam=None, stress=False,
-          body=None) -> dict:
+          body=None, point=False) -> dict:
     """A small case as a dict: one body (the beam, or `body`) on `joint`, a tip deflection channel
-    (a joint angle for a rigid body), optionally a rigid mass fixed at the beam's tip."""
+    (a joint angle for a rigid body), optionally a rigid mass (`mass`) or a point mass (`point`)
+    fixed at the beam's tip."""
     bodies = {"beam": {**BEAM, **(beam or {})}} if body is None else {"beam": body}
     joints = {"j": joint}
     chans = {"tip": TIP} if body is None else {"angle": {"kind": "joint_angle", "joint": "j"}}
-    if mass:
-        bodies["mass"], joints["m"] = MASS, MASS_AT_TIP
+    if mass or point:
+        bodies["mass"], joints["m"] = POINT if point else MASS, MASS_AT_TIP
     if stress:
         chans["stress"] = {"kind": "stress_vm", "body": "beam", "at": 0.1}
     return {"title": "probe", "duration": 0.01, "gravity": list(gravity), "materials": {"steel": STEEL},
@@ -49,6 +52,7 @@ FEATURES = {
     "rigid bodies": [probe(HINGE, GRAVITY, body=MASS | {"com": [0.5, 0.0, 0.0]})],
     "beams": [probe(CLAMP, loads=[TIP_LOAD]), probe(HINGE, GRAVITY)],
     "tip masses": [probe(CLAMP, GRAVITY, mass=True), probe(HUB, mass=True), probe(HINGE, GRAVITY, mass=True)],
+    "point masses": [probe(CLAMP, GRAVITY, point=True), probe(HUB, point=True), probe(HINGE, GRAVITY, point=True)],
     "prescribed motion": [probe(HUB)],
     "gravity": [probe(CLAMP, GRAVITY), probe(HINGE, GRAVITY)],
     "loads": [probe(CLAMP, loads=[TIP_LOAD]), probe(HINGE, loads=[TIP_LOAD])],
@@ -93,7 +97,8 @@ def mark(runs: bool, feature: str, rigid: bool) -> str:
     return "yes"
 
 
-DEFORMING = ("beams", "tip masses", "split beams", "stress")    # what a rigid solver models without deformation
+# what a rigid solver models without deformation
+DEFORMING = ("beams", "tip masses", "point masses", "split beams", "stress")
 
 
 def markdown(tab: dict) -> str:

@@ -18,8 +18,11 @@ functions below turn that into channels, the same way for every solver:
     reaction_*   a component of the force the joint transmits from parent onto child, child frame
 
 and, beside the channels, the deformed-shape snapshots (`shapes`): every component of the
-deflection of `report.shape_points` evenly spaced points along each flexible beam at the output
-samples nearest to the instants `report.snapshots`, stored with the result (`solvers.run`).
+deflection of `report.shape_points` evenly spaced points along each flexible beam, their positions
+in the global frame and the stress at their sections, at the output samples nearest to the
+instants `report.snapshots`, with the global poses of the other bodies there (`poses`), stored
+with the result (`solvers.run`). The global frame comes from the poses a solver reports
+(`Trajectory.poses`, `placed`).
 
 A beam that is not flexible in a solver's model (declared rigid, or every beam of a rigid-body
 solver) has no Beam: its deflections and stresses are zero.
@@ -33,6 +36,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from flexmbd import flexbody, results
+from flexmbd.cases import closure
 from flexmbd.fe.solid import von_mises as solid_von_mises
 from flexmbd.fe.stress import section_stresses, von_mises
 
@@ -78,6 +82,7 @@ class Trajectory:
     joints: dict = field(default_factory=dict)     # joint name -> (n,) coordinate of a 1-DOF joint
     energy: dict = field(default_factory=dict)     # part name -> (n,) J
     reactions: dict = field(default_factory=dict)  # joint name -> (n, 6) [moment; force], child frame
+    poses: dict = field(default_factory=dict)      # body name -> (R (n, 3, 3), p (n, 3)), global (`placed`)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -232,7 +237,8 @@ def modal_beam(fb: flexbody.FlexBody, eta, mat, sec, points: dict, x0: dict, roo
     strains = modal_strains(fb, eta)
     extent = modal_extent(fb, eta, sec)
     if load:
-        extent["axial_load"] = axial_load(axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), mat.E, sec, fb.length)
+        extent["axial_load"] = axial_load(axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), mat.E, sec, fb.length,
+                                          fb.boundary)
     if strain:
         strains = with_axial_strain(strains, {x: axial_force(fb.x0, F, x) for x in strains}, mat.E * sec.A)
     return Beam(length=fb.length, points=points, x0=x0, root=root, strains=strains, extent=extent)
@@ -288,8 +294,8 @@ def with_axial_strain(strains: dict, N: dict, EA: float) -> dict:
 
 # limits of a linear modal model: the largest elastic displacement of a node over the beam's
 # length, the largest elastic node rotation (rad), the largest strain, and - when the model has
-# no geometric stiffening - the largest axial force over the buckling load of the beam clamped at
-# its root, pi^2 E I_min / (4 L^2) (beyond ~2 % the axial force shifts the bending frequencies
+# no geometric stiffening - the largest axial force over the beam's Euler load (`axial_load`: pinned
+# at both ends for hinged-hinged modes, else clamped at its root) (beyond ~2 % the axial force shifts the bending frequencies
 # by ~1 % and the phase drifts within tens of cycles)
 LIMITS = {"deflection": 0.10, "rotation": 0.10, "strain": 0.005, "axial_load": 0.02}
 WORDS = {"deflection": "deflection {:.0f} % of length", "rotation": "node rotation {:.2f} rad",
@@ -312,9 +318,17 @@ def modal_extent(fb: flexbody.FlexBody, eta, sec) -> dict:
             "strain": strain.max(axis=1)}
 
 
-def axial_load(N, E: float, sec, length: float) -> np.ndarray:
-    """(n,) |N| over the buckling load pi^2 E I_min / (4 L^2) of the beam clamped at its root."""
-    return np.abs(N) / (np.pi ** 2 * E * min(sec.Iy, sec.Iz) / (4.0 * length ** 2))
+# the effective length over L of a beam's Euler load pi^2 E I / (K L)^2, by the boundary condition
+# of its modes: a beam on hinges at both ends buckles in a half sine (K = 1), any other is taken
+# as clamped at its root and free at its tip (K = 2, the lowest of a beam held at one end)
+BUCKLING_LENGTH = {"hinged-hinged": 1.0}
+
+
+def axial_load(N, E: float, sec, length: float, boundary: str = "clamped-free") -> np.ndarray:
+    """(n,) |N| over the Euler load pi^2 E I_min / (K L)^2 of the beam with its modes' boundary
+    condition (K: BUCKLING_LENGTH, 2 for a beam clamped at its root)."""
+    K = BUCKLING_LENGTH.get(boundary, 2.0)
+    return np.abs(N) / (np.pi ** 2 * E * min(sec.Iy, sec.Iz) / (K * length) ** 2)
 
 
 def validity(traj: Trajectory) -> tuple[dict, tuple | None]:
@@ -373,23 +387,78 @@ def deflection(beam: Beam, x: float, axis: int) -> np.ndarray:
 
 def shapes(case, traj: Trajectory, instants) -> dict:
     """The deformed-shape snapshots of every flexible beam of a trajectory:
-    {body: {"x": [nx], "t": [k], "u": (k, nx, 3) nested lists}}. x are the shape points'
-    undeformed positions along the beam as the solver tracks them (its nodes nearest to
-    `shape_positions`, m), t the output samples nearest to `instants` (s), u each point's
-    `displacement` there (root-node or chord frame, m). An instant farther than half an output
-    interval from every sample (the run ended before it) is left out, as is a sample at which a
-    beam's displacements are not finite; a beam without shape points or snapshots is left out."""
+    {body: {"x": [nx], "t": [k], "u": (k, nx, 3), "r": (k, nx, 3), "stress": (k, nx)}, nested lists}.
+    x are the shape points' undeformed positions along the beam as the solver tracks them (its
+    nodes nearest to `shape_positions`, m), t the output samples nearest to `instants` (s), u each
+    point's `displacement` there (root-node or chord frame, m), r its position in the global frame
+    (m; where the beam is `placed`), stress the von Mises stress at the outer fibre of its section
+    (Pa, `stress_vm`; where the run holds the strains at every shape point, as the runs of
+    `flexmbd animate` and `export` do). An instant farther than half an output interval from every
+    sample (the run ended before it) is left out, as is a sample at which a beam's values are not
+    finite; a beam without shape points or snapshots is left out."""
     t, picks = np.asarray(traj.t, dtype=float), snapshot_samples(case, traj.t, instants)
+    where = placed(case, traj) if picks else {}
     out = {}
     for name, beam in traj.beams.items():
         xs = shape_positions(case, name)
         if not xs or not picks:
             continue
-        u = np.stack([displacement(beam, x, picks) for x in xs], axis=1)          # (k, nx, 3)
-        keep = np.all(np.isfinite(u), axis=(1, 2))
+        got = {"u": np.stack([displacement(beam, x, picks) for x in xs], axis=1)}            # (k, nx, 3)
+        if name in where:
+            got["r"] = to_global(where[name], picks, np.stack([beam.points[x][picks] for x in xs], axis=1))
+        if all(x in beam.strains for x in xs):
+            b = case.bodies[name]
+            got["stress"] = np.stack([stress_vm(beam.strains[x][picks], b.material.E, b.material.G, b.geometry, None)
+                                      for x in xs], axis=1)                                  # (k, nx)
+        keep = np.all([np.isfinite(v).reshape(len(picks), -1).all(axis=1) for v in got.values()], axis=0)
         if keep.any():
             out[name] = {"x": [float(beam.x0[x][0] - beam.x0[0.0][0]) for x in xs],
-                         "t": [float(t[i]) for i, ok in zip(picks, keep) if ok], "u": u[keep].tolist()}
+                         "t": [float(t[i]) for i, ok in zip(picks, keep) if ok],
+                         **{k: v[keep].tolist() for k, v in got.items()}}
+    return out
+
+
+def placed(case, traj: Trajectory) -> dict:
+    """{body: (R (n, 3, 3), p (n, 3))}: where each body is in the global frame, R turning the frame
+    its points are given in into the global one and p that frame's origin (m): a body without a
+    Beam (rigid in the solver's model) by its body frame, a flexible body by its Beam's frame F
+    (the identity where its points are global), as the solver reports them (`Trajectory.poses`);
+    a body clamped to the ground by a fixed joint, whose pose the solver does not report, where
+    the joint holds it. Any other body whose pose is not reported is left out."""
+    out, n = {b: traj.poses[b] for b in case.bodies if b in traj.poses}, len(traj.t)
+    clamped = [b for b in case.bodies if b not in out and case.joint_of(b).parent == "ground"
+               and case.joint_of(b).type == "fixed"]
+    if clamped:
+        at = closure.body_poses(case, {name: j.q0 for name, j in case.joints.items()})
+        out.update({b: (np.broadcast_to(at[b][0], (n, 3, 3)), np.broadcast_to(at[b][1], (n, 3))) for b in clamped})
+    return out
+
+
+def to_global(pose: tuple, k, x) -> np.ndarray:
+    """(len(k), m, 3) points x ((len(k), m, 3), or (m, 3) fixed in the frame) given in the frame of
+    `pose` (`placed`: R (n, 3, 3), p (n, 3)), in the global frame at the samples k, m."""
+    R, p = (np.asarray(a, dtype=float)[k] for a in pose)
+    x = np.broadcast_to(np.asarray(x, dtype=float), (len(R),) + np.shape(x)[-2:])
+    return p[:, None, :] + np.einsum("kij,kmj->kmi", R, x)
+
+
+def poses(case, traj: Trajectory, instants) -> dict:
+    """The global poses of the bodies that have no shape points, at the samples `shapes` picks:
+    {body: {"t": [k], "R": (k, 3, 3), "p": (k, 3)}, nested lists}, R the rotation from the body
+    frame into the global one and p its origin (m), of every body `placed` that is rigid in the
+    solver's model (a rigid body or point mass, a beam declared rigid, every beam of a rigid-body
+    solver) and of every solid (its surface's frame); a sample at which a pose is not finite is
+    left out."""
+    t, picks = np.asarray(traj.t, dtype=float), snapshot_samples(case, traj.t, instants)
+    out = {}
+    for name, (R, p) in (placed(case, traj) if picks else {}).items():
+        if name in traj.beams and case.bodies[name].type != "solid":
+            continue                                    # a flexible beam's points are in its shapes
+        R, p = np.asarray(R, dtype=float)[picks], np.asarray(p, dtype=float)[picks]
+        keep = np.isfinite(R).all(axis=(1, 2)) & np.isfinite(p).all(axis=1)
+        if keep.any():
+            out[name] = {"t": [float(t[i]) for i, ok in zip(picks, keep) if ok], "R": R[keep].tolist(),
+                         "p": p[keep].tolist()}
     return out
 
 

@@ -18,8 +18,8 @@ FREE = {"--set", "--t-end", "--frames", "--fps"}                                
 
 
 def options(p: argparse.ArgumentParser) -> dict:
-    """Command -> (its options, {option or positional: choices}, positional metavars, options
-    taking a value) of the parser `p`."""
+    """Command -> (its options, {option or positional: choices}, positional metavars (lower case,
+    '...' after a repeatable one: 'case...'), options taking a value) of the parser `p`."""
     sub = next(a for a in p._actions if isinstance(a, argparse._SubParsersAction))
     out = {}
     for name, sp in sub.choices.items():
@@ -32,7 +32,8 @@ def options(p: argparse.ArgumentParser) -> dict:
                 if a.choices:
                     choices[a.option_strings[-1]] = list(a.choices)
             else:
-                positional.append(a.metavar or a.dest)
+                more = "..." if a.nargs in ("*", "+") else ""     # "case...": one or more cases
+                positional.append((a.metavar or a.dest).lower() + more)
                 if a.choices:
                     choices[a.dest] = list(a.choices)
         out[name] = (opts, choices, positional, valued)
@@ -81,7 +82,7 @@ _flexmbd() {{
         for ((i = 2; i < COMP_CWORD; i++)); do
             [[ "${{COMP_WORDS[i]}}" != -* && " $valued " != *" ${{COMP_WORDS[i-1]}} "* ]] && n=$((n + 1))
         done
-        if [[ $n -eq 0 ]]; then
+        if [[ $n -eq 0 || "$kinds" == "case..." ]]; then
             COMPREPLY=($(compgen -W "$cases" -- "$cur") $(compgen -f -X '!*.toml' -- "$cur"))
         else
             COMPREPLY=($(compgen -f -- "$cur"))

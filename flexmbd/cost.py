@@ -393,7 +393,7 @@ def fe_linear(case, t_end: float, opt: dict) -> list:
     dense products; the modal scheme solves the dense n x n eigenproblem and steps every mode;
     newmark factorizes once and steps by sparse solves; damping takes a dense eigensolution of all
     n DOFs."""
-    (name, body), = case.bodies.items()
+    name, body = next((n, b) for n, b in case.bodies.items() if b.type != "point_mass")   # point masses: node masses
     n = solid_dofs(body) if body.type == "solid" else 6 * body.elements
     damped = body.damping_ratio > 0
     mesh = body.type == "solid" and not body.is_frame   # a 3-D mesh; a frame steps as a beam

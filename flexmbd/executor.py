@@ -23,6 +23,7 @@ import dataclasses
 import logging
 import os
 import signal
+import socket
 import sys
 import time
 import traceback
@@ -43,6 +44,7 @@ POOL_ABOVE = 5.0        # s of estimated work (`cost.stages`) from which the def
 COMPILES = ("flexmbd",)  # solvers whose first run on a machine compiles the kernel (`jit.is_cached`)
 COMPILE_S = 80.0        # s, about what that compile takes on this project's reference machine
 START = "fork" if sys.platform.startswith("linux") else "spawn"   # how a local worker starts (`Worker`)
+CONNECT_S = 5.0         # s within which a --scheduler must take a connection and answer Dask's handshake
 
 
 class WorkerError(RuntimeError):
@@ -411,6 +413,29 @@ def same_flexmbd(client, flag: str) -> None:
                              f"worker needs the same flexmbd (docs/studies.md)")
 
 
+def reach(address: str) -> None:
+    """Refuse (InputError naming --scheduler and `address`) an address that is not a Dask
+    scheduler's (tcp://HOST:PORT; tls:// too, and a bare HOST:PORT), or one where nothing takes a
+    TCP connection within CONNECT_S: at once where nothing listens, not after Dask's 30 s."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    flag = f"--scheduler {address}"
+    try:
+        scheme, loc = parse_address(address)
+        host, port = parse_host_port(loc, 8786)
+    except (ValueError, TypeError) as e:
+        raise InputError(f"{flag}: expected tcp://HOST:PORT ({e})") from None
+    if not (host and 0 < port < 65536):
+        raise InputError(f"{flag}: expected tcp://HOST:PORT, a port from 1 to 65535")
+    if scheme not in ("tcp", "tls"):
+        return
+    try:
+        socket.create_connection((host, port), timeout=CONNECT_S).close()
+    except OSError as e:
+        why = f"nothing answered within {CONNECT_S:g} s" if isinstance(e, TimeoutError) else \
+            (e.strerror or str(e) or type(e).__name__).lower()
+        raise InputError(f"{flag}: no Dask scheduler answers there ({why})") from None
+
+
 def dask(jobs: list, order: list, done, started, where: Where, own: dict) -> None:
     """The jobs on a Dask distributed cluster: the one at `where.scheduler`, or a LocalCluster of
     `where.dask_local` single-threaded worker processes on loopback, closed at the end. Dask
@@ -425,16 +450,23 @@ def dask(jobs: list, order: list, done, started, where: Where, own: dict) -> Non
         raise InputError(f"--scheduler/--dask-local: Dask is not installed ({e}); "
                          f"pip install 'dask[distributed]'") from None
     cluster = None
+    if where.scheduler:
+        reach(where.scheduler)
     with dask_.config.set({"distributed.scheduler.allowed-failures": TRIES - 1}), _threads_one():
         if where.dask_local:
             cluster = LocalCluster(n_workers=where.dask_local, threads_per_worker=1, processes=True,
                                    host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR)
         try:
-            client = Client(cluster or where.scheduler, timeout="30s")
-        except (OSError, TimeoutError, ValueError) as e:
+            client = Client(cluster or where.scheduler, timeout=f"{CONNECT_S if where.scheduler else 30}s")
+        except Exception as e:                          # at an address given: whatever answers, if not Dask
             if cluster is not None:
                 cluster.close()
-            raise InputError(f"--scheduler {where.scheduler}: no Dask scheduler answers there ({e})") from None
+            if not (where.scheduler or isinstance(e, (OSError, TimeoutError, ValueError))):
+                raise
+            flag = f"--scheduler {where.scheduler}" if where.scheduler else f"--dask-local {where.dask_local}"
+            what = " ".join(str(e).split())[:200] if isinstance(e, (OSError, TimeoutError)) else \
+                f"what answers is not one: {type(e).__name__}"
+            raise InputError(f"{flag}: no Dask scheduler answers there ({what})") from None
     try:
         same_flexmbd(client, f"--scheduler {where.scheduler}" if where.scheduler else "--dask-local")
         futures = {client.submit(timed, task(*jobs[k]), pure=False): k for k in order}

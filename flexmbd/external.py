@@ -5,8 +5,9 @@ The table is checked against the case before it is stored, so that an imported r
 beside a solver's run on every page, table and regression:
 
     columns   `t` [s] and any of the case's channels, by name, in the channels' SI units
-              (deflection m, stress Pa, joint angle rad, energy J, reaction N / N m);
-              lines starting with '#' are comments
+              (deflection m, stress Pa, joint angle rad, energy J, reaction N / N m), each once;
+              lines starting with '#' are comments. The header is checked before the table is
+              read: a file of other columns is refused at once, unread
     t         starts at 0, evenly spaced (the spectra assume it), increasing, and ends at the
               case's duration (within one output interval), unless the metadata says the run
               failed earlier
@@ -20,13 +21,13 @@ of this machine's.
 
 from __future__ import annotations
 
+import csv
 import json
-import re
 from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, channels, results, solvers
+from flexmbd import cases, channels, files, results, solvers
 from flexmbd.errors import InputError
 from flexmbd.results import Result
 
@@ -87,18 +88,12 @@ def metadata(path: Path | None) -> dict:
 
 
 def table(case, path: Path, failed: bool) -> tuple[np.ndarray, dict, str]:
-    """(t (n,), channel -> (n,), the file's SHA-256) of an imported table, checked against the case."""
+    """(t (n,), channel -> (n,), the file's SHA-256) of an imported table, checked against the case;
+    its header first (`header`), so that a file of other columns is refused before it is read."""
+    cols = header(case, path)
     text = results.read_text(path)
-    df = results.read_table(path, text, comment="#")
-    names = [str(c) for c in df.columns if c != "t"]
-    for c in names:
-        if c not in case.channels:
-            base = re.sub(r"\.\d+$", "", c)
-            raise InputError(f"{path}: column {c}: " + (f"{base} appears twice" if base in case.channels else
-                             f"not a channel of {case.name}{cases.hint(c, case.channels)} "
-                             f"(channels: {', '.join(case.channels)})"))
-    if not names:
-        raise InputError(f"{path}: no channel columns (expected `t` and any of {', '.join(case.channels)})")
+    df = results.read_table(path, text, columns=cols, comment="#")
+    names = [c for c in cols if c != "t"]
     t = df["t"].to_numpy(dtype=float)
     if len(t) < 2:
         raise InputError(f"{path}: {len(t)} row; at least two samples are needed")
@@ -115,6 +110,53 @@ def table(case, path: Path, failed: bool) -> tuple[np.ndarray, dict, str]:
         raise InputError(f"{path}: column t ends at {t[-1]:g} s, before the case's duration {duration:g} s "
                          f"(a run that failed early: give its status in --meta)")
     return t, {c: df[c].to_numpy(dtype=float) for c in names}, results.sha256(text)
+
+
+HEADER_SLACK = 256          # bytes a header may hold beyond twice its names, quotes and commas
+
+
+def header(case, path: Path) -> list[str]:
+    """The columns of an imported table in the file's order, from its header (its first line that
+    is neither blank nor a comment, as pandas reads it), read alone and checked: `t` and any of the
+    case's channels, each once. A header longer than such a one can be (twice its names, quotes and
+    commas, and HEADER_SLACK) is refused unread: a file of a million columns is refused at once."""
+    limit = HEADER_SLACK + 2 * sum(len(c.encode()) + 3 for c in ("t", *case.channels))
+    expected = f"expected `t` and any of {', '.join(case.channels)}"
+    try:
+        with open(path, "rb") as f:
+            line = f.readline(limit + 1)
+            while line and (line.startswith(b"#") or not line.strip()):
+                while line and not line.endswith(b"\n"):           # the rest of a long comment
+                    line = f.readline(1 << 16)
+                line = f.readline(limit + 1)
+    except OSError as e:
+        raise files.unusable(path, e, "cannot be read") from None
+    if not line:
+        raise InputError(f"{path}: no header line ({expected})")
+    if len(line) > limit:
+        raise InputError(f"{path}: its header is longer than {limit} bytes, more than `t` and the channels of "
+                         f"{case.name} take: not a table of its channels ({expected})")
+    try:
+        text = line.decode("utf-8").removeprefix("\ufeff").split("#")[0].rstrip("\r\n")
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text file (undecodable bytes)") from None
+    try:
+        cols = next(csv.reader([text]), [])
+    except csv.Error as e:
+        raise InputError(f"{path}: not a table ({e})") from None
+    for k, c in enumerate(cols):
+        if c == "t" or c in case.channels:
+            if c in cols[:k]:
+                raise InputError(f"{path}: column {c} appears twice")
+        else:
+            raise InputError(f"{path}: column {k + 1} has no name ({expected})" if not c.strip() else
+                             f"{path}: column {c}: not a channel of {case.name}{cases.hint(c, case.channels)} "
+                             f"(channels: {', '.join(case.channels)})")
+    if "t" not in cols:
+        raise InputError(f"{path}: no `t` column ({expected})")
+    if len(cols) < 2:
+        raise InputError(f"{path}: no channel columns ({expected})")
+    return cols
 
 
 def load(case, name: str, path: Path, meta_path: Path | None = None) -> Result:

@@ -25,9 +25,11 @@ import functools
 import json
 import math
 import os
+import re
 import secrets
 import shutil
 import signal
+import socket
 import sys
 import tempfile
 import threading
@@ -52,8 +54,11 @@ REASONS = {
 
 def user_cache(*parts) -> Path:
     """A path in flexmbd's folder of the user's cache ($XDG_CACHE_HOME, else ~/.cache): what is
-    kept between processes because it costs time to make again (compiled code, drawn figures)."""
-    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"), "flexmbd", *parts)
+    kept between processes because it costs time to make again (compiled code, drawn figures).
+    An empty or relative $XDG_CACHE_HOME is ignored, as the XDG specification says (relative, it
+    would put the cache wherever the command runs: in a checkout, `flexmbd/` is the package)."""
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    return Path(base if os.path.isabs(base) else Path.home() / ".cache", "flexmbd", *parts)
 
 
 def json_text(x, **kw) -> str:
@@ -470,12 +475,16 @@ def generation(dest):
     """A staging folder inside `dest` to build a set of files and folders in; when the block
     ends normally they replace their namesakes in `dest` together (`swap`), so `dest` holds the
     old set or the new one. The staging folder and the old entries are removed on every path (an
-    error, a signal); an OSError while building is an InputError naming its file."""
+    error, a signal); an OSError while building is an InputError naming its file. Its name holds
+    its owner (`staging_prefix`), so that one left by a process killed outright (SIGKILL, a power
+    cut) is removed by the next generation in `dest` (`stale`), and one a live process builds in
+    is not."""
     dest = make_dir(dest)
 
     def make() -> Path:
+        discard(*stale(dest))
         try:
-            return Path(tempfile.mkdtemp(dir=dest, prefix=".new-"))
+            return Path(tempfile.mkdtemp(dir=dest, prefix=staging_prefix()))
         except OSError as e:
             raise unusable(dest, e) from None
 
@@ -485,3 +494,33 @@ def generation(dest):
         except OSError as e:
             raise unusable(e.filename or dest, e) from None
         swap([(item, dest / item.name) for item in sorted(stage.iterdir())])
+
+
+def staging_prefix(pid: int | None = None) -> str:
+    """The start of the name of a staging folder (`generation`) made by process `pid` (this one)
+    of this machine: `.new-PID-HOST-`."""
+    return f".new-{os.getpid() if pid is None else pid}-{socket.gethostname()}-"
+
+
+def stale(dest) -> list:
+    """The staging folders in `dest` that no live process owns: made on this machine (a folder of
+    another machine on a shared file system is left to it) by a process that has ended. A folder
+    of another form is left alone."""
+    here = re.compile(r"\.new-([1-9]\d{0,8})-" + re.escape(socket.gethostname()) + r"-[^/]+")
+    try:
+        names = os.listdir(dest)
+    except OSError:
+        return []
+    found = [(name, here.fullmatch(name)) for name in names]
+    return [Path(dest, name) for name, m in found if m and not alive(int(m[1])) and _is_folder(Path(dest, name))]
+
+
+def alive(pid: int) -> bool:
+    """True when process `pid` exists (another user's too)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass
+    return True

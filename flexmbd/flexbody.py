@@ -163,13 +163,15 @@ def mode_set(beam, K, M, M_lumped, nodes: np.ndarray):
     """The reduced body's modes (6N, nm), orthonormal in the lumped mass, and their frequencies (Hz).
 
     The case's mass matrix M chooses the modes: the lowest `count` elastic modes of the boundary
-    conditions, free-free and Craig-Bampton ones made to hold the reference node first
-    (`reference_node`). Unless they already are (lumped M, clamped-free or hinged-hinged), the
-    retained modes are then re-orthonormalized within their span in the lumped mass (`in_node_masses`).
+    conditions whose kind is one of `modes.kinds` (any when not given: `of_kinds`), free-free and
+    Craig-Bampton ones made to hold the reference node (`reference_node`). Unless they already are
+    (lumped M, clamped-free or hinged-hinged), the retained modes are then re-orthonormalized
+    within their span in the lumped mass (`in_node_masses`).
     """
     m = beam.modes
     if m.boundary in ("clamped-free", "hinged-hinged"):
-        freq, Phi = modes.normal_modes(K, M, modes.boundary_dofs(m.boundary, nodes.shape[0]), m.count)
+        fixed = modes.boundary_dofs(m.boundary, nodes.shape[0])
+        freq, Phi = of_kinds(lambda n: modes.normal_modes(K, M, fixed, n), m.count, m.kinds, K.shape[0] - fixed.size)
         if M is M_lumped:
             return freq, Phi
     else:
@@ -177,17 +179,46 @@ def mode_set(beam, K, M, M_lumped, nodes: np.ndarray):
     return in_node_masses(K, M_lumped, Phi)
 
 
+def of_kinds(lowest, count: int, kinds, most: int):
+    """(freq (count,), Phi (6N, count)): the lowest `count` modes whose kind (`fe.modes.mode_families`,
+    the family a mode's label names) is one of `kinds` (None: any), from `lowest(n)`, the (freq,
+    Phi) of the n lowest modes of a basis independent of n (normal modes); n grows until they hold
+    `count` modes of the kinds, at most to `most` (the case's check, `fe.modes.modes_per_family`,
+    makes sure that there are that many)."""
+    if kinds is None:
+        return lowest(count)
+    n = count
+    while True:
+        freq, Phi = lowest(n)
+        keep = [j for j, kind in enumerate(modes.mode_families(Phi)) if kind in kinds][:count]
+        if len(keep) == count or n >= most:
+            break
+        n = min(max(2 * n, n + 6), most)
+    if len(keep) < count:
+        raise ValueError(f"{count} modes of kinds {', '.join(kinds)} requested, the mesh has {len(keep)}")
+    return freq[keep], Phi[:, keep]
+
+
 def floating_modes(beam, K, M) -> np.ndarray:
-    """Elastic modes (6N, k), M-orthonormal, of a free-free or Craig-Bampton beam (node 0 moves in them):
-    the lowest `count` free-free modes, or every elastic direction of the Craig-Bampton basis."""
+    """Elastic modes (6N, k), M-orthonormal, of a free-free or Craig-Bampton beam (node 0 moves in
+    them), of the kinds `modes.kinds` (`of_kinds`; the families of a straight beam are uncoupled):
+    the lowest `count` free-free modes, or every elastic direction of the Craig-Bampton basis: the
+    constraint modes of the interface nodes' DOFs of the kinds (the others held) and fixed-interface
+    normal modes of the kinds, as many as make `count` with the rigid-body directions of the kinds
+    (one per axial or torsion family, two per bending one: a family's DOFs at a node) added."""
     m = beam.modes
+    n_dof = K.shape[0]
     if m.boundary == "free-free":
-        return modes.normal_modes(K, M, [], m.count)[1]
+        return of_kinds(lambda n: modes.normal_modes(K, M, [], n), m.count, m.kinds, n_dof - 6)[1]
+    kinds = m.kinds or tuple(modes.FAMILIES)
     held = sorted({node_index(beam.length, beam.elements, x) for x in m.interfaces})
-    iface = np.array([6 * p + k for p in held for k in range(6)])
-    n_normal = max(m.count - iface.size, 0)
-    Phi = modes.craig_bampton(K, M, np.array([], dtype=int), iface, n_normal + 6)
-    freq, Phi = modes.orthonormalize(K, M, Phi)
+    dofs = {kind: [6 * p + k for p in held for k in modes.FAMILIES[kind]] for kind in modes.FAMILIES}
+    iface = np.array(sorted(d for kind in kinds for d in dofs[kind]), dtype=int)
+    others = np.array(sorted(d for kind in modes.FAMILIES if kind not in kinds for d in dofs[kind]), dtype=int)
+    every = np.union1d(iface, others)
+    n_normal = min(max(m.count - iface.size, 0) + sum(len(modes.FAMILIES[k]) for k in kinds), n_dof - every.size)
+    _, normal = of_kinds(lambda n: modes.normal_modes(K, M, every, n), n_normal, m.kinds, n_dof - every.size)
+    freq, Phi = modes.orthonormalize(K, M, np.hstack([normal, modes.constraint_modes(K, others, iface)]))
     return Phi[:, freq > 1e-6 * freq.max()]       # the floating frame carries the rigid-body motion
 
 

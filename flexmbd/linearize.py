@@ -62,7 +62,11 @@ def accelerations(model: Model, loops: constraints.Loops | None, t: float):
         return lambda q, v: forward_dynamics(model, data, q, v, t=t)
 
     def qdd(q, v):
-        q, v = loops.close(t, q, v)
+        try:
+            q, v = loops.close(t, q, v)
+        except constraints.NotClosed as e:          # a perturbed state the dependent coordinates cannot close
+            raise InputError(f"joints.{e.args[0]}: the loop cannot close at a state perturbed for the "
+                             f"linearization (residual {e.args[1]:.3g})") from None
         return loops.rates(t, q, v)[0][model.nq:]
     return qdd
 

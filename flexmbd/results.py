@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import resources
+from flexmbd import resources, version
 from flexmbd.errors import InputError
 from flexmbd.files import json_text, swap, temporary, unusable
 
@@ -136,6 +136,35 @@ def first_failure(t, channels: dict, bounds: dict) -> tuple[int, Status] | None:
     return first
 
 
+def disorder(t) -> tuple[int, Status] | None:
+    """The first output sample whose instant is not a finite number after the one before it, as
+    `first_failure` gives a sample: (k, failed status, at the last instant in order, t[k - 1]);
+    None when t (n,) s increases throughout."""
+    t = np.asarray(t, dtype=float)
+    bad = ~np.isfinite(t)
+    bad[1:] |= ~(np.diff(t) > 0)
+    hit = np.flatnonzero(bad)
+    if not hit.size:
+        return None
+    k = int(hit[0])
+    if not np.isfinite(t[k]):
+        return k, failed(f"column t holds {t[k]} at index {k} (expected finite instants)", t[k - 1] if k else None)
+    return k, failed(f"column t does not increase at index {k} ({t[k]:.6g} s after {t[k - 1]:.6g} s)", t[k - 1])
+
+
+def misshapen(arrays: dict) -> str:
+    """'' when each of `arrays` (name -> (value, the shape it must have)) is an array of numbers of
+    its shape, else what the first that is not is, against what was expected."""
+    for name, (value, want) in arrays.items():
+        try:
+            shape = np.asarray(value, dtype=float).shape
+        except (TypeError, ValueError):
+            return f"{name} is not an array of numbers (expected shape {want})"
+        if shape != want:
+            return f"{name} has shape {shape}, expected {want}"
+    return ""
+
+
 # ---------------------------------------------------------------------------------------------
 # one run
 
@@ -208,9 +237,12 @@ def _versions() -> tuple:
 
 
 def environment() -> dict:
-    """Python, dependency versions, machine: provenance stored with every result (the process
-    that ran it: an executor's worker stamps its own, `executor.compute`)."""
-    return {"python": sys.version.split()[0], "versions": dict(_versions()), "git_commit": git_commit(),
+    """Python, dependency versions, flexmbd's version and source hash (`version.source_sha256`: what
+    pins the code where there is no git commit, an installed package), the git commit, machine:
+    provenance stored with every result (the process that ran it: an executor's worker stamps its
+    own, `executor.compute`)."""
+    return {"python": sys.version.split()[0], "versions": dict(_versions()), "flexmbd_version": version.__version__,
+            "source_sha256": version.source_sha256(), "git_commit": git_commit(),
             "machine": f"{platform.machine()} {platform.system()} {os.cpu_count()} cpu",
             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")}
 
@@ -450,6 +482,8 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
         check_shapes(js, meta["shapes"])
     if "fields" in meta:
         check_fields(js, meta["fields"])
+    if "poses" in meta:
+        check_poses(js, meta["poses"])
     if status.kind == "failed" and meta.get("failed_at_s") is not None:
         status = Status("failed", status.why, float(meta["failed_at_s"]))
     return Result(solver=solver, case=case, t=df["t"].to_numpy(dtype=float),
@@ -461,32 +495,72 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
                   extra={k: v for k, v in meta.items() if k not in SIDECAR_KEYS})
 
 
+SHAPE_LISTS = {"x": "[x]", "t": "[t]", "u": "[t][x][3]", "r": "[t][x][3]", "stress": "[t][x]"}  # keys, nesting
+POSE_LISTS = {"t": "[t]", "R": "[t][3][3]", "p": "[t][3]"}
+
+
 def check_shapes(path: Path, shapes) -> None:
     """A sidecar's deformed-shape snapshots (`channels.shapes`): per beam, x (nx,) m and t (k,) s
-    lists and u (k, nx, 3) nested lists, of finite numbers. An InputError naming the file and
-    the key otherwise."""
+    lists and u (k, nx, 3) nested lists, and where recorded r (k, nx, 3) m and stress (k, nx) Pa,
+    of finite numbers. An InputError naming the file and the key otherwise."""
+    if not isinstance(shapes, dict):
+        raise InputError(f"{path}: shapes: expected a table of beams, each with x, t and u")
+    for body, s in shapes.items():
+        key = f"shapes.{body}"
+        if not isinstance(s, dict) or not {"x", "t", "u"} <= set(s) <= set(SHAPE_LISTS):
+            raise InputError(f"{path}: {key}: expected a table with the keys x, t and u (and r, stress)")
+        finite_lists(path, key, s, SHAPE_LISTS)
+        names = ["len(t)", "len(x)", "3"]
+        for k in ("u", "r", "stress"):
+            if k in s:
+                d = SHAPE_LISTS[k].count("[")
+                sized(path, f"{key}.{k}", s[k], [len(s["t"]), len(s["x"]), 3][:d], names[:d],
+                      not s["t"] or len(s["x"]) < 2, " (at least one instant and two points)")
+
+
+def check_poses(path: Path, poses) -> None:
+    """A sidecar's body poses (`channels.poses`): per body, t (k,) s, R (k, 3, 3) and p (k, 3) m
+    nested lists of finite numbers. An InputError naming the file and the key otherwise."""
+    if not isinstance(poses, dict):
+        raise InputError(f"{path}: poses: expected a table of bodies, each with t, R and p")
+    for body, s in poses.items():
+        key = f"poses.{body}"
+        if not isinstance(s, dict) or set(s) != set(POSE_LISTS):
+            raise InputError(f"{path}: {key}: expected a table with the keys t, R and p")
+        finite_lists(path, key, s, POSE_LISTS)
+        for k, want in (("R", [len(s["t"]), 3, 3]), ("p", [len(s["t"]), 3])):
+            sized(path, f"{key}.{k}", s[k], want, ["len(t)", "3", "3"][:len(want)], not s["t"],
+                  " (at least one instant)")
+
+
+def finite_lists(path: Path, key: str, table: dict, nesting: dict) -> None:
+    """Each value of `table` a list nested as `nesting` says ("[t][x][3]": three deep), of finite
+    numbers; an InputError naming the file and KEY.NAME otherwise."""
     def finite(v, depth: int) -> bool:
         if depth == 0:
             return (isinstance(v, float) and bool(np.isfinite(v))) or (type(v) is int and abs(v) < 1e300)
         return isinstance(v, list) and all(finite(e, depth - 1) for e in v)
 
-    if not isinstance(shapes, dict):
-        raise InputError(f"{path}: shapes: expected a table of beams, each with x, t and u")
-    for body, s in shapes.items():
-        key = f"shapes.{body}"
-        if not isinstance(s, dict) or set(s) != {"x", "t", "u"}:
-            raise InputError(f"{path}: {key}: expected a table with the keys x, t and u")
-        for k, depth in (("x", 1), ("t", 1), ("u", 3)):
-            if not finite(s[k], depth):
-                raise InputError(f"{path}: {key}.{k}: expected {'nested lists [t][x][3]' if depth == 3 else 'a list'} "
-                                 f"of finite numbers")
-        want = f"len(t) x len(x) x 3 = {len(s['t'])} x {len(s['x'])} x 3 (at least one instant and two points)"
-        sizes = [{len(s["u"])}, {len(row) for row in s["u"]}, {len(p) for row in s["u"] for p in row}]
-        if any(len(n) > 1 for n in sizes):
-            raise InputError(f"{path}: {key}.u: rows of unequal lengths, expected {want}")
-        got = [n.pop() if n else 0 for n in sizes]
-        if got != [len(s["t"]), len(s["x"]), 3] or not s["t"] or len(s["x"]) < 2:
-            raise InputError(f"{path}: {key}.u: {' x '.join(map(str, got))} numbers, expected {want}")
+    for k, v in table.items():
+        depth = nesting[k].count("[")
+        if not finite(v, depth):
+            raise InputError(f"{path}: {key}.{k}: expected {'a list' if depth == 1 else 'nested lists ' + nesting[k]} "
+                             f"of finite numbers")
+
+
+def sized(path: Path, key: str, v: list, want: list, names: list, empty: bool, least: str) -> None:
+    """Nested lists v with the sizes `want` at each level (named `names`), none of them `empty`;
+    an InputError naming the file and the key otherwise."""
+    expected = f"{' x '.join(names)} = {' x '.join(map(str, want))}{least}"
+    sizes, level = [], [v]
+    for _ in want:
+        sizes.append({len(e) for e in level})
+        level = [e for row in level for e in row]
+    if any(len(n) > 1 for n in sizes):
+        raise InputError(f"{path}: {key}: rows of unequal lengths, expected {expected}")
+    got = [n.pop() if n else 0 for n in sizes]
+    if got != want or empty:
+        raise InputError(f"{path}: {key}: {' x '.join(map(str, got))} numbers, expected {expected}")
 
 
 def check_fields(path: Path, fields) -> None:

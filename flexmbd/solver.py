@@ -270,7 +270,29 @@ def trajectory(case, model: Model, t, Q, V, E=None, loops: constraints.Loops | N
                                                points, x0, channels.modal_root(fb, eta), F, rules[name])
     for beam, parts in case.segments.items():
         traj.beams[beam] = joined(case, model, ev, Q, beam, [traj.beams.pop(p) for p in parts])
+    traj.poses = poses(case, model, Q, V)
     return traj
+
+
+def poses(case, model: Model, Q, V) -> dict:
+    """Body name -> (R (n, 3, 3), p (n, 3)) of every body of the case at the states Q, V
+    (`channels.Trajectory.poses`): its body frame, from the kinematics of the energy's evaluation
+    (X0); the identity for a beam split into segments, whose points are global (`joined`)."""
+    data, n = make_data(model), len(Q)
+    R, p = np.zeros((n, model.nb + 1, 3, 3)), np.zeros((n, model.nb + 1, 3))
+    for k, (q, v) in enumerate(zip(Q, V)):
+        entry.energy(model, data, q, v)
+        R[k], p[k] = pose(data.X0)
+    whole = (np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3)))
+    return {b: whole if b in case.segments else (R[:, model.index(b)], p[:, model.index(b)]) for b in case.bodies}
+
+
+def pose(X) -> tuple:
+    """(R (n, 3, 3) body -> global, p (n, 3) the body's origin) of the transforms X (n, 6, 6) from
+    the global frame to a body's (Plücker): n instants of one body, or one instant's bodies."""
+    E = X[:, :3, :3]
+    rx = -np.einsum("nji,njk->nik", E, X[:, 3:, :3])                        # r~ of the body's origin
+    return np.swapaxes(E, 1, 2), np.stack([rx[:, 2, 1], rx[:, 0, 2], rx[:, 1, 0]], axis=1)
 
 
 def cut_loads(loops: constraints.Loops | None, cuts: list | None, ev: Evaluated, i: int) -> list:
@@ -301,11 +323,8 @@ def joined(case, model: Model, ev: Evaluated, Q, beam: str, parts: list) -> chan
         fb = model.bodies[name]
         eta = Q[:, model.body_madr[i]:model.body_madr[i] + model.body_nm[i]]
         p, p0 = channels.modal_points(fb, [local], eta)
-        X = ev.X0[:, i]
-        E = X[:, :3, :3]                                                     # global -> segment frame
-        rx = -np.einsum("nji,njk->nik", E, X[:, 3:, :3])                    # r~ of the segment origin
-        r = np.stack([rx[:, 2, 1], rx[:, 0, 2], rx[:, 1, 0]], axis=1)
-        points[x] = r + np.einsum("nji,nj->ni", E, p[local])
+        R, r = pose(ev.X0[:, i])
+        points[x] = r + np.einsum("nij,nj->ni", R, p[local])
         x0[x] = p0[local] + np.array([x - local, 0.0, 0.0])
     root = parts[0].root
     if root is not None:

@@ -13,11 +13,13 @@ as unavailable. Other packages add solvers through the entry-point group `flexmb
 
 A solver reports what it computed as a `channels.Trajectory`; `run` is the one place where a
 solver's exception becomes a result, and where, the same for every solver (plug-ins included),
-the channels are formed from the trajectory, the model's linear validity becomes a status, the
-divergence rule (`results.first_failure`, bounds `channels.bounds`) cuts a run (a failed run keeps
-the samples before its failure; the solvers also check it while they run, `channels.failure`, and
-stop at the first sample beyond it), and the deformed-shape snapshots (`channels.shapes`) of the
-samples kept go into the sidecar's `shapes`. A run uses one thread of linear algebra (threadpoolctl): a multi-threaded
+what it returned is checked (arrays of the wrong shape: failed, saying which; instants that stop
+increasing: cut there, failed), the channels are formed from the trajectory, the model's linear
+validity becomes a status, the divergence rule (`results.first_failure`, bounds `channels.bounds`)
+cuts a run (a failed run keeps the samples before its failure; the solvers also check it while they run, `channels.failure`, and
+stop at the first sample beyond it), and the deformed-shape snapshots (`channels.shapes`) and the
+other bodies' poses there (`channels.poses`) of the samples kept go into the sidecar's `shapes`
+and `poses`. A run uses one thread of linear algebra (threadpoolctl): a multi-threaded
 BLAS sums in an order that depends on its thread count, and a result must be the same bytes in
 this process, on a pool's worker and on a cluster's (the full-order FE transient of
 cantilever_step moves by 7e-6 of its largest value between one and two OpenBLAS threads). A plug-in may instead fill a Result's `channels` itself (no trajectory: no
@@ -27,7 +29,6 @@ validity, no snapshots).
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import importlib
 import json
@@ -39,7 +40,7 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from flexmbd import cases, channels, results
+from flexmbd import cases, channels, results, version
 from flexmbd.errors import InputError
 from flexmbd.results import Result
 
@@ -207,14 +208,7 @@ def _precondition(case, name: str) -> results.Status | None:
     return results.not_applicable(why) if why else None
 
 
-@functools.cache
-def source_sha256() -> str:
-    """SHA-256 (hex) of flexmbd's own source: every .py file of the package, by path and content."""
-    root = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for p in sorted(root.rglob("*.py")):
-        h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes() + b"\0")
-    return h.hexdigest()
+source_sha256 = version.source_sha256      # flexmbd's source, part of every run's key (version.py)
 
 
 def content_key(case, name: str, t_end: float | None = None) -> str | None:
@@ -244,9 +238,10 @@ def run(case, name: str, t_end: float | None = None) -> Result:
     """Run one solver on one case, and form what every solver's run is judged by, once: the
     channels from the trajectory the solver reports (`channels.channels`), its model's linear
     validity (`channels.validity`: an ok run past a limit is `results.outside_validity`), the
-    divergence cut (`results.first_failure`: a failed run keeps the samples before it) and the
-    deformed-shape snapshots (`channels.shapes`). A failure inside the solver becomes a failed
-    result."""
+    divergence cut (`results.first_failure`: a failed run keeps the samples before it; so does
+    one whose instants stop increasing, `results.disorder`) and the deformed-shape snapshots
+    (`channels.shapes`). A failure inside the solver, or in what it returned (`reported`, the
+    channels formed from it), becomes a failed result."""
     t_end = case.duration if t_end is None else t_end
     pre = _precondition(case, name)
     if pre is not None:
@@ -258,24 +253,27 @@ def run(case, name: str, t_end: float | None = None) -> Result:
     try:
         with threadpool_limits(limits=1):               # one BLAS thread: the same bytes on any machine
             r = reported(mod.run(case, t_end, chosen), name, case)
+            traj = formed(case, r)
     except Exception as e:                              # an external code's failure is a result
         where = traceback.extract_tb(e.__traceback__)[-1]
-        r = Result(solver=name, case=case.name,
-                   status=results.failed(f"{type(e).__name__}: {e} ({where.name}, line {where.lineno})"))
+        r, traj = Result(solver=name, case=case.name,
+                         status=results.failed(f"{type(e).__name__}: {e} ({where.name}, line {where.lineno})")), None
         r.wall_s = time.perf_counter() - start
-    traj, r.trajectory = r.trajectory, None
-    if traj is not None:
-        traj = dataclasses.replace(traj, t=np.asarray(r.t, dtype=float))
-        r.channels = channels.channels(case, traj)
-        judged(r, traj)
-    cut = results.first_failure(r.t, r.channels, channels.bounds(case)) if len(r.t) else None
-    if cut is not None and (r.ok or r.status.t is None or cut[1].t <= r.status.t):
+    cuts = [results.disorder(r.t), results.first_failure(r.t, r.channels, channels.bounds(case))] if len(r.t) else []
+    cut = min(filter(None, cuts), key=lambda c: c[0], default=None)
+    if cut is not None and (r.ok or None in (r.status.t, cut[1].t) or cut[1].t <= r.status.t):
         r.truncate(cut[0])
         r.status = cut[1]
+    moved = started(case, traj) if traj is not None and len(r.t) else None
+    if moved is not None:
+        r.truncate(1)
+        r.status = moved
     r.solver, r.case, r.case_sha256 = name, case.name, case.sha256
     r.solver_version = r.solver_version or mod.version()
     r.extra["overrides"] = list(case.overrides)        # the --set items, recorded in the sidecar
     r.extra["key"] = key                                # what the run depends on (`content_key`)
+    if case.assembly:                                   # the loops' assembly it started from
+        r.extra["assembly"] = {n: x for n, _, x in case.assembly}
     if traj is not None:                                # the kept samples' deformed shapes, once for every solver
         shapes = channels.shapes(case, dataclasses.replace(traj, t=r.t), case.report.snapshots)
         if shapes:
@@ -283,21 +281,88 @@ def run(case, name: str, t_end: float | None = None) -> Result:
         fields = channels.fields(case, dataclasses.replace(traj, t=r.t), case.report.snapshots)
         if fields:
             r.extra["fields"] = fields
+        poses = channels.poses(case, dataclasses.replace(traj, t=r.t), case.report.snapshots)
+        if poses:                                       # the other bodies' places at the same samples
+            r.extra["poses"] = poses
     return r
+
+
+START = 1e-6     # rad (m): a dependent joint's first sample this far from the case's assembly starts elsewhere
+                 # (the assembly closes to 1e-9 of the mechanism's size; a solver's own closure from it
+                 # moves it by its own tolerance, 1e-9 or less; another branch is tenths of a radian away)
+
+
+def started(case, traj: channels.Trajectory) -> results.Status | None:
+    """A failed status, naming the joint, when a run's first sample puts a dependent joint of the
+    case's loops elsewhere than the assembly every solver is given (`cases.closure.assemble`,
+    `Case.assembly`): another branch, or a start that its own closure moved; None otherwise."""
+    for n, _, x in case.assembly:
+        q = traj.joints.get(n)
+        if q is None or not len(q):
+            continue
+        d = float(q[0]) - x
+        if case.joints[n].type == "revolute":           # an angle whole turns apart is the same
+            d = (d + np.pi) % (2 * np.pi) - np.pi
+        if not abs(d) <= START:
+            return results.failed(f"starts in another assembly of its loops: joint {n} at {float(q[0]):.6g} where "
+                                  f"the case's assembly has {x:.6g} ({cases.assembly_line(case)})", 0.0)
+    return None
 
 
 def reported(out, name: str, case) -> Result:
     """A solver's run as a Result: what it returned, or a Result around a bare
     `channels.Trajectory` (a run that reports its trajectory only: ok, at the trajectory's
-    instants). Anything else is the solver's failure."""
+    instants). Anything else is the solver's failure; so is a Result whose arrays do not fit its
+    instants (`arrays`): failed, naming the array and its shape against the expected, without
+    samples (no table can be formed of them)."""
     if isinstance(out, channels.Trajectory):
-        return Result(solver=name, case=case.name, t=np.asarray(out.t, dtype=float), trajectory=out)
+        out = Result(solver=name, case=case.name, t=out.t, trajectory=out)
     if not isinstance(out, Result):
         raise TypeError(f"run(case, t_end, settings) returned {type(out).__name__}, not a Result or a "
                         f"channels.Trajectory (docs/plugins.md)")
-    if out.trajectory is not None and len(out.trajectory.t) != len(out.t):
-        raise ValueError(f"its trajectory has {len(out.trajectory.t)} instants and its result {len(out.t)}")
+    why = results.misshapen(arrays(out))
+    if why:
+        out.t, out.channels, out.trajectory, out.status = np.zeros(0), {}, None, results.failed(why)
     return out
+
+
+def arrays(r: Result) -> dict:
+    """What a run returned, name -> (array, the shape it must have at its n instants, t (n,)):
+    each channel it filled itself (n,) and, of its trajectory (`channels.Trajectory`, `channels.Beam`),
+    t (n,), every joint coordinate and energy part (n,), reaction (n, 6), and per beam each
+    tracked point (n, 3) and its undeformed position (3,), the root rotation (n, 3, 3), the section
+    strains (n, 4), the validity measures (n,) and a solid's stresses (n, 6); each body pose's
+    rotation (n, 3, 3) and origin (n, 3)."""
+    n = len(r.t) if np.ndim(r.t) else 1
+    out = {"t": (r.t, (n,)), **{f"channel {k}": (v, (n,)) for k, v in r.channels.items()}}
+    traj = r.trajectory
+    if traj is None:
+        return out
+    out["trajectory.t"] = (traj.t, (n,))
+    for group, each in (("joints", ()), ("energy", ()), ("reactions", (6,))):
+        out.update({f"trajectory.{group}[{k!r}]": (v, (n, *each)) for k, v in getattr(traj, group).items()})
+    for b, beam in traj.beams.items():
+        at = f"trajectory.beams[{b!r}]"
+        for group, shape in (("points", (n, 3)), ("x0", (3,)), ("strains", (n, 4)), ("extent", (n,)),
+                             ("stresses", (n, 6))):
+            out.update({f"{at}.{group}[{k!r}]": (v, shape) for k, v in getattr(beam, group).items()})
+        if beam.root is not None:
+            out[f"{at}.root"] = (beam.root, (n, 3, 3))
+    for b, (R, p) in traj.poses.items():
+        out.update({f"trajectory.poses[{b!r}].R": (R, (n, 3, 3)), f"trajectory.poses[{b!r}].p": (p, (n, 3))})
+    return out
+
+
+def formed(case, r: Result) -> channels.Trajectory | None:
+    """The trajectory a run reported, taken out of its Result (None: it filled its channels
+    itself), with the channels formed from it (`channels.channels`) and its model's validity
+    judged (`judged`)."""
+    traj, r.trajectory = r.trajectory, None
+    if traj is not None:
+        traj = dataclasses.replace(traj, t=np.asarray(r.t, dtype=float))
+        r.channels = channels.channels(case, traj)
+        judged(r, traj)
+    return traj
 
 
 def judged(r: Result, traj: channels.Trajectory) -> None:

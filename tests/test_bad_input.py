@@ -489,9 +489,10 @@ def test_any_bytes_as_a_case_file_are_one_input_error(tmp_path, blob):
 
 def test_a_loop_case_without_an_integrator_method_gets_one_that_runs_it(tmp_path):
     """`adams`, the default, cannot restart after each projection onto a loop: a loop case that
-    names no method gets dopri5; one that names adams keeps it (and flexmbd says why it fails)."""
+    names no method gets dopri5; one that names adams is refused (tests/test_run_faults.py)."""
     p = tmp_path / "loop.toml"
     p.write_text(LOOP)
     assert cases.load(str(p)).integrator.method == "dopri5"
-    assert cases.load(str(p), ['integrator.method="adams"']).integrator.method == "adams"
+    with pytest.raises(InputError, match="integrator.method: 'adams' cannot integrate a closed loop"):
+        cases.load(str(p), ['integrator.method="adams"'])
     assert cases.load("pendulum").integrator.method == "adams"

@@ -310,3 +310,15 @@ def test_rigid_solvers_store_no_shapes_and_a_short_run_those_it_reached():
     assert "shapes" not in solvers.run(case, "pinocchio", 0.02).extra
     s = solvers.run(case, "flexmbd", 0.02).extra["shapes"]["beam"]
     assert s["t"] == [0.0, 0.02] and len(s["x"]) == 11 and np.abs(s["u"][0]).max() == 0.0 < np.abs(s["u"][1]).max()
+
+
+def test_the_axial_load_is_measured_against_the_euler_load_of_the_beam_s_own_ends():
+    """A hinged-hinged beam buckles at pi^2 E I / L^2, four times the load of one clamped at its
+    root (pi^2 E I / (4 L^2)); the measure follows the modes' boundary condition."""
+    from types import SimpleNamespace
+    sec = SimpleNamespace(Iy=2.0e-9, Iz=4.5e-11)
+    E, L = 2.0e11, 0.45
+    euler = np.pi ** 2 * E * 4.5e-11 / L ** 2                       # 438.6 N: the four-bar's coupler
+    N = np.array([0.5 * euler, -euler])
+    assert np.allclose(channels.axial_load(N, E, sec, L, "hinged-hinged"), [0.5, 1.0], rtol=1e-14)
+    assert np.allclose(channels.axial_load(N, E, sec, L, "clamped-free"), [2.0, 4.0], rtol=1e-14)

@@ -285,16 +285,16 @@ def unreported(tmp_path_factory) -> Path:
 def test_compare_without_a_report_table(unreported, tmp_path):
     cli(["compare", unreported, "--solvers", SOLVER, "--set", 'report.solvers=["analytic", "fe-linear"]',
          "--out", tmp_path], 0, 1, names=["its reference fe-linear runs too"])
-    page = (tmp_path / "bare" / "index.html").read_text()
+    page = (tmp_path / "compare" / "bare" / "index.html").read_text()
     assert "Reference: <b>fe-linear</b>" in page and "Defaults, not the case file" in page
-    assert "Nothing graded" not in page and (tmp_path / "bare" / "tip_deflection.png").is_file()
+    assert "Nothing graded" not in page and (tmp_path / "compare" / "bare" / "tip_deflection.png").is_file()
 
 
 def test_compare_without_a_reference_that_applies(unreported, tmp_path):
     [line] = cli(["compare", unreported, "--solvers", SOLVER, "--set", 'report.solvers=["flexmbd"]',
                   "--out", tmp_path], 0, 1, names=["nothing graded", "no reference solver", "default references"])
     assert str(unreported) in line
-    assert "Nothing graded" in (tmp_path / "bare" / "index.html").read_text()
+    assert "Nothing graded" in (tmp_path / "compare" / "bare" / "index.html").read_text()
 
 
 def test_api_compare_without_a_report_table(unreported):

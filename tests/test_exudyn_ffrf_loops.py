@@ -177,7 +177,8 @@ def test_stiff_four_bar_follows_the_oracle():
     want = four_bar_oracle(case, r.t)
     assert np.abs(r.channels["crank_angle"] - want["crank_angle"]).max() < 1e-5
     sec = case.bodies["coupler"].geometry
-    buckling = np.pi ** 2 * case.materials["steel"].E * min(sec.Iy, sec.Iz) / (4 * case.bodies["coupler"].length ** 2)
+    buckling = np.pi ** 2 * case.materials["steel"].E * min(sec.Iy, sec.Iz) / case.bodies["coupler"].length ** 2
+    # (the Euler load of a beam pinned at both ends: the coupler's hinged-hinged modes)
     largest = r.extra["validity"]["largest"]["coupler"]["axial_load"] * buckling
     assert largest == pytest.approx(np.abs(want["coupler_axial"]).max(), rel=1e-3)
 
@@ -243,5 +244,6 @@ def test_stiff_slider_crank_follows_the_closed_form():
     for got, want in ((r.channels["crank_pin_force_x"], F.real), (r.channels["crank_pin_force_y"], F.imag)):
         assert np.abs(got - want).max() < 1e-3 * np.abs(F).max()
     sec = case.bodies["rod"].geometry
-    buckling = np.pi ** 2 * case.materials["steel"].E * min(sec.Iy, sec.Iz) / (4 * case.bodies["rod"].length ** 2)
+    buckling = np.pi ** 2 * case.materials["steel"].E * min(sec.Iy, sec.Iz) / case.bodies["rod"].length ** 2
+    # (the Euler load of a beam pinned at both ends: the rod's hinged-hinged modes)
     assert r.extra["validity"]["largest"]["rod"]["axial_load"] * buckling == pytest.approx(np.abs(N).max(), rel=1e-6)

@@ -365,7 +365,7 @@ def test_mm_t_s_files_read_to_the_si_mesh(tmp_path):
         for E, nu, rho in m.materials.values():
             assert (E, nu) == (2.1e11, 0.3) and rho == pytest.approx(7850.0, rel=1e-15)
     text = paths["inp"].read_text()
-    refused(str(paths["inp"]), "material steel: sqrt(E/rho) = 5.17e+06 m/s in units 'm', outside 100..20000 m/s: "
+    refused(str(paths["inp"]), "material steel: sqrt(E/rho) = 5.17e+06 m/s in units 'm', outside 10..20000 m/s: "
             "the material's numbers do not match the units", line=line_of(text, "*Material, name=steel"))
     refused(str(paths["bdf"]), "material mat1: sqrt(E/rho) = 5.17e+06 m/s in units 'm'",
             line=line_of(paths["bdf"].read_text(), "MAT1,1,210000.,,0.3,7.85-9"))

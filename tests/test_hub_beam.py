@@ -51,7 +51,7 @@ def test_hub_beam_short(tmp_path, capsys):
     """The first 0.5 s of the spin-up: the fast check of the whole path."""
     got = compared(tmp_path, capsys, ["duration=0.5"])
     check(got)
-    page = (tmp_path / "hub_beam" / "index.html").read_text()
+    page = (tmp_path / "compare" / "hub_beam" / "index.html").read_text()
     assert "Defaults, not the case file" in page
 
 

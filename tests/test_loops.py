@@ -122,3 +122,50 @@ def test_the_driven_four_bar_keeps_its_links_vibration_as_exudyn_beam_does():
     for ch in ("follower_midspan", "coupler_midspan"):
         x, y = runs["flexmbd"].channels[ch][m], runs["exudyn-beam"].channels[ch][m]
         assert np.sqrt(np.mean((x - y) ** 2)) < 0.05 * np.sqrt(np.mean(y ** 2)), ch
+
+
+@pytest.mark.parametrize("crank", ["1.5707963", "1.57", "1.6"])
+def test_every_solver_starts_in_the_assembly_the_case_states(crank):
+    """The crank at about 90 degrees and the dependent joints' guesses at 0, equidistant-looking
+    from both branches: the case closes its loops once, nearest the guesses (the follower at
+    about 1.67 rad, not the other branch's 3.81), and every solver starts there, its joint values
+    equal to 1e-9 (each closes the loop with its own model from the case's values)."""
+    case = cases.load(ALU, [f"joints.crank_pivot.q0={crank}", "joints.crank_pin.q0=0", "joints.follower_pivot.q0=0"])
+    x = {n: v for n, _, v in case.assembly}
+    assert 1.6 < x["follower_pivot"] < 1.7 and -1.0 < x["crank_pin"] < -0.9, x
+    assert case.joints["follower_pivot"].q0 == (x["follower_pivot"],)
+    for s in ("flexmbd", "exudyn-beam", "exudyn-ffrf", "pinocchio"):
+        r = solvers.run(case, s, 2e-3)
+        assert r.ok and r.extra["assembly"] == x, (s, r.status)
+        assert abs(r.channels["follower_angle"][0] - x["follower_pivot"]) < 1e-9, s
+
+
+def test_a_run_that_starts_in_another_assembly_is_failed_naming_the_joint():
+    from flexmbd import channels
+    case = cases.load(ALU)
+    x = dict((n, v) for n, _, v in case.assembly)
+    ok = channels.Trajectory(t=np.zeros(1), joints={"follower_pivot": np.array([x["follower_pivot"] + 1e-8])})
+    assert solvers.started(case, ok) is None
+    turned = channels.Trajectory(t=np.zeros(1), joints={"follower_pivot": np.array([x["follower_pivot"] - 2 * np.pi])})
+    assert solvers.started(case, turned) is None                  # a whole turn apart: the same start
+    other = channels.Trajectory(t=np.zeros(1), joints={"follower_pivot": np.array([3.8128])})
+    why = solvers.started(case, other)
+    assert why is not None and why.kind == "failed" and "follower_pivot at 3.8128" in str(why), why
+
+
+def test_the_branch_is_named_by_the_guesses():
+    """The guesses near the other branch give the other branch, for every solver alike."""
+    other = cases.load(ALU, ["joints.crank_pin.q0=-3", "joints.follower_pivot.q0=-2.4"])
+    x = {n: v for n, _, v in other.assembly}
+    assert abs(x["follower_pivot"] - (3.81284 - 2 * np.pi)) < 1e-4 and abs(x["crank_pin"] + 2.99005) < 1e-4, x
+
+
+def test_the_crank_rocker_linearizes_with_more_modes_and_its_columns_are_explained(capsys):
+    """Five coupler modes (the report's finer set): the loop closes at every perturbed state (a
+    mode taken as dependent for its round-off made Newton fail there); the driven, moving state's
+    negative damping ratios and the shares above 100 % each get their note."""
+    from flexmbd.cli import main
+    assert main(["modes", ALU, "--system", "--set", "bodies.coupler.modes.count=5"]) == 0
+    out = capsys.readouterr().out
+    assert "coupler: bending xy 1" in out and "note: a negative damping ratio" in out, out
+    assert "note: an energy share above 100 %" in out

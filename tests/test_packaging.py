@@ -98,3 +98,21 @@ def test_list_run_and_report_run_outside_the_checkout(installed):
     # the regression against the shipped baselines, found in the installed package
     reg = run(installed, "flexmbd", "regress", "--cases", "cantilever_step", "--solvers", FAST, "--results", "rep")
     assert reg.returncode == 0, reg.stdout + reg.stderr
+
+
+def test_an_installed_package_s_result_records_its_version_and_source_hash(installed):
+    """Outside a checkout there is no git commit: the sidecar records flexmbd's version and the
+    SHA-256 of the installed package's source files, by path and content, as a checkout's does."""
+    import hashlib
+    import json
+    import flexmbd
+    ran = run(installed, "flexmbd", "run", "cantilever_step", "--solver", "analytic", "--out", "provenance")
+    assert ran.returncode == 0, ran.stderr
+    meta = json.loads((installed["work"] / "provenance" / "results" / "cantilever_step" / "analytic.json").read_text())
+    package = Path(sysconfig.get_path("purelib", vars={"base": str(installed["venv"]),
+                                                       "platbase": str(installed["venv"])})) / "flexmbd"
+    h = hashlib.sha256()
+    for p in sorted(package.rglob("*.py")):
+        h.update(p.relative_to(package).as_posix().encode() + b"\0" + p.read_bytes() + b"\0")
+    assert meta["git_commit"] == "" and meta["flexmbd_version"] == flexmbd.__version__
+    assert meta["source_sha256"] == h.hexdigest()

@@ -182,9 +182,9 @@ def test_tree_joints_carry_no_moment_or_force_along_their_free_axes():
 def test_applies_to_planar_hinges_only(monkeypatch):
     """A revolute cut joint on a planar loop applies; one whose loop turns about another axis,
     or a prismatic cut joint, does not, and says why (the tilted loop cannot close at its start,
-    which loading refuses: the closure check is off for it here)."""
+    which loading refuses: the assembly is off for it here)."""
     assert pinocchio_rigid.applies(cases.load("four_bar_rigid")) == ""
-    monkeypatch.setattr(closure, "check", lambda case, where: None)
+    monkeypatch.setattr(closure, "assemble", lambda case, where: {})
     tilted = cases.load("four_bar_rigid", ["joints.rocker_pivot.axis=[0.0, 1.0, 0.0]"])
     assert "not all turn about its axis" in solvers.status_for(tilted, "pinocchio")
     sliding = cases.load("slider_crank", ['joints.crank_pin.type="prismatic"'])

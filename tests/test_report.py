@@ -395,10 +395,10 @@ def test_a_case_s_notes_are_on_its_page_above_the_accuracy_table(tmp_path):
     note = 'report.notes="The reference is converged. <b>Why</b>:\\n\\nA second paragraph."'     # TOML escapes
     assert main(["compare", "cantilever_step", "--solvers", "analytic", "--set", note, "--set", "duration=0.2",
                  "--out", str(tmp_path), "--workers", "1"]) == 0
-    page = (tmp_path / "cantilever_step" / "index.html").read_text()
+    page = (tmp_path / "compare" / "cantilever_step" / "index.html").read_text()
     accuracy = page.index("<h2>Accuracy</h2>")
     assert accuracy < page.index("<p>The reference is converged. &lt;b&gt;Why&lt;/b&gt;:</p><p>A second paragraph.</p>")
-    md = (tmp_path / "cantilever_step" / "index.md").read_text()
+    md = (tmp_path / "compare" / "cantilever_step" / "index.md").read_text()
     assert "The reference is converged. <b>Why</b>:\n\nA second paragraph." in md.split("## Accuracy")[1]
 
 

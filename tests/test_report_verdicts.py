@@ -60,3 +60,33 @@ def test_a_failing_channel_is_a_fail_on_the_index_and_with_strict_exit_1(tmp_pat
     assert main(args[:1] + ["--no-run", "--strict", "--json"] + args[1:]) == 1
     got = json.loads(capsys.readouterr().out)
     assert [r["verdict"] for r in got["runs"]] == ["fail", "reference"] and got["summary"] == "2 runs: 1 fail, 1 reference"
+
+
+def test_a_rigid_model_is_graded_only_on_the_channels_it_has():
+    """Pinocchio's model of four_bar holds the joint angles and the pin forces, but no deflection,
+    stress, or strain energy: on the flexible case its energy is not compared (the coupler's strain
+    energy failed it at 107 x the tolerance while its angles lay on the reference), on the rigid one
+    it is."""
+    from flexmbd.adapters import pinocchio_rigid
+    from flexmbd.report import accuracy
+    flexible, rigid = cases.load("four_bar"), cases.load("four_bar_rigid")
+    has = {ch: accuracy.comparable(flexible, pinocchio_rigid, ch) for ch in flexible.channels}
+    assert has == {"crank_angle": True, "rocker_angle": True, "midspan_deflection": False, "stress_vm": False,
+                   "energy": False, "pin_force_x": True, "pin_force_y": True}, has
+    assert accuracy.comparable(rigid, pinocchio_rigid, "energy")
+    assert all(accuracy.comparable(flexible, None, ch) for ch in flexible.channels)   # a flexible model: all
+
+
+def test_the_worst_channel_is_the_one_the_verdict_names():
+    """The largest RMS difference is not the worst channel when its tolerance is wider: the index's
+    worst channel is the one furthest beyond its tolerance, the one the verdict's text names."""
+    from flexmbd.report import accuracy
+    from flexmbd.results import Status
+    rows = [{"solver": "s", "channel": "energy", "rms": 0.02, "tolerance": 1e-4},
+            {"solver": "s", "channel": "stress_vm", "rms": 0.3, "tolerance": 0.05},
+            {"solver": "s", "channel": "free", "rms": 0.9, "tolerance": float("nan")}]
+    v = accuracy.verdict(Status(), "s", "ref", rows)
+    assert v.kind == "fail" and v.text.startswith("fail: energy RMS"), v
+    assert accuracy.worst_channel(rows, "s") == "energy" and accuracy.worst(rows, "s") == 0.02
+    ungraded = [dict(r, tolerance=float("nan")) for r in rows]
+    assert accuracy.worst_channel(ungraded, "s") == "free"

@@ -10,10 +10,17 @@ import numpy as np
 from flexmbd import channels
 
 
-def clamped_beam(case, solids: bool = False) -> tuple[str, str]:
+def clamped_beam(case, solids: bool = False, masses: bool = False) -> tuple[str, str]:
     """(beam name, '') when the case is one beam (or, with `solids`, one solid) clamped to ground
-    at its root (its frame), else ('', why)."""
+    at its root (its frame), with `masses` point masses fixed to it, else ('', why)."""
     bodies, joints = case.bodies, case.joints
+    if masses:
+        points = [n for n, b in bodies.items() if b.type == "point_mass"]
+        for n in points:
+            if case.joint_of(n).parent == "ground":
+                return "", f"point mass {n!r} is fixed to ground: only point masses on the beam are modelled"
+        bodies = {n: b for n, b in bodies.items() if n not in points}
+        joints = {n: j for n, j in joints.items() if j.child not in points}
     what = "beam or solid" if solids else "beam"
     if len(bodies) != 1 or len(joints) != 1:
         return "", f"needs exactly one {what} on one joint"
@@ -30,15 +37,18 @@ def body_force(case, load) -> np.ndarray:
     of the frame)."""
     f = np.asarray(load.force, dtype=float)
     if load.frame == "global":
-        joint = next(iter(case.joints.values()))
-        f = np.array(joint.triad).T @ f
+        f = np.array(clamp(case).triad).T @ f
     return f
 
 
 def gravity_body(case) -> np.ndarray:
     """Gravity (3,) in the body frame of a beam clamped to ground, m/s^2."""
-    joint = next(iter(case.joints.values()))
-    return np.array(joint.triad).T @ np.asarray(case.gravity, dtype=float)
+    return np.array(clamp(case).triad).T @ np.asarray(case.gravity, dtype=float)
+
+
+def clamp(case):
+    """The joint that clamps the beam of a case of `clamped_beam` to ground."""
+    return next(j for j in case.joints.values() if j.parent == "ground")
 
 
 def sample_times(case, t_end: float) -> np.ndarray:
@@ -166,8 +176,8 @@ def rigid_body_inertia(body) -> tuple[float, np.ndarray, np.ndarray]:
 
 def rigid_bodies(case, beam_mass: str = "prism") -> list[RigidBody]:
     """The case's rigid limit, body by body in tree order (parents first): every beam, flexible
-    or declared rigid, is rigid (`beam_inertia`), every rigid body as the case gives it; joints
-    placed as `RigidBody` says."""
+    or declared rigid, is rigid (`beam_inertia`), every rigid body as the case gives it (a point
+    mass: its mass at the origin, a zero inertia); joints placed as `RigidBody` says."""
     out = []
     for link in case.tree:
         body, j = case.bodies[link.name], case.joint_of(link.name)

@@ -8,8 +8,9 @@ rho A per length, rho I cross-section rotary inertia. A rigid body, and a beam d
 one `ObjectRigidBody2D` on a `NodeRigidBody2D` at its centre of mass: mass, com and the inertia
 Izz about the com as the case gives them (a rigid body) or as `common.beam_inertia` computes them
 (a beam declared rigid; setting `beam_mass`: "lumped", the default, is flexmbd's beam declared
-rigid, "prism" the rigid peers' default). Every body frame starts where the case's tree puts it,
-undeformed, moving rigidly with the joint rates.
+rigid, "prism" the rigid peers' default). A point mass is Exudyn's `ObjectMassPoint2D` on a
+`NodePoint2D` (x, y: no rotation, so nothing to hold but its position). Every body frame starts
+where the case's tree puts it, undeformed, moving rigidly with the joint rates.
 
 Joints (planar only), each between the two points it joins: on ground or a rigid body the point
 where the joint sits (a `MarkerBodyPosition`), on a flexible beam the node of this mesh nearest
@@ -17,8 +18,9 @@ to it (`mesh_node`; a child's root node). A revolute joint about z is `ObjectJoi
 pin: the two positions coincide); a fixed joint adds a `CoordinateConstraint` that holds the
 child's rotation coordinate equal to the rotation where it sits (`rotation_marker`: zero on
 ground, a beam node's, a rigid body's), so a rigid body fixed to a beam's node (a tip mass)
-turns with the node's cross-section; a prismatic joint in the plane is `ObjectJointPrismatic2D`
-(rotations equal, the child's origin on the axis line). A revolute joint to ground with
+turns with the node's cross-section; a point mass's fixed joint is the pin alone; a prismatic
+joint in the plane is `ObjectJointPrismatic2D` (rotations equal, the child's origin on the axis
+line). A revolute joint to ground with
 prescribed motion (the hub of a spin-up or slewing beam, a driven crank) is the same pin plus a
 `CoordinateConstraint` that holds the child node's rotation on the profile: its offset user
 functions are `profiles.motion` (angle and rate), so the child turns exactly as flexmbd's joint
@@ -48,12 +50,13 @@ The trajectory (`flexmbd.channels`) from Exudyn's nodes and elements (docs/formu
   stress_vm    from eps and kappa taken at the element centres (where the constant-strain
                element is most accurate) and interpolated linearly to the stress section;
   energy       Exudyn's kinetic and strain energies of the elements plus -g . (rho A l (r1 + r2) / 2);
-               a rigid body's m v^2 / 2 + J w^2 / 2 - m g . r_com;
+               a rigid body's m v^2 / 2 + J w^2 / 2 - m g . r_com, a point mass's m v^2 / 2 - m g . r;
   reaction_*   of a revolute or fixed joint: the force its pin exerts on the child (minus
                Exudyn's joint force, which acts on the parent's marker) in the child's body frame
-               (a cut joint's: the frame at its child point, the node's on a beam); the moment about
-               z, minus the force of the rotation constraint of a fixed or driven joint (the drive
-               torque), else 0. A prismatic joint's are not reported (Exudyn's reports none).
+               (a cut joint's: the frame at its child point, the node's on a beam; a point mass's:
+               its parent's triad); the moment about z, minus the force of the rotation constraint of
+               a fixed or driven joint (the drive torque), else 0 (a pin, a point mass's joint). A
+               prismatic joint's are not reported (Exudyn's reports none).
 The largest closure mismatch of the cut joints over the run is `extra["loop_closure_m"]`.
 Time integration: Exudyn's implicit solver, fixed steps of exactly dt up to the last output
 instant (`exudyn_common.reach`).
@@ -328,6 +331,16 @@ def add_beam(mbs, body: cases.Beam, n: int, angle: float, origin, w: float = 0.0
     return {"kind": "beam", "nodes": nodes, "elems": elems, "l": l, "k": k, "angle0": angle}
 
 
+def add_point(mbs, body: cases.PointMass, angle: float, origin, v=(0.0, 0.0)) -> dict:
+    """A point mass at `origin` (2,) moving with velocity v (2,): Exudyn's mass point (no rotation;
+    `angle` is its frame's, which its parent's fixed joint turns)."""
+    node = mbs.AddNode(eii.NodePoint2D(referenceCoordinates=list(origin), initialVelocities=list(v),
+                                       visualization=eii.VNodePoint2D(show=False)))
+    obj = mbs.AddObject(eii.ObjectMassPoint2D(nodeNumber=node, mass=body.mass,
+                                              visualization=eii.VObjectMassPoint2D(show=False)))
+    return {"kind": "point", "node": node, "obj": obj, "mass": body.mass, "com": np.zeros(2), "angle0": angle}
+
+
 def add_rigid(mbs, body, beam_mass: str, angle: float, origin, w: float = 0.0, v=(0.0, 0.0)) -> dict:
     """A rigid body (or a beam declared rigid, `common.beam_inertia`) whose frame is at (angle,
     origin (2,)) moving with angular rate w and origin velocity v (2,): its node at the com
@@ -364,6 +377,8 @@ def marker(mbs, parts: dict, body: str, where: tuple, rigid: bool = False):
     if p["kind"] == "beam":
         kind = eii.MarkerNodeRigid if rigid else eii.MarkerNodePosition
         return mbs.AddMarker(kind(nodeNumber=p["nodes"][node]))
+    if p["kind"] == "point":                    # a point mass: its position (its joint is a pin)
+        return mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=p["node"]))
     kind = eii.MarkerBodyRigid if rigid else eii.MarkerBodyPosition
     return mbs.AddMarker(kind(bodyNumber=p["obj"], localPosition=[*(local - p["com"]), 0.0]))
 
@@ -383,7 +398,7 @@ def add_joint(mbs, case, parts: dict, j: cases.Joint) -> tuple:
             normalMarker1=[-ay, ax, 0.0], visualization=eii.VObjectJointPrismatic2D(show=False))), None
     pin = mbs.AddObject(eii.ObjectJointRevolute2D(markerNumbers=[marker(mbs, parts, b, s) for b, s in sites],
                                                   visualization=eii.VObjectJointRevolute2D(show=False)))
-    if j.type != "fixed" and j.motion is None:
+    if (j.type != "fixed" or parts[j.child]["kind"] == "point") and j.motion is None:
         return pin, None
     mp = rotation_marker(mbs, parts, *sites[0])
     mr = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=root_node(parts[j.child]), coordinate=2))
@@ -459,7 +474,7 @@ def add_loads(mbs, case, parts: dict) -> None:
             for e in p["elems"]:
                 mm = mbs.AddMarker(eii.MarkerBodyMass(bodyNumber=e))
                 mbs.AddLoad(eii.LoadMassProportional(markerNumber=mm, loadVector=list(g)))
-        elif p["kind"] == "rigid":
+        elif p["kind"] in ("rigid", "point"):
             mc = mbs.AddMarker(eii.MarkerBodyPosition(bodyNumber=p["obj"], localPosition=[0.0, 0.0, 0.0]))
             mbs.AddLoad(eii.LoadForceVector(markerNumber=mc, loadVector=list(p["mass"] * g)))
 
@@ -488,6 +503,9 @@ def add_sensors(mbs, case, parts: dict, joints: dict) -> dict:
             S[name] = {"p": node(b["node"], OV.Position), "rot": node(b["node"], OV.Rotation)}
             if energy:
                 S[name].update(v=node(b["node"], OV.Velocity), w=node(b["node"], OV.AngularVelocity))
+            continue
+        if b["kind"] == "point":
+            S[name] = {"p": node(b["node"], OV.Position), **({"v": node(b["node"], OV.Velocity)} if energy else {})}
             continue
         if b["kind"] != "beam":
             continue
@@ -541,9 +559,9 @@ def stress_elements(b: dict, x: float) -> tuple:
 
 
 def trajectory(case, parts: dict, X: dict, t: np.ndarray) -> channels.Trajectory:
-    """The channels' view of the sensor data X (`read`): global node positions with the root
-    node's rotation (or the chord, hinged-hinged), strains interpolated to the stress sections,
-    the joints' coordinates, the cut joints' reactions."""
+    """The channels' view of the sensor data X (`read`): the bodies' poses (`frames`), global
+    node positions with the root node's rotation (or the chord, hinged-hinged), strains
+    interpolated to the stress sections, the joints' coordinates, the cut joints' reactions."""
     traj = channels.Trajectory(t=t)
     XB = X["bodies"]
     for jname in channels.joints_needed(case):
@@ -552,12 +570,33 @@ def trajectory(case, parts: dict, X: dict, t: np.ndarray) -> channels.Trajectory
         traj.energy = energy(case, parts, XB, t.size)
     for jname, XJ in X["joints"].items():
         traj.reactions[jname] = reaction(case, parts, XB, jname, XJ)
+    traj.poses = frames(case, parts, XB, t.size)
     for name, b in beams(parts).items():
         Xb = XB[name]
         traj.beams[name] = beam_shape(case, b, name, Xb, channels.points_needed(case, name))
         traj.beams[name].strains = {float(c.at): strains(c.at, b, Xb) for c in case.channels.values()
                                     if c.kind == "stress_vm" and c.body == name}
     return traj
+
+
+def frames(case, parts: dict, XB: dict, n: int) -> dict:
+    """Body name -> (R (n, 3, 3), p (n, 3)) of the frame each body's points are given in
+    (`channels.Trajectory.poses`): a rigid body's body frame, turned by its node's rotation about
+    z, its origin the node (at the com) less the turned com; a point mass's at its node, turned as
+    its parent's triad; a flexible beam's points are global (the identity)."""
+    out = {}
+    for name in case.bodies:
+        kind, Xb = parts[name]["kind"], XB.get(name)
+        if kind == "beam":
+            out[name] = (np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3)))
+            continue
+        if kind == "point":
+            j = case.joint_of(name)
+            a = site_angle(parts, XB, j.parent, parent_site(case, mesh(parts), j), n) + j.rpy[2]
+        else:
+            a = Xb["rot"][:, -1]
+        out[name] = (rot_z(a), np.column_stack([Xb["p"][:, :2] - turn(a, parts[name]["com"]), np.zeros(n)]))
+    return out
 
 
 def beam_shape(case, b: dict, name: str, Xb: dict, xs: list) -> channels.Beam:
@@ -652,6 +691,9 @@ def reaction(case, parts: dict, XB: dict, jname: str, XJ: dict) -> np.ndarray:
     if jname in case.loops:
         j = case.loops[jname]
         a = site_angle(parts, XB, j.child, child_site(case, mesh(parts), j), len(F))
+    elif parts[case.joints[jname].child]["kind"] == "point":    # its frame: the triad, fixed on the parent
+        j = case.joints[jname]
+        a = site_angle(parts, XB, j.parent, parent_site(case, mesh(parts), j), len(F)) + j.rpy[2]
     else:
         j = case.joints[jname]
         a = frame_angle(case.bodies[j.child], XB[j.child])
@@ -683,13 +725,14 @@ def strains(x: float, b: dict, Xb: dict) -> np.ndarray:
 def energy(case, parts: dict, XB: dict, n: int) -> dict:
     """The energy parts (n,) J: the elements' kinetic and strain energies and gravity's
     -g . (rho A l (r1 + r2) / 2) over the elements; a rigid body's m v^2 / 2 + J w^2 / 2 and
-    -m g . r_com."""
+    -m g . r_com (a point mass: no J w^2 / 2)."""
     g = np.asarray(case.gravity, dtype=float)[:2]
     T, U, V = np.zeros(n), np.zeros(n), np.zeros(n)
     for name, b in parts.items():
-        if b["kind"] == "rigid":
+        if b["kind"] in ("rigid", "point"):
             Xb = XB[name]
-            T = T + 0.5 * b["mass"] * np.sum(Xb["v"][:, :2] ** 2, axis=1) + 0.5 * b["J"] * Xb["w"][:, -1] ** 2
+            T = T + 0.5 * b["mass"] * np.sum(Xb["v"][:, :2] ** 2, axis=1)
+            T = T + (0.5 * b["J"] * Xb["w"][:, -1] ** 2 if b["kind"] == "rigid" else 0.0)
             V = V - b["mass"] * Xb["p"][:, :2] @ g
     for name, b in beams(parts).items():
         Xb = XB[name]
@@ -717,7 +760,12 @@ def build(case, n: int, beam_mass: str = "lumped"):
     rates = twist(case, frames, qd)
     for name, body in case.bodies.items():
         (a, p), (w, v) = frames[name], rates[name]
-        parts[name] = add_beam(mbs, body, n, a, p, w, v) if flexible(body) else add_rigid(mbs, body, beam_mass, a, p, w, v)
+        if flexible(body):
+            parts[name] = add_beam(mbs, body, n, a, p, w, v)
+        elif body.type == "point_mass":
+            parts[name] = add_point(mbs, body, a, p, v)
+        else:
+            parts[name] = add_rigid(mbs, body, beam_mass, a, p, w, v)
     joints = {jn: add_joint(mbs, case, parts, j) for jn, j in {**case.joints, **case.loops}.items()}
     add_loads(mbs, case, parts)
     S = add_sensors(mbs, case, parts, joints)
@@ -760,7 +808,8 @@ def run(case, t_end, settings):
     setup_s = time.perf_counter() - t_start
 
     status, wall_s, steps, newton = xc.solve(mbs, sim, opt["solver"], f"{case.name} / exudyn-beam")
-    dofs = 3 * sum(len(p["nodes"]) if p["kind"] == "beam" else 1 for p in parts.values() if p["kind"] != "ground")
+    dofs = sum(3 * len(p["nodes"]) if p["kind"] == "beam" else 2 if p["kind"] == "point" else 3
+               for p in parts.values() if p["kind"] != "ground")
     r = results.Result(solver="exudyn-beam", case=case.name, status=status, wall_s=wall_s, setup_s=setup_s,
                        steps=steps, rhs_evals=newton, settings=recorded, solver_version=version(),
                        extra={"newton_iterations": newton, "dofs": int(dofs)})

@@ -1,5 +1,6 @@
 """`exudyn-ffrf`: every flexible beam or solid as an Exudyn `ObjectFFRFreducedOrder` fed the identical
-reduced body flexmbd reads; rigid bodies as `ObjectRigidBody`; Exudyn's implicit solver.
+reduced body flexmbd reads; rigid bodies as `ObjectRigidBody`, point masses as `ObjectMassPoint`;
+Exudyn's implicit solver.
 
 The reduced body goes in through Exudyn's own `ObjectFFRFreducedOrderInterface`, built from a
 small FEM stand-in that hands it the FlexBody's node positions x0 (N, 3), the lumped node masses
@@ -35,7 +36,10 @@ Joints (body frame = the FFRF reference node, which is the beam's root node):
     from a `MarkerSuperElementRigid` on four massless nodes appended around the node (`anchors`,
     `anchor_rows`: they move with it rigidly, theta x d for its elastic rotation theta = Phi_r
     eta), whose position is the node's and whose rotation is exactly the node's elastic rotation,
-    as flexmbd's joint on the node takes it; other joints: not applicable.
+    as flexmbd's joint on the node takes it; other joints: not applicable;
+  a point mass's fixed joint (`add_point_joint`): an `ObjectJointSpherical` from the point where
+    it sits (a position marker: on a flexible node `MarkerSuperElementPosition`, exact, as the
+    mass point has no rotation to hold) to its `NodePoint`.
 Prescribed joint motion: the generic joint's offset user function, a symbolic one that Exudyn
 evaluates in C++ (a table profile: a Python function). Loads: `LoadForceVector` on
 the node's super-element marker; gravity: M g on the centre node (`add_loads`).
@@ -277,9 +281,10 @@ def anchor_nodes(fb: flexbody.FlexBody, centre: bool, anchors) -> dict:
 
 def anchors(case, name: str, fbs: dict) -> list:
     """The nodes of flexible body `name` that need a rigid marker: where a fixed joint sits on it
-    other than its root (the reference node is the frame's own rigid marker)."""
+    other than its root (the reference node is the frame's own rigid marker), but for a point mass
+    (its joint holds a position only, `add_point_joint`)."""
     return sorted({j.node for j in case.joints.values() if j.parent == name and j.type == "fixed"
-                   and not on_root(j, fbs)})
+                   and not on_root(j, fbs) and case.bodies[j.child].type != "point_mass"})
 
 
 def ffrf_interface(fb: flexbody.FlexBody, rotary: bool, mass: sp.spmatrix | None = None,
@@ -354,6 +359,15 @@ def add_rigid(mbs, body: cases.Rigid, R, p, v, w) -> dict:
         nodeNumber=n, mass=body.mass, centerOfMass=list(com),
         inertia=[Io[0, 0], Io[1, 1], Io[2, 2], Io[1, 2], Io[0, 2], Io[0, 1]],
         visualization=eii.VObjectRigidBody(show=False)))
+    return {"node": n, "obj": obj}
+
+
+def add_point(mbs, body: cases.PointMass, p, v) -> dict:
+    """A point mass at p (3,) moving with velocity v (3,), global: Exudyn's mass point."""
+    n = mbs.AddNode(eii.NodePoint(referenceCoordinates=list(p), initialVelocities=list(v),
+                                  visualization=eii.VNodePoint(show=False)))
+    obj = mbs.AddObject(eii.ObjectMassPoint(nodeNumber=n, mass=body.mass,
+                                            visualization=eii.VObjectMassPoint(show=False)))
     return {"node": n, "obj": obj}
 
 
@@ -443,6 +457,8 @@ def add_joint(mbs, items, case, fbs, j: cases.Joint):
     for a free joint. Either is the force the joint exerts on marker 0, the parent side."""
     if j.type == "free":
         return None
+    if case.bodies[j.child].type == "point_mass":
+        return add_point_joint(mbs, items, fbs, j)
     child = j.child
     A = xc.axis_frame(j.axis)
     if j.parent in fbs and not on_root(j, fbs) and j.type != "fixed":     # on a flexible node
@@ -480,6 +496,16 @@ def add_joint(mbs, items, case, fbs, j: cases.Joint):
     obj = mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[m0, m1], constrainedAxes=axes,
                                                visualization=eii.VObjectJointGeneric(show=False), **kw))
     return obj, R0
+
+
+def add_point_joint(mbs, items, fbs, j: cases.Joint):
+    """A point mass's fixed joint: Exudyn's spherical joint from the point where it sits on its
+    parent (`cut_marker`: on a flexible beam its node, following the node's elastic translation)
+    to the mass point, which has no rotation to hold. Returns (joint, None): its `Force` is global."""
+    m0 = cut_marker(mbs, items, fbs, j.parent, j.node, triad_point(j, fbs))
+    m1 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=items[j.child]["node"]))
+    return mbs.AddObject(eii.ObjectJointSpherical(markerNumbers=[m0, m1],
+                                                  visualization=eii.VObjectJointSpherical(show=False))), None
 
 
 def motion_offset(mbs, j: cases.Joint) -> dict:
@@ -708,6 +734,10 @@ def add_sensors(mbs, items, case, fbs, joints: dict) -> dict:
         if name == "ground":
             continue
         n = it["node"]
+        if case.bodies[name].type == "point_mass":           # a mass point: no rotation
+            S[name] = {"p": sens(nodeNumber=n, outputVariableType=OV.Position),
+                       **({"v": sens(nodeNumber=n, outputVariableType=OV.Velocity)} if energy else {})}
+            continue
         S[name] = {"p": sens(nodeNumber=n, outputVariableType=OV.Position),
                    "R": sens(nodeNumber=n, outputVariableType=OV.RotationMatrix)}
         if energy:
@@ -902,8 +932,9 @@ def read_sensors(mbs, S: dict, t: np.ndarray) -> dict:
 
 
 def trajectory(case, fbs: dict, X: dict, t: np.ndarray, joints: dict) -> channels.Trajectory:
-    """The channels' view of the sensor data X (see read_sensors): node positions in the body
-    frame, the root node's rotation from the modal coordinates, the modal beam
+    """The channels' view of the sensor data X (see read_sensors): every body's pose (its node's,
+    at the body frame's origin), node positions in the body frame, the root node's rotation from
+    the modal coordinates, the modal beam
     (`channels.modal_beam`) with, on the beams of `axial_bodies`, the quasi-static axial force
     from `node_forces` (`joints`: add_joint's (object, frame) by joint name), and the cut joints'
     reactions (`cut_forces`). A solid: `channels.modal_solid` of the modal coordinates (its
@@ -915,6 +946,8 @@ def trajectory(case, fbs: dict, X: dict, t: np.ndarray, joints: dict) -> channel
         traj.energy = {"total": energy(case, fbs, X)}
     cuts = cut_forces(case, X)
     traj.reactions = {jn: reaction(f, X[case.loops[jn].child]["R"]) for jn, f in cuts.items()}
+    traj.poses = {name: point_pose(case, fbs, X, name) if case.bodies[name].type == "point_mass" else
+                  (X[name]["R"].reshape(-1, 3, 3), X[name]["p"]) for name in case.bodies}   # node: body frame
     rules = axial_rules(case, fbs)
     for name, fb in fbs.items():
         Xb, xs = X[name], channels.points_needed(case, name)
@@ -930,6 +963,16 @@ def trajectory(case, fbs: dict, X: dict, t: np.ndarray, joints: dict) -> channel
             {x: body_positions(Xb, fb.node_at(x)) for x in xs}, {x: fb.x0[fb.node_at(x)] for x in xs},
             channels.modal_root(fb, Xb["eta"]), F, rules[name])
     return traj
+
+
+def point_pose(case, fbs: dict, X: dict, name: str) -> tuple:
+    """(R (n, 3, 3), p (n, 3)) of point mass `name`: its mass point's position, turned as the triad
+    of its fixed joint on its parent (on a flexible node with the node's elastic rotation Phi_r eta)."""
+    j, p = case.joint_of(name), X[name]["p"]
+    R = np.broadcast_to(np.eye(3), (len(p), 3, 3)) if j.parent == "ground" else X[j.parent]["R"].reshape(-1, 3, 3)
+    if j.parent in fbs:
+        R = R @ np.array([xc.rotvec(w) for w in X[j.parent]["eta"] @ fbs[j.parent].Phi[j.node, :3, :].T])
+    return R @ np.array(j.triad), p
 
 
 def node_forces(case, fb, name: str, Xb: dict, t: np.ndarray, joints: dict, cuts: dict) -> np.ndarray:
@@ -1030,7 +1073,7 @@ def energy(case, fbs, X) -> np.ndarray:
     Flexible body: 1/2 sum m_p |v_p|^2 (+ 1/2 (w + Phi_r eta_d)' J_p (w + Phi_r eta_d), rotary
     inertia, body axes) - g . sum m_p r_p + 1/2 eta' Km eta; a solid's kinetic energy with its
     consistent mass, 1/2 sum_pq Ms_pq v_p . v_q (its m_p = sum_q Ms_pq make the gravity term exact).
-    Rigid body: from its node's velocity, angular velocity and pose."""
+    Rigid body: from its node's velocity, angular velocity and pose; a point mass: 1/2 m |v|^2 - m g . p."""
     g = np.asarray(case.gravity, dtype=float)
     E = 0.0
     for name, Xb in X.items():
@@ -1048,6 +1091,9 @@ def energy(case, fbs, X) -> np.ndarray:
             wr = Xb["w"][:, None, :] + np.einsum("kij,nj->nki", fb.Phi[:, :3, :], Xb["eta_d"])   # (n, N, 3)
             E = E + 0.5 * np.einsum("nki,kij,nkj->n", wr, fb.J, wr)
             E = E + 0.5 * np.einsum("ni,ij,nj->n", Xb["eta"], fb.Km, Xb["eta"])
+        elif case.bodies[name].type == "point_mass":
+            m = case.bodies[name].mass
+            E = E + 0.5 * m * np.einsum("ni,ni->n", Xb["v"], Xb["v"]) - m * Xb["p"] @ g
         else:                                   # a rigid body, or a beam declared rigid (`rigid_beam`)
             b = case.bodies[name]
             b = rigid_beam(b) if b.type == "beam" else b
@@ -1085,6 +1131,8 @@ def build(case, fbs: dict, rotary: bool, gravity_mode: str = "nodal"):
             items[name]["anchors"] = anchor_nodes(fbs[name], True, nodes)
         elif body.type == "rigid":
             items[name] = add_rigid(mbs, body, R, p, v, w)
+        elif body.type == "point_mass":
+            items[name] = add_point(mbs, body, p, v)
         else:                                    # a beam declared rigid: its undeformed mass properties
             items[name] = add_rigid(mbs, rigid_beam(body), R, p, v, w)
     joints = {jn: add_joint(mbs, items, case, fbs, j) for jn, j in case.joints.items()}

@@ -22,7 +22,8 @@ fixed joint) and nothing truncated. Three time-stepping schemes (setting `scheme
            undamped only.
 
 Modal damping ratio zeta, when non-zero, enters as C = M Phi diag(2 zeta w) Phi^T M over all
-modes of the full model.
+modes of the full model. A point mass fixed to the beam (or a frame) adds its mass to the three
+translations of its node (`with_point_masses`), so its inertia and its weight are in M and M g.
 
 A solid (`run_solid`) keeps every DOF of its mesh with the frame interface's nodes held, its
 loads spread over their interfaces' nodes by the same averaging interface as the reduced body's
@@ -73,8 +74,11 @@ EIGH_S = 1e-9                           # s per n^3 of the dense generalized eig
 
 
 def applies(case) -> str:
-    name, why = common.clamped_beam(case, solids=True)
+    name, why = common.clamped_beam(case, solids=True, masses=True)
     body = case.bodies[name] if name else None
+    if body and body.type == "solid" and not body.is_frame and len(case.bodies) > 1:
+        return (f"a point mass on solid {name!r} sits at an interface's reference point, which the full mesh does not "
+                f"hold as a node")
     if body and body.type == "solid" and not body.is_frame and body.damping_ratio > 0:
         return ("modal damping of a solid's full model needs all of its modes (a dense eigenproblem of the mesh's "
                 "size)")
@@ -93,10 +97,22 @@ def load_vectors(case, n_dof: int, node=None) -> list:
     return out
 
 
+def with_point_masses(case, M, node=None):
+    """M (sparse, 6 DOFs a node) with each point mass's mass on its node's three translations
+    (`node`: a frame's interface -> its mesh node; on a beam the joint knows its node)."""
+    d = np.zeros(M.shape[0])
+    for name, b in case.bodies.items():
+        if b.type == "point_mass":
+            j = case.joint_of(name)
+            p = node(j.point.x) if node else j.point.node
+            d[6 * p:6 * p + 3] += b.mass
+    return (M + sp.diags(d)).tocsr() if d.any() else M
+
+
 def run(case, t_end, settings):
     from flexmbd.results import Result
     t_start = time.perf_counter()
-    name, _ = common.clamped_beam(case, solids=True)
+    name, _ = common.clamped_beam(case, solids=True, masses=True)
     body = case.bodies[name]
     if body.type == "solid" and not body.is_frame:
         return run_solid(case, name, t_end, settings, t_start)
@@ -110,9 +126,11 @@ def run(case, t_end, settings):
         held = 0
     n_dof = K.shape[0]
     free = np.setdiff1d(np.arange(n_dof), np.arange(6 * held, 6 * held + 6))   # clamped by the fixed joint
+    node = (lambda k: flexbody.frame_node(body, mesh, k)) if body.type == "solid" else None
+    M = with_point_masses(case, M, node)
 
     # external loads: point loads with their profiles, gravity as constant nodal forces
-    loads = load_vectors(case, n_dof, (lambda k: flexbody.frame_node(body, mesh, k)) if body.type == "solid" else None)
+    loads = load_vectors(case, n_dof, node)
     g = common.gravity_body(case)
     fg = M @ np.tile(np.r_[g, 0.0, 0.0, 0.0], nodes.shape[0])
 

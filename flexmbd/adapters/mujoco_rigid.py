@@ -10,11 +10,12 @@ case body, named as in the case, at its joint's input triad (`pos`: `at` in the 
 a beam parent the snapped node [x, 0, 0], `case.joints[name].x`, the node flexmbd
 uses; `quat`: the triad's rotation from `rpy`), with its joint (named as in the case; `hinge` /
 `slide` about the unit axis in the body frame, `ball`, `freejoint`; a fixed joint welds the body)
-and an explicit <inertial> (mass, centre of mass, full inertia); no geoms, contacts disabled,
-constraints too unless the case has loops, MuJoCo's RK4 integrator with a small step. Point loads enter through
-`xfrc_applied` (world frame, at the body's centre of mass), set before each step from the state
-at the start of the step. Prescribed joint motion has no exact counterpart in MuJoCo's own
-integrators, so such cases are not applicable here (the `pinocchio` adapter runs them).
+and an explicit <inertial> (mass, centre of mass, full inertia; a point mass's diaginertia 0 0 0);
+no geoms, contacts disabled, constraints too unless the case has loops, MuJoCo's RK4 integrator
+with a small step. Point loads enter through `xfrc_applied` (world frame, at the body's centre
+of mass), set before each step from the state at the start of the step. Prescribed joint motion
+has no exact counterpart in MuJoCo's own integrators, so such cases are not applicable here (the
+`pinocchio` adapter runs them).
 
 Closed loops: each cut joint (`case.loops`) becomes MuJoCo equality constraints between sites on
 its two bodies (`cut_equalities`): a revolute one two `connect`s at the points AXIS_REACH either
@@ -163,9 +164,13 @@ def mjcf(bodies, gravity, dt: float, cuts=()) -> str:
 
     def body(b, indent: str) -> list:
         I = b.inertia
+        # a point mass has no rotational inertia: MuJoCo refuses a `fullinertia` without positive
+        # eigenvalues, but takes diaginertia="0 0 0" on a welded body (a point mass is welded:
+        # schema.POINT_MASS_JOINTS), whose mass joins its parent's composite inertia
+        inertia = (f'fullinertia="{fmt(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2])}"' if I.any()
+                   else 'diaginertia="0 0 0"')
         lines = [f'{indent}<body name="{b.name}" pos="{fmt(b.r)}" quat="{fmt(rot_to_quat(b.R))}">',
-                 f'{indent}  <inertial pos="{fmt(b.com)}" mass="{fmt(b.mass)}" '
-                 f'fullinertia="{fmt(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2])}"/>']
+                 f'{indent}  <inertial pos="{fmt(b.com)}" mass="{fmt(b.mass)}" {inertia}/>']
         if b.type == "revolute":
             lines.append(f'{indent}  <joint name="{b.joint}" type="hinge" axis="{fmt(b.axis)}"/>')
         elif b.type == "prismatic":
@@ -344,12 +349,27 @@ def weld_torque(m, d, i: int, f) -> np.ndarray:
 
 def trajectory(case, m, t, P, E, F) -> channels.Trajectory:
     """The trajectory from qpos samples P (n, nq), energies E (n,) and cut-joint reactions F
-    ({cut joint: (n, 6)}, `cut_reactions`)."""
+    ({cut joint: (n, 6)}, `cut_reactions`), with the bodies' poses (`poses`)."""
     def coordinate(jname):
         return P[:, m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, jname)]].copy()
     traj = common.rigid_trajectory(case, t, coordinate, lambda: E.copy())
     traj.reactions = F
+    traj.poses = poses(case, m, P)
     return traj
+
+
+def poses(case, m, P) -> dict:
+    """Body name -> (R (n, 3, 3) body -> world, p (n, 3)) of every body at the positions P (n, nq)
+    (`channels.Trajectory.poses`): MuJoCo's forward kinematics, each body's xmat and xpos (its
+    frame is the case's: the joint's input triad at rest, moved by the joint)."""
+    d, ids = mujoco.MjData(m), {b: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in case.bodies}
+    out = {b: (np.zeros((len(P), 3, 3)), np.zeros((len(P), 3))) for b in ids}
+    for k, q in enumerate(P):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        for b, i in ids.items():
+            out[b][0][k], out[b][1][k] = d.xmat[i].reshape(3, 3), d.xpos[i]
+    return out
 
 
 def samples(case, cuts, loads, m, d, S: dict) -> tuple:

@@ -21,7 +21,10 @@ and how they are handled here (docs/peers.md has the evidence):
 The parent body is the world (fixed joint) or a body with a hinge at the joint (revolute joint
 to ground). A rigid body joined to the rod (a tip mass) is not modelled: it would have to turn
 with the rod's material frame at a vertex, and a flexcomp rod's vertex bodies carry three slides
-and a twist hinge about the rod's x axis, so their frames do not turn as the rod bends. A box
+and a twist hinge about the rod's x axis, so their frames do not turn as the rod bends. A point
+mass on the rod is modelled, as it needs no turning: its mass joins the vertex body nearest to where
+the case puts it (`point_masses`; on the support, vertices 0 and 1, a welded body of its mass and
+no inertia at the vertex, in the parent body). A box
 section of half-sizes (extent along y, extent along z) / 2 gives the rod the beam's two bending
 stiffnesses (checked: 23.29 mm / 52.4 mm static tip deflections).
 
@@ -64,7 +67,13 @@ def version() -> str:
 
 
 def applies(case) -> str:
-    bodies, joints = case.bodies, case.joints
+    masses = point_masses(case)
+    bodies = {n: b for n, b in case.bodies.items() if n not in masses}
+    joints = {n: j for n, j in case.joints.items() if j.child not in masses}
+    for n in masses:
+        j = case.joint_of(n)
+        if j.parent not in bodies or bodies[j.parent].type != "beam" or bodies[j.parent].rigid:
+            return f"point mass {n!r}: only on the rod (its joint {j.name!r} is not on a flexible beam)"
     rigid = next((n for n, b in bodies.items() if b.type == "rigid" or b.rigid), None)
     if rigid is not None and any(b.type == "beam" and not b.rigid for b in bodies.values()):
         return (f"body {rigid!r}: a rigid body joined to a rod needs the rod's material frame at a vertex, which "
@@ -83,6 +92,28 @@ def applies(case) -> str:
     if body.damping_ratio > 0:
         return "modal damping has no counterpart in the rod"
     return ""
+
+
+def point_masses(case) -> dict:
+    """The case's point masses: name -> (mass, position along the beam as the case gives it, m)."""
+    return {n: (b.mass, case.joint_of(n).point.x if case.joint_of(n).point else None)
+            for n, b in case.bodies.items() if b.type == "point_mass"}
+
+
+def rod_of(case) -> tuple:
+    """(name, body, joint) of the case's one beam (its other bodies are point masses on it)."""
+    name = next(n for n, b in case.bodies.items() if b.type == "beam")
+    return name, case.bodies[name], case.joint_of(name)
+
+
+def vertex_masses(case, s: np.ndarray) -> dict:
+    """Vertex k -> the point masses at it (kg): each at the vertex of positions s nearest to where
+    the case puts it (the vertices are not the case's FE nodes, as for a load, `apply_loads`)."""
+    out = {}
+    for m, x in point_masses(case).values():
+        k = int(np.argmin(np.abs(s - x)))
+        out[k] = out.get(k, 0.0) + m
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -105,7 +136,7 @@ def section(body: cases.Beam) -> tuple[float, float]:
 
 def mjcf(case, ne: int, dt: float, tc: float, integrator: str) -> str:
     """MJCF text of the case's beam as a rod named `rod` in a parent body `root`."""
-    body, j = next(iter(case.bodies.values())), next(iter(case.joints.values()))
+    _, body, j = rod_of(case)
     mat = body.material
     L, (ey, ez) = body.length, section(body)
     x, l = rod_points(L, ne)
@@ -116,6 +147,8 @@ def mjcf(case, ne: int, dt: float, tc: float, integrator: str) -> str:
     axis = np.asarray(j.axis, dtype=float)
     hinge = f'<joint name="pivot" type="hinge" axis="{fmt(axis)}"/>' if j.type == "revolute" else ""
     pts = " ".join(fmt(xk, 0.0, 0.0) for xk in x)
+    support = "".join(f'<body pos="{fmt(x[k], 0.0, 0.0)}"><inertial pos="0 0 0" mass="{fmt(m)}" '
+                      f'diaginertia="0 0 0"/></body>' for k, m in vertex_masses(case, x).items() if k < 2)
     elements = " ".join(f"{k} {k + 1}" for k in range(ne))
     q0 = float(j.q0[0]) if j.q0 else 0.0
     return f'''<mujoco model="flexmbd rod">
@@ -129,6 +162,7 @@ def mjcf(case, ne: int, dt: float, tc: float, integrator: str) -> str:
       <inertial pos="{fmt(l / 2, 0, 0)}" mass="{fmt(m_seg)}"
                 diaginertia="{fmt(m_seg * (ey ** 2 + ez ** 2) / 12, m_seg * (l ** 2 + ez ** 2) / 12, m_seg * (l ** 2 + ey ** 2) / 12)}"/>
       {hinge}
+      {support}
       <flexcomp name="rod" type="direct" dim="1" point="{pts}" element="{elements}"
                 mass="{fmt(m_seg * (ne + 1))}" radius="{fmt(min(ey, ez) / 2)}">
         <pin id="0 1"/>
@@ -143,15 +177,17 @@ def mjcf(case, ne: int, dt: float, tc: float, integrator: str) -> str:
 
 
 def compile_rod(case, ne: int, dt: float, tc: float, integrator: str):
-    """MjModel of the rod with the beam's lumped vertex masses (rho A l inside, rho A l / 2 at the tip)."""
-    body = next(iter(case.bodies.values()))
+    """MjModel of the rod with the beam's lumped vertex masses (rho A l inside, rho A l / 2 at the tip)
+    and the point masses at their vertices (`vertex_masses`)."""
+    _, body, _ = rod_of(case)
     rho = body.material.rho
     ey, ez = section(body)
-    _, l = rod_points(body.length, ne)
+    x, l = rod_points(body.length, ne)
     text, q0 = mjcf(case, ne, dt, tc, integrator)
     spec = mujoco.MjSpec.from_string(text)
+    point = vertex_masses(case, x)
     for k in range(2, ne + 1):
-        spec.body(f"rod_{k}").mass = rho * ey * ez * l * (0.5 if k == ne else 1.0)
+        spec.body(f"rod_{k}").mass = rho * ey * ez * l * (0.5 if k == ne else 1.0) + point.get(k, 0.0)
     m = spec.compile()
     return m, q0
 
@@ -197,11 +233,12 @@ def bending_energy(X, E: float, Iz: float, Iy: float, l0: float) -> float:
 
 def sample(case, m, d, ne: int, l: float) -> dict:
     """What the trajectory needs of the current state: vertex positions X (ne + 1, 3) in the
-    root frame, the hinge coordinate q, and the energy E (MuJoCo's plus the rod's bending energy)."""
-    body = next(iter(case.bodies.values()))
+    root frame and that frame's pose R, p (`root_frame`), the hinge coordinate q, and the energy
+    E (MuJoCo's plus the rod's bending energy)."""
+    _, body, _ = rod_of(case)
     R, p = root_frame(m, d)
     X = (vertex_positions(m, d, ne) - p) @ R
-    out = {"X": X, "q": d.qpos[m.jnt_qposadr[m.joint("pivot").id]] if "pivot" in names(m) else 0.0}
+    out = {"X": X, "R": R, "p": p, "q": d.qpos[m.jnt_qposadr[m.joint("pivot").id]] if "pivot" in names(m) else 0.0}
     if channels.wants_energy(case):
         ey, ez = section(body)
         mujoco.mj_energyPos(m, d)
@@ -212,13 +249,14 @@ def sample(case, m, d, ne: int, l: float) -> dict:
 
 def trajectory(case, rows: list, t: np.ndarray, s: np.ndarray) -> channels.Trajectory:
     """The channels' view of the samples `rows` (see `sample`) at vertex positions s: points
-    interpolated linearly between vertices, in the root frame; curvatures at the vertices."""
+    interpolated linearly between vertices, in the root frame (its pose the beam's); curvatures
+    at the vertices."""
     traj = channels.Trajectory(t=t)
     for jname in channels.joints_needed(case):
         traj.joints[jname] = np.array([r["q"] for r in rows])
     if channels.wants_energy(case):
         traj.energy = {"total": np.array([r["E"] for r in rows])}
-    name, body = next(iter(case.bodies.items()))
+    name, body, _ = rod_of(case)
     X = np.array([r["X"] for r in rows])                                   # (n, ne + 1, 3)
     at = lambda x, F, grid: np.array([[np.interp(x, grid, f[:, k]) for k in range(F.shape[2])] for f in F])
     xs = channels.points_needed(case, name)
@@ -228,6 +266,8 @@ def trajectory(case, rows: list, t: np.ndarray, s: np.ndarray) -> channels.Traje
         length=body.length, points={x: at(x, X, s) for x in xs}, x0={x: np.array([x, 0.0, 0.0]) for x in xs},
         root=np.tile(np.eye(3), (len(t), 1, 1)),
         strains={float(c.at): strain(c.at) for c in case.channels.values() if c.kind == "stress_vm"})
+    traj.poses = {name: (np.array([r["R"] for r in rows]).reshape(-1, 3, 3),
+                         np.array([r["p"] for r in rows]).reshape(-1, 3))}
     return traj
 
 
@@ -265,7 +305,7 @@ def run(case, t_end, settings):
     d = mujoco.MjData(m)
     if "pivot" in names(m):
         d.qpos[m.jnt_qposadr[m.joint("pivot").id]] = q0
-    s, l = rod_points(next(iter(case.bodies.values())).length, ne)
+    s, l = rod_points(rod_of(case)[1].length, ne)
     setup_s = time.perf_counter() - t0
 
     t_out = common.sample_times(case, t_end)

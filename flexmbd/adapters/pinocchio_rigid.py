@@ -365,15 +365,31 @@ def integrate(eng: Rigid, y0, t_out, method: str, rtol: float, atol: float):
 
 
 def trajectory(case, eng: Rigid, t, Q, V) -> channels.Trajectory:
-    """The trajectory from Pinocchio states Q (n, nq), V (n, nv), with the reactions (n, 6)
-    [moment; force] of the joints the channels name (`Rigid.reactions`; a fixed tree joint has none)."""
+    """The trajectory from Pinocchio states Q (n, nq), V (n, nv), with the bodies' poses (`poses`)
+    and the reactions (n, 6) [moment; force] of the joints the channels name (`Rigid.reactions`;
+    a fixed tree joint has none)."""
     traj = common.rigid_trajectory(case, t, lambda jname: Q[:, eng.joint[jname].idx_q].copy(),
                                    lambda: np.array([eng.energy(q, v) for q, v in zip(Q, V)]))
+    traj.poses = poses(eng, Q)
     wanted = {c.joint for c in case.channels.values() if c.kind.startswith("reaction")}
     if wanted:
         R = [eng.reactions(tk, q, v) for tk, q, v in zip(t, Q, V)]
         traj.reactions = {name: np.array([r[name] for r in R]) for name in wanted if name in R[0]}
     return traj
+
+
+def poses(eng: Rigid, Q) -> dict:
+    """Body name -> (R (n, 3, 3) body -> global, p (n, 3)) of every body at the states Q (n, nq)
+    (`channels.Trajectory.poses`): Pinocchio's forward kinematics, its joint's placement oMi
+    composed with the body frame's placement in the joint (`pinocchio_model.rigid_model`)."""
+    out = {b.name: (np.zeros((len(Q), 3, 3)), np.zeros((len(Q), 3))) for b in eng.bodies}
+    for k, q in enumerate(Q):
+        pin.forwardKinematics(eng.pm, eng.pd, q)
+        for name, (R, p) in out.items():
+            jid, placement = eng.frame[name]
+            M = eng.pd.oMi[jid] * placement
+            R[k], p[k] = M.rotation, M.translation
+    return out
 
 
 def run(case, t_end, settings):

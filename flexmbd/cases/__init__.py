@@ -17,16 +17,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from flexmbd.cases import closure
-from flexmbd.cases.resolve import (Beam, Channel, Integrator, Joint, Link, Load, Material, Modes, Point, Report,
-                                   Resolved, Rigid, Section, is_fixed_base, resolve, segment_name, segment_of)
+from flexmbd.cases.resolve import (Beam, Channel, Integrator, Joint, Link, Load, Material, Modes, Point, PointMass,
+                                   Report, Resolved, Rigid, Section, is_fixed_base, resolve, segment_name, segment_of)
 from flexmbd.cases.schema import JOINT_COORDS, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS, MAX_SNAPSHOTS, TOLERANCES
 from flexmbd.cases.validate import (CASES_DIR, apply_override, available, check_table, find, hint, parse_toml,
                                     read_text, snapshot_instants, validate)
 
 __all__ = ["Beam", "CASES_DIR", "Case", "Channel", "Integrator", "JOINT_COORDS", "JOINT_DOFS", "Joint", "LARGEST", "Link", "Load",
-           "MAX_SHAPE_POINTS", "MAX_SNAPSHOTS", "Material", "Modes", "Point", "Report", "Resolved", "Rigid", "Section",
-           "available", "check_table", "find", "hint", "is_fixed_base", "load", "segment_name", "segment_of",
-           "snapshot_instants", "TOLERANCES"]
+           "MAX_SHAPE_POINTS", "MAX_SNAPSHOTS", "Material", "Modes", "Point", "PointMass", "Report", "Resolved",
+           "Rigid", "Section", "available", "check_table", "find", "hint", "is_fixed_base", "load", "segment_name",
+           "segment_of", "snapshot_instants", "TOLERANCES", "assembly_line"]
 
 # what a Case reads from its resolved case (`resolve.Resolved`)
 TYPED = ("title", "duration", "gravity", "materials", "bodies", "joints", "loads", "channels", "integrator",
@@ -47,6 +47,7 @@ class Case:
     sha256: str = ""
     overrides: tuple = field(default_factory=tuple)
     resolved: Resolved | None = field(default=None, repr=False, compare=False)
+    assembly: tuple = ()    # ((joint, the file's q0 guess, the value that closes the loops), ...)
 
     def __post_init__(self):
         if self.resolved is None:
@@ -84,5 +85,19 @@ def load(name_or_path: str, overrides: list[str] | tuple = ()) -> Case:
     data = validate(raw, str(path))
     digest = hashlib.sha256((text + "\n".join(overrides)).encode()).hexdigest()[:16]
     case = Case(name=path.stem, path=path, data=data, sha256=digest, overrides=tuple(overrides))
-    closure.check(case, str(path))
-    return case
+    closed = closure.assemble(case, str(path))
+    if not closed:
+        return case
+    joints = {n: dict(j, q0=[closed[n]]) if n in closed else j for n, j in data["joints"].items()}
+    return Case(name=case.name, path=path, data={**data, "joints": joints}, sha256=digest, overrides=case.overrides,
+                assembly=tuple((n, float(data["joints"][n]["q0"][0]), x) for n, x in closed.items()))
+
+
+def assembly_line(case) -> str:
+    """The loops' assembly every solver starts from, in one line: `crank_pin = -0.9553 rad,
+    follower_pivot = 1.6666 rad (from the guesses -0.955, 1.667)`; '' without loops."""
+    if not case.assembly:
+        return ""
+    unit = {n: "m" if case.joints[n].type == "prismatic" else "rad" for n, _, _ in case.assembly}
+    got = ", ".join(f"{n} = {x:.6g} {unit[n]}" for n, _, x in case.assembly)
+    return f"{got} (from the guesses {', '.join(f'{g:.6g}' for _, g, _ in case.assembly)})"

@@ -2,7 +2,8 @@
 validated case data (`validate`) as typed, read-only values.
 
     materials   name -> Material (E, nu, rho; G)
-    bodies      name -> Beam (material, section, modes, ...) or Rigid (mass, com, inertia), file order
+    bodies      name -> Beam (material, section, modes, ...), Solid, Rigid (mass, com, inertia) or
+                PointMass (a Rigid of mass only), file order
     joints      name -> Joint: parent and child, where it sits (a snapped Point on a beam parent, an
                 offset in the parent frame), triad, unit axis, q0, qd0, motion, nq, nv: the tree
     loops       name -> Joint: the cut joints (`loop = true`) that close kinematic loops, also
@@ -73,6 +74,7 @@ class Modes:
     count: int
     boundary: str       # "clamped-free", "hinged-hinged", "free-free", "craig-bampton"
     interfaces: tuple | None    # craig-bampton: interface positions along the beam, m
+    kinds: tuple | None = None  # the kinds (`fe.modes.FAMILIES`) of the modes kept; None: any
 
 
 @dataclass(frozen=True)
@@ -168,6 +170,18 @@ class Rigid:
     com: tuple          # (3,) centre of mass in the body frame, m
     inertia: tuple      # (6,) [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the com, kg m^2
     type: str = "rigid"
+
+
+@dataclass(frozen=True)
+class PointMass(Rigid):
+    """A point mass: a rigid body whose mass sits at its frame origin, without rotational inertia;
+    fixed to its parent (`schema.POINT_MASS_JOINTS`), carrying nothing. Every reader of a Rigid
+    reads it as one (centre of mass at the origin, zero inertia); an engine that cannot take a
+    body without inertia asks for `type == "point_mass"` (or isinstance PointMass)."""
+
+    com: tuple = (0.0, 0.0, 0.0)
+    inertia: tuple = (0.0,) * 6
+    type: str = "point_mass"
 
 
 @dataclass(frozen=True)
@@ -268,7 +282,8 @@ class Link:
 
     name: str
     index: int          # 1..nb, parents before children (0: ground)
-    kind: str           # "rigid", "beam" (flexible) or "rigid beam" (a beam declared rigid)
+    kind: str           # "rigid" (a rigid body or a point mass), "beam" (flexible), "rigid beam" (a beam
+                        # declared rigid) or "solid"
     parent: int         # parent body index, 0 for ground
     joint: str          # the joint to the parent
     nodes: int          # beam nodes (elements + 1); 0 for a rigid body
@@ -367,6 +382,8 @@ def beam_point(beam: Beam, x: float) -> Point:
 def _body(name: str, b: dict, materials: dict):
     if b["type"] == "rigid":
         return Rigid(name=name, mass=b["mass"], com=tuple(b["com"]), inertia=tuple(b["inertia"]))
+    if b["type"] == "point_mass":
+        return PointMass(name=name, mass=b["mass"])
     if b["type"] == "solid":
         m = b["mesh"]
         spec = MeshSpec(file=m["file"], units=m["units"], box=None if m["box"] is None else tuple(m["box"]),
@@ -386,7 +403,8 @@ def _body(name: str, b: dict, materials: dict):
     return Beam(name=name, material=materials[b["material"]], length=b["length"], elements=b["elements"],
                 section=Section(**b["section"]), damping_ratio=b["damping_ratio"], mass=b["mass"], shear=b["shear"],
                 modes=Modes(count=m["count"], boundary=m["boundary"],
-                            interfaces=None if m["interfaces"] is None else tuple(m["interfaces"])),
+                            interfaces=None if m["interfaces"] is None else tuple(m["interfaces"]),
+                            kinds=None if m["kinds"] is None else tuple(m["kinds"])),
                 rigid=b["rigid"], stiffening=b["stiffening"], segments=b["segments"])
 
 
@@ -519,7 +537,7 @@ def segment_of(length: float, n: int, x: float) -> tuple[int, float]:
     (within round-off), the beam's end to the last segment."""
     s = x * n / length
     k = min(round(s) if abs(s - round(s)) < 1e-9 else int(s), n - 1)
-    return k, max(x - k * length / n, 0.0)
+    return k, min(max(x - k * length / n, 0.0), length / n)           # the end: within the last segment
 
 
 def _place(data: dict, body: str, x):

@@ -3,7 +3,8 @@
 
 A field is (kind, default); REQUIRED marks a field without default. Kinds: "float+" (> 0),
 "float0+" (>= 0), "float", "int+", "int0+", "str", "line", "bool", "vec3", "vec", "floats",
-"inertia", "point", "poisson", a tuple of allowed strings, or a nested dict schema.
+"inertia", "point", "poisson", "strings" (a list of strings), a tuple of allowed strings, or a
+nested dict schema.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ MODES = {
     "count": ("int0+", REQUIRED),
     "boundary": (("clamped-free", "hinged-hinged", "free-free", "craig-bampton"), "clamped-free"),
     "interfaces": ("vec", None),    # craig-bampton: interface positions along the beam, m
+    "kinds": ("strings", None),     # keep the lowest `count` modes of these kinds (fe.modes.FAMILIES); None: any
 }
 
 BEAM = {
@@ -91,6 +93,16 @@ RIGID = {
     "com": ("vec3", [0.0, 0.0, 0.0]),
     "inertia": ("inertia", REQUIRED),   # [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the com, kg m^2
 }
+
+POINT_MASS = {
+    "type": (("point_mass",), REQUIRED),
+    "mass": ("float+", REQUIRED),       # kg, at the body frame's origin; no rotational inertia
+}
+
+# the joints that may carry a point mass: those that leave it no rotation (it has no rotational
+# inertia to resist one; a prismatic joint would be well posed, but MuJoCo refuses a moving body
+# without inertia); nothing hangs on a point mass and no load acts on it (its parent's point does)
+POINT_MASS_JOINTS = ("fixed",)
 
 PROFILE = {
     "type": (("constant_rate", "harmonic", "spin_up", "table"), REQUIRED),

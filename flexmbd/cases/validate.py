@@ -17,8 +17,10 @@ from pathlib import Path
 
 from flexmbd import flexbody
 from flexmbd.cases.schema import (BEAM, CASE, CHANNEL_KEYS, DERIVED, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS,
-                                  MAX_SNAPSHOTS, NAME_CHARS, REQUIRED, RIGID, SOLID)
+                                  MAX_SNAPSHOTS, NAME_CHARS, POINT_MASS, POINT_MASS_JOINTS, REQUIRED, RIGID, SOLID)
+from flexmbd.fe import modes as fe_modes
 from flexmbd.errors import InputError, printable
+from flexmbd.fe.solid import fits_rigid
 from flexmbd.resources import CASES as CASES_DIR      # the shipped cases (resources.py)
 
 # ---------------------------------------------------------------------------------------------
@@ -103,12 +105,29 @@ def validate(raw: dict, where: str) -> dict:
     """Check a raw case dict against the schema and the cross-references; return a filled copy."""
     data = check_table(copy.deepcopy(raw), CASE, where, "")
     _check_references(data, where)
-    if any(j["loop"] for j in data["joints"].values()) and "method" not in (raw.get("integrator") or {}):
-        data["integrator"]["method"] = LOOP_METHOD
+    _loop_method(data, "method" in (raw.get("integrator") or {}), where)
     return data
 
 
 LOOP_METHOD = "dopri5"      # a case with a loop and no integrator.method: one that restarts after each projection
+# the methods that restart after each projection onto a loop's constraints (`integrate.PROJECTED`)
+LOOP_METHODS = ("dopri5", "rk45", "dop853", "rk4")
+
+
+def _loop_method(d: dict, named: bool, where: str) -> None:
+    """A case with a loop joint integrates it with one of LOOP_METHODS: LOOP_METHOD when it names
+    no `integrator.method`; another method named is refused. The `[integrator]` table is flexmbd's
+    settings (no other solver reads its method), and, as a `[solvers.NAME]` table of a solver not
+    run is checked all the same (`solvers.check`), it is checked whichever solver runs the case."""
+    loop = next((name for name, j in d["joints"].items() if j["loop"]), None)
+    if loop is None:
+        return
+    method = d["integrator"]["method"]
+    if not named:
+        d["integrator"]["method"] = LOOP_METHOD
+    elif method not in LOOP_METHODS:
+        _fail(where, "integrator.method", f"{method!r} cannot integrate a closed loop (joint {loop!r} closes one): "
+              f"expected {', '.join(LOOP_METHODS[:-1])} or {LOOP_METHODS[-1]}")
 
 
 def hint(word: str, choices) -> str:
@@ -188,6 +207,10 @@ def _check_value(v, kind, where: str, key: str):
         if v < (1 if kind == "int+" else 0):
             _fail(where, key, f"must be {'positive' if kind == 'int+' else 'non-negative'}, got {v}")
         return v
+    if kind == "strings":
+        if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+            _fail(where, key, f"expected a list of strings, got {v!r}")
+        return list(v)
     if kind in ("str", "line"):
         if not isinstance(v, str):
             _fail(where, key, f"expected a string, got {v!r}")
@@ -245,10 +268,10 @@ def _check_body(v, where, key):
     if not isinstance(v, dict):
         _fail(where, key, "expected a table")
     kind = v.get("type")
-    schema = {"beam": BEAM, "rigid": RIGID, "solid": SOLID}.get(kind) if isinstance(kind, str) else None
+    types = {"beam": BEAM, "rigid": RIGID, "point_mass": POINT_MASS, "solid": SOLID}
+    schema = types.get(kind) if isinstance(kind, str) else None
     if schema is None:
-        _fail(where, key + ".type", f"expected beam, rigid or solid, got {kind!r}"
-              f"{hint(str(kind), ['beam', 'rigid', 'solid'])}")
+        _fail(where, key + ".type", f"expected {', '.join(types)}, got {kind!r}{hint(str(kind), types)}")
     return check_table(v, schema, where, key + ".")
 
 
@@ -270,6 +293,8 @@ def _check_references(d: dict, where: str) -> None:
             _check_beam(b, d, where, k)
         elif b["type"] == "solid":
             _check_solid(b, d, where, k)
+        elif b["type"] == "point_mass":
+            _check_derived(where, k, {"mass (kg)": b["mass"]}, "mass")
         else:
             _check_rigid(b, where, k)
 
@@ -284,6 +309,7 @@ def _check_references(d: dict, where: str) -> None:
                 _fail(where, f"{k}.{side}", f"no body {ref!r}{hint(ref, list(bodies) + ['ground'])}")
         if j["child"] == "ground":
             _fail(where, f"{k}.child", "ground cannot be a child")
+        _check_point_mass_joint(j, bodies, where, k)
         _check_attachment(j, bodies, where, k)
         if j["loop"]:
             _check_loop(j, bodies, where, k)
@@ -307,6 +333,9 @@ def _check_references(d: dict, where: str) -> None:
         k = f"loads.{name}"
         if ld["body"] not in bodies:
             _fail(where, f"{k}.body", f"no body {ld['body']!r}{hint(ld['body'], bodies)}")
+        if bodies[ld["body"]]["type"] == "point_mass":
+            _fail(where, f"{k}.body", f"{ld['body']!r} is a point mass: apply the load to its parent at the point "
+                  f"where the mass sits (the same force on the same point)")
         _check_point(ld["at"], bodies[ld["body"]], where, f"{k}.at")
         p = ld["profile"]
         if p["type"] == "ramp" and (p["t1"] is None or p["t1"] <= p["t0"]):
@@ -445,6 +474,25 @@ def _check_beam(b, d, where, k):
                 _fail(where, f"{k}.modes.interfaces", f"position {x} m lies outside {what} [0, {length}]")
     elif m["interfaces"] is not None:
         _fail(where, f"{k}.modes.interfaces", "only used with boundary = \"craig-bampton\"")
+    if m["kinds"] is not None:
+        _check_kinds(m, elements, mesh, where, f"{k}.modes.kinds")
+
+
+def _check_kinds(m, elements, mesh, where, key):
+    """Mode kinds: known, each once, and enough modes of them in the mesh for `count`
+    (`fe.modes.modes_per_family`)."""
+    kinds, known = m["kinds"], fe_modes.modes_per_family(elements)
+    if not kinds:
+        _fail(where, key, f"expected at least one of {', '.join(known)} (leave kinds out to keep modes of every kind)")
+    for kind in kinds:
+        if kind not in known:
+            _fail(where, key, f"unknown mode kind {kind!r}{hint(kind, known)}; expected some of {', '.join(known)}")
+        if kinds.count(kind) > 1:
+            _fail(where, key, f"kind {kind!r} is listed twice")
+    have = sum(known[kind] for kind in kinds)
+    if m["count"] > have:
+        _fail(where, key, f"{m['count']} modes of kinds {', '.join(kinds)} requested but {mesh} has only {have} "
+              f"({', '.join(f'{kind} {known[kind]}' for kind in kinds)})")
 
 
 def _check_point(at, body, where, key):
@@ -481,6 +529,24 @@ def _check_attachment(j, bodies, where, k):
         _fail(where, f"{k}.axis", "the joint axis must not be zero")
 
 
+
+
+def _check_point_mass_joint(j, bodies, where, k):
+    """A point mass hangs on one tree joint of POINT_MASS_JOINTS (schema.py says why) and carries
+    nothing: a body that would hang on it hangs on its parent at the same point."""
+    kind = lambda side: bodies.get(j[side], {}).get("type")
+    if kind("parent") == "point_mass":
+        _fail(where, f"{k}.parent", f"{j['parent']!r} is a point mass, which carries no joint: attach {j['child']!r} "
+              f"to its parent at the point where the mass sits")
+    if kind("child") != "point_mass":
+        return
+    if j["loop"]:
+        _fail(where, f"{k}.child", f"{j['child']!r} is a point mass, which no loop joint reaches: it hangs on its "
+              f"one tree joint")
+    if j["type"] not in POINT_MASS_JOINTS:
+        _fail(where, f"{k}.type", f"a {j['type']} joint would move point mass {j['child']!r} on its parent: a point "
+              f"mass hangs on a {' or '.join(POINT_MASS_JOINTS)} joint (it has no rotational inertia; a body that "
+              f"turns or slides on its joint is a rigid body, type = \"rigid\")")
 
 
 def _check_loop(j, bodies, where, k):
@@ -571,7 +637,8 @@ def _check_tree(joints, where):
 
 def _check_solid(b, d, where, k):
     """A solid: a material (its own or the mesh file's one), a box or a mesh file that reads, its
-    interfaces on node sets of the mesh, the frame's interface rigid and every other averaging,
+    interfaces on node sets of the mesh (a solid's: at least 3 nodes not on one line, `fits_rigid`;
+    a frame's: one node), the frame's interface rigid and every other averaging,
     and no more modes than the held mesh has free DOFs."""
     m = b["mesh"]
     if (m["file"] is None) == (m["box"] is None):
@@ -620,6 +687,12 @@ def _check_solid(b, d, where, k):
         if not len(mesh.node_sets[i["set"]]):
             _fail(where, f"{key}.set", f"node set {i['set']!r} has no node on an element (an RBE's reference grid "
                   "or an orientation grid alone): name the set of the nodes it ties, and its point")
+        if not mesh.is_frame and not fits_rigid(mesh.nodes[mesh.node_sets[i["set"]]]):
+            n_ = len(mesh.node_sets[i["set"]])
+            _fail(where, f"{key}.set", f"node set {i['set']!r} has {n_} node{'s' * (n_ > 1)}"
+                  f"{' on one line' * (n_ > 2)}: a solid's interface needs at least 3 nodes not on one line (its nodes "
+                  "carry no rotation: a rotation about their line is neither held by a rigid interface nor fitted by "
+                  "an averaging one)")
         if mesh.is_frame:                           # a frame's interface is a node: its six DOFs
             if len(mesh.node_sets[i["set"]]) != 1:
                 _fail(where, f"{key}.set", f"a frame's interface is one node (its rotations are the interface's); "
@@ -707,8 +780,9 @@ def _check_channel(name, c, bodies, joints, where):
             _fail(where, f"{k}.body", f"a {c['kind']} channel needs a body")
         if b not in bodies:
             _fail(where, f"{k}.body", f"no body {b!r}{hint(b, bodies)}")
-        if bodies[b]["type"] == "rigid":
-            _fail(where, f"{k}.body", f"{c['kind']} needs a beam or a solid, {b!r} is rigid")
+        if bodies[b]["type"] in ("rigid", "point_mass"):
+            _fail(where, f"{k}.body", f"{c['kind']} needs a beam or a solid, {b!r} is "
+                  f"{'rigid' if bodies[b]['type'] == 'rigid' else 'a point mass'}")
         if bodies[b]["type"] == "solid":
             _check_solid_channel(c, bodies[b], where, k)
             return

@@ -7,7 +7,7 @@ frames (bar elements) from NASTRAN files.
 
 Units: `units="m"` reads the file as SI (m, N, kg, s, Pa); `units="mm"` as the consistent mm-t-s
 system (mm, N, t, s, MPa). The Mesh is always SI: nodes in m, E in Pa, rho in kg/m^3. After the
-conversion every material's wave speed sqrt(E/rho) must lie within 100 to 20000 m/s, else the
+conversion every material's wave speed sqrt(E/rho) must lie within 10 to 20000 m/s, else the
 numbers do not match the units and the file is refused.
 
 Element kinds (node orders: fe.mesh; flexmbd integrates every element fully, so the reduced (R),
@@ -65,7 +65,19 @@ __all__ = ["read", "read_mtx", "node_set", "UNITS"]
 # file units -> (length to m, E to Pa, rho to kg/m^3)
 UNITS = {"m": (1.0, 1.0, 1.0), "mm": (1e-3, 1e6, 1e12)}
 
-WAVE_SPEED = (100.0, 20000.0)       # m/s: the plausible range of sqrt(E/rho) for a solid
+# m/s: the plausible range of sqrt(E/rho) for a solid. A soft elastomer or foam has 10-50 m/s (a
+# rubber of E = 1 MPa, rho = 1000 kg/m^3: 31.6 m/s), steel 5200 and beryllium 12500, while a file
+# read in the other unit system is off by a factor of 1000 (E 1e6 times, rho 1e12): steel in mm-t-s
+# read as SI gives 5.2e6 m/s and in SI read as mm-t-s 5.2 m/s, both outside
+WAVE_SPEED = (10.0, 20000.0)
+
+# the largest node, element, property or set number read (the numbers are kept as int64)
+NUMBER_MAX = int(np.iinfo(np.int64).max)
+
+# a range of set members (THRU, GENERATE) longer than the file has lines lists numbers the file
+# cannot define, and is refused before it is expanded; one of up to this many members is expanded
+# anyway, so that the member that is not defined is named
+RANGE_EXPANDED = 100_000
 
 ABAQUS_KINDS = {"C3D4": "tet4", "C3D10": "tet10", "C3D10M": "tet10", "C3D10H": "tet10",
                 "C3D8": "hex8", "C3D8R": "hex8", "C3D8H": "hex8", "C3D8I": "hex8",
@@ -395,6 +407,7 @@ def _abaqus(source, text) -> tuple:
     elems = {}                                  # kind -> (numbers, node numbers, lines)
     nsets, esets, materials = {}, {}, {}        # name -> ([numbers], [lines]); name -> [E, nu, rho, line]
     of_elements = []                            # (node set, element set, line) of *NSET, ELSET=
+    n_lines = len(text.splitlines())
     parts = 0
     state, params, kind, material, pending = None, {}, None, None, None
 
@@ -449,7 +462,7 @@ def _abaqus(source, text) -> tuple:
         if state == "NODE":
             if len(tokens) < 2 or not all(_is_real(t) for t in tokens[1:4] if t) or not _is_int(tokens[0]):
                 raise InputError(f"{source}:{no}: *NODE data: expected 'number, x, y, z', got {s!r}")
-            ids.append(int(tokens[0]))
+            ids.append(_int(tokens[0], f"{source}:{no}", "*NODE number"))
             xyz.append([float(t) if t else 0.0 for t in (tokens[1:4] + ["", ""])[:3]])
             node_lines.append(no)
             if params.get("NSET"):
@@ -465,7 +478,7 @@ def _abaqus(source, text) -> tuple:
             if len(numbers) != NODES_PER[kind] + 1 or not all(_is_int(t) for t in numbers):
                 raise InputError(f"{source}:{start}: element {numbers[0]} ({params['TYPE']}) needs "
                                  f"{NODES_PER[kind]} node numbers, got {' '.join(numbers[1:])!r}")
-            numbers = [int(t) for t in numbers]
+            numbers = [_int(t, f"{source}:{start}", f"*ELEMENT, TYPE={params['TYPE']}") for t in numbers]
             el = elems[kind]
             el[0].append(numbers[0])
             el[1].append(numbers[1:])
@@ -474,7 +487,7 @@ def _abaqus(source, text) -> tuple:
                 _add(esets, params["ELSET"], [numbers[0]], start)
         elif state in ("NSET", "ELSET"):
             table = nsets if state == "NSET" else esets
-            _add(table, params["name"], _members(source, no, tokens, table, "GENERATE" in params, state), no)
+            _add(table, params["name"], _members(source, no, tokens, table, "GENERATE" in params, state, n_lines), no)
         elif state == "SYSTEM":
             raise InputError(f"{source}:{no}: *SYSTEM (nodes in a local coordinate system) is not supported")
         elif state in ("ELASTIC", "DENSITY") and material is not None:
@@ -521,21 +534,20 @@ def _keyword(line) -> tuple:
     return " ".join(fields[0].upper().split()), params
 
 
-def _members(source, no, tokens, table, generate, what) -> list:
-    """The numbers listed on one data line of *NSET or *ELSET: 'first, last[, step]' with GENERATE,
-    else numbers and the names of sets defined before."""
+def _members(source, no, tokens, table, generate, what, n_lines) -> list:
+    """The numbers listed on one data line of *NSET or *ELSET of a file of `n_lines` lines: 'first,
+    last[, step]' with GENERATE (`_range`), else numbers and the names of sets defined before."""
     tokens = [t for t in tokens if t]
+    at = f"{source}:{no}"
     if generate:
         if not 2 <= len(tokens) <= 3 or not all(_is_int(t) for t in tokens):
-            raise InputError(f"{source}:{no}: *{what}, GENERATE: expected 'first, last[, increment]'")
-        first, last, step = (int(t) for t in (tokens + ["1"])[:3])
-        if step < 1 or last < first:
-            raise InputError(f"{source}:{no}: *{what}, GENERATE: {first}, {last}, {step} is not an increasing range")
-        return list(range(first, last + 1, step))
+            raise InputError(f"{at}: *{what}, GENERATE: expected 'first, last[, increment]'")
+        first, last, step = (_int(t, at, f"*{what}, GENERATE") for t in (tokens + ["1"])[:3])
+        return list(_range(first, last, step, at, f"*{what}, GENERATE: {first}, {last}, {step}", n_lines))
     out = []
     for t in tokens:
         if _is_int(t):
-            out.append(int(t))
+            out.append(_int(t, at, f"*{what}"))
         else:
             name = _named(table, t)
             if name not in table:
@@ -561,6 +573,29 @@ def _is_int(token) -> bool:
     return re.fullmatch(r"[+-]?\d+", token.strip()) is not None
 
 
+def _int(field, at, what) -> int:
+    """An integer field (of either format): a number of at most NUMBER_MAX in size."""
+    if not _is_int(field):
+        raise InputError(f"{at}: {what}: {field!r} is not an integer")
+    value = int(field)
+    if abs(value) > NUMBER_MAX:
+        raise InputError(f"{at}: {what}: {field.strip()} is too large (numbers up to {NUMBER_MAX} are read)")
+    return value
+
+
+def _range(first, last, step, at, what, n_lines) -> range:
+    """first, first + step, ..., last: the numbers of a range of set members (`what`, as the file
+    gives it), ascending; refused before any list of them is made when it holds more numbers than
+    the file's `n_lines` lines could define (a node or an element takes a line at least; RANGE_EXPANDED)."""
+    if step < 1 or last < first:
+        raise InputError(f"{at}: {what} is not an ascending range")
+    numbers = range(first, last + 1, step)
+    if len(numbers) > max(n_lines, RANGE_EXPANDED):
+        raise InputError(f"{at}: {what} holds {len(numbers)} numbers, more than a file of {n_lines} lines can "
+                         "define (a node or an element takes a line at least, and a set's members must be defined)")
+    return numbers
+
+
 # ---------------------------------------------------------------------------------------------
 # NASTRAN
 
@@ -574,6 +609,7 @@ def _nastran(source, text) -> tuple:
     bars, pbar = [], {}                         # (EID, PID, GA, X or G0, line); PID -> (MID, [A .. K2], line)
     local = {}                                  # GRID ID -> its displacement coordinate system CD, where not basic
     conm2 = []                                  # (EID, G, [M, I11, I22, I33], line)
+    n_lines = len(text.splitlines())
     for name, f, no in _cards(source, text):
         at = f"{source}:{no}"
         if name == "GRID":
@@ -682,7 +718,7 @@ def _nastran(source, text) -> tuple:
             if name == "SPC":
                 grids = [_int(v, at, "SPC G") for v in (f[1], f[4]) if v]
             else:
-                grids = _thru(f[2 if name == "SPC1" else 1:], at, name)
+                grids = _thru(f[2 if name == "SPC1" else 1:], at, name, n_lines)
             _add(nsets, f"{'set' if name == 'SET1' else 'spc'}{sid}", grids, no)
         elif name == "RBE2":
             eid = _int(f[0], at, "RBE2 EID")
@@ -691,7 +727,7 @@ def _nastran(source, text) -> tuple:
                 if v and not _is_int(v):
                     break                               # ALPHA, a real, ends the grid list
                 if v:
-                    dependent.append(int(v))
+                    dependent.append(_int(v, at, "RBE2 GM"))
             _add(nsets, f"rbe2_{eid}", dependent, no)
             _add(nsets, f"rbe2_{eid}_ref", [_int(f[1], at, "RBE2 GN")], no)
         elif name == "RBE3":
@@ -699,10 +735,11 @@ def _nastran(source, text) -> tuple:
             weighted, k = [], 4
             while k < len(f) and f[k].upper() not in ("UM", "ALPHA", "TREF", "STRESS"):
                 if f[k] and not _is_int(f[k]):
-                    k += 2                              # a weight WTi, then its components Ci
+                    _real(f[k], at, "RBE3 WT")          # a weight WTi (not kept), then its components Ci
+                    k += 2
                     continue
                 if f[k]:
-                    weighted.append(int(f[k]))
+                    weighted.append(_int(f[k], at, "RBE3 G"))
                 k += 1
             _add(nsets, f"rbe3_{eid}", weighted, no)
             _add(nsets, f"rbe3_{eid}_ref", [_int(f[2], at, "RBE3 REFGRID")], no)
@@ -761,10 +798,20 @@ def _cards(source, text):
             card[1].extend(data)
         else:
             if card is not None:
-                yield card
+                yield _paired(source, card)
             card = (first.upper().rstrip("*"), data, no)
     if card is not None:
-        yield card
+        yield _paired(source, card)
+
+
+def _paired(source, card) -> tuple:
+    """The card, refused when it ends in half a line: large-field lines hold four fields each and
+    come in pairs (fields 2-5, then 6-9 on a continuation line), every other line eight."""
+    name, data, no = card
+    if len(data) % 8:
+        raise InputError(f"{source}:{no}: {name}*: a large-field card's lines come in pairs (fields 2-5, then "
+                         "fields 6-9 on a continuation line starting with '*'): the continuation line is missing")
+    return card
 
 
 def _fields(source, no, line) -> tuple:
@@ -783,8 +830,8 @@ def _fields(source, no, line) -> tuple:
     return first, [line[8 + 8 * k:16 + 8 * k].strip() for k in range(8)]
 
 
-def _thru(fields, at, card) -> list:
-    """Grid numbers of a list that may use 'G1 THRU G2'."""
+def _thru(fields, at, card, n_lines) -> list:
+    """Grid numbers of a list that may use 'G1 THRU G2' (G1 <= G2; `_range` in a file of `n_lines` lines)."""
     out, fields = [], [v for v in fields if v]
     k = 0
     while k < len(fields):
@@ -792,7 +839,7 @@ def _thru(fields, at, card) -> list:
             if not out or k + 1 >= len(fields):
                 raise InputError(f"{at}: {card}: THRU needs a number on each side")
             last = _int(fields[k + 1], at, card + " G")
-            out.extend(range(out[-1] + 1, last + 1))
+            out.extend(_range(out[-1], last, 1, at, f"{card}: {out[-1]} THRU {last}", n_lines)[1:])
             k += 2
         else:
             out.append(_int(fields[k], at, card + " G"))
@@ -800,26 +847,19 @@ def _thru(fields, at, card) -> list:
     return out
 
 
-def _int(field, at, what) -> int:
-    if not _is_int(field):
-        raise InputError(f"{at}: {what}: {field!r} is not an integer")
-    return int(field)
-
-
 def _real(field, at, what) -> float:
-    """A NASTRAN real: also '1.5-3' and '2.+5' (exponent without E) and D exponents."""
-    try:
-        return float(field)
-    except ValueError:
-        pass
+    """A NASTRAN real, finite: also '1.5-3' and '2.+5' (exponent without E) and D exponents."""
     s = field.strip().upper().replace("D", "E")
     m = re.fullmatch(r"([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d+)", s)
     if m:
         s = f"{m.group(1)}E{m.group(2)}"
     try:
-        return float(s)
+        value = float(s)
     except ValueError:
         raise InputError(f"{at}: {what}: {field!r} is not a number") from None
+    if not np.isfinite(value):
+        raise InputError(f"{at}: {what}: {field!r} is not a finite number")
+    return value
 
 
 # ---------------------------------------------------------------------------------------------

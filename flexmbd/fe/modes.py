@@ -13,9 +13,10 @@ import scipy.sparse.linalg as spla
 
 __all__ = ["FAMILIES", "boundary_dofs", "free_dofs", "normal_modes", "static_modes",
            "constraint_modes", "craig_bampton", "orthonormalize", "rigid_body_fields", "hold_node",
-           "mode_labels"]
+           "mode_labels", "mode_families", "modes_per_family"]
 
-# DOF families of a straight beam (node-local DOF indices); they are uncoupled in K and M
+# DOF families of a straight beam (node-local DOF indices); they are uncoupled in K and M. Their
+# names are the kinds of modes (a mode's label is its family and its number in it, `mode_labels`)
 FAMILIES = {"axial": (0,), "bending xy": (1, 5), "bending xz": (2, 4), "torsion": (3,)}
 
 # eigenvalues below RIGID_TOL * max(diag K / diag M) are rigid-body (zero-frequency) modes
@@ -364,6 +365,18 @@ def hold_node(Phi, nodes, p):
     return Phi - rigid_body_fields(nodes, p) @ Phi[6 * p:6 * p + 6]
 
 
+def modes_per_family(elements):
+    """Elastic modes of each family (`FAMILIES`) of a straight beam of ``elements`` elements:
+    the family's free DOFs less its rigid-body motions, ``elements`` axial and torsion modes and
+    ``2 elements`` bending modes in each plane, the same for every boundary of
+    :func:`boundary_dofs` and for a Craig-Bampton set (clamped-free: node 0 holds one DOF of the
+    axial and torsion families and two of each bending one; hinged-hinged: the same six over both
+    ends; free-free: none, and its six rigid-body modes, as many in a family as it has DOFs at a
+    node, are not elastic)."""
+    n = int(elements)
+    return {"axial": n, "bending xy": 2 * n, "bending xz": 2 * n, "torsion": n}
+
+
 def _is_rigid(Phi, tol):
     """Columns whose rotations and axial displacement are the same at every node."""
     B = Phi.reshape(-1, 6, Phi.shape[1])[:, [0, 3, 4, 5]]
@@ -372,12 +385,37 @@ def _is_rigid(Phi, tol):
 
 
 def mode_labels(Phi, M=None, rigid_tol=1e-6):
-    """Family label of each mode: "bending xy 1", "bending xz 2", "torsion 1", "axial 1", "rigid".
+    """Family label of each mode: "bending xy 1", "bending xz 2", "torsion 1", "axial 1", "rigid":
+    its family (:func:`mode_families`) and its number within the family, in column order.
 
     Parameters
     ----------
     Phi : (6N, k) ndarray
         Modes in frequency order (columns); families are numbered in that order.
+    M, rigid_tol
+        As :func:`mode_families`.
+
+    Returns
+    -------
+    list of str
+    """
+    count, labels = dict.fromkeys(FAMILIES, 0), []
+    for name in mode_families(Phi, M, rigid_tol):
+        if name == "rigid":
+            labels.append(name)
+            continue
+        count[name] += 1
+        labels.append(f"{name} {count[name]}")
+    return labels
+
+
+def mode_families(Phi, M=None, rigid_tol=1e-6):
+    """The family (a key of `FAMILIES`, the mode's kind) of each mode, or "rigid".
+
+    Parameters
+    ----------
+    Phi : (6N, k) ndarray
+        Modes (columns).
     M : (6N, 6N) sparse or dense, optional
         Mass matrix. The family of a mode is the one with the largest M-weighted share
         ``sum_{i in family} phi_i (M phi)_i``; without M the plain shares ``phi_i^2`` are used
@@ -394,12 +432,6 @@ def mode_labels(Phi, M=None, rigid_tol=1e-6):
     weighted = Phi * (Phi if M is None else np.asarray(M @ Phi))
     per_dof = weighted.reshape(-1, 6, Phi.shape[1]).sum(axis=0)
     shares = np.array([per_dof[list(d)].sum(axis=0) for d in FAMILIES.values()])
-    names, count, labels = list(FAMILIES), dict.fromkeys(FAMILIES, 0), []
-    for j, rigid in enumerate(_is_rigid(Phi, rigid_tol)):
-        if rigid:
-            labels.append("rigid")
-            continue
-        name = names[int(np.argmax(shares[:, j]))]
-        count[name] += 1
-        labels.append(f"{name} {count[name]}")
-    return labels
+    names = list(FAMILIES)
+    return ["rigid" if rigid else names[int(np.argmax(shares[:, j]))]
+            for j, rigid in enumerate(_is_rigid(Phi, rigid_tol))]

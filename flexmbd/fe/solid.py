@@ -449,12 +449,23 @@ def rigid_fields(x: np.ndarray, ref: np.ndarray) -> np.ndarray:
     return R.reshape(-1, 6)
 
 
+def fits_rigid(x: np.ndarray) -> bool:
+    """True when the points x (k, 3) fix a rigid motion: at least three, not on one line (to 1e-6
+    of their spread). Fewer, or points on a line, leave a rotation about that line that moves none
+    of them: a rigid interface on them does not hold it, and their least-squares fit (`averaging`)
+    is singular."""
+    d = np.asarray(x, dtype=float).reshape(-1, 3)
+    s = np.linalg.svd(d - d.mean(axis=0), compute_uv=False)
+    return s.size > 1 and bool(s[1] > 1e-6 * s[0])
+
+
 def averaging(x: np.ndarray, ref: np.ndarray, w=None) -> np.ndarray:
     """The averaging (RBE3-like) interface of points x (k, 3) about ref (3,): A (6, 3k) giving the
     reference point's [theta; t] as the weighted least-squares rigid fit of their displacements,
     A = (R^T W R)^-1 R^T W (R = `rigid_fields`, W = diag of the weights w (k,), default 1). A force
     and moment [m; f] at the reference point spread over the points as A^T [m; f]: the same
-    resultant and moment about ref, each point's share proportional to its weight."""
+    resultant and moment about ref, each point's share proportional to its weight. The points must
+    fix a rigid motion (`fits_rigid`)."""
     R = rigid_fields(x, ref)
     W = np.repeat(np.ones(len(x)) if w is None else np.asarray(w, dtype=float), 3)
     RtW = R.T * W

@@ -14,9 +14,15 @@ DEFORMATION = ("deflection", "stress_vm")
 
 
 def comparable(case, solver_module, channel: str) -> bool:
-    """Rigid peers (module attribute RIGID) report deformation channels as zero: not compared."""
+    """Whether a solver's model has the channel, so that it is compared and graded on it: a rigid
+    peer (module attribute RIGID) models no deformation, so neither its deflections and stresses
+    (zero) nor, on a case with a flexible body, its energy (no strain energy) are compared; its
+    joint angles and reactions are."""
+    if not getattr(solver_module, "RIGID", False):
+        return True
     kind = case.channels[channel].kind
-    return not (getattr(solver_module, "RIGID", False) and kind in DEFORMATION)
+    flexible = any(getattr(b, "flexible", False) for b in case.bodies.values())
+    return kind not in DEFORMATION and not (kind == "energy" and flexible)
 
 
 def cutoff_hz(case, channel: str, freqs: dict) -> float:
@@ -164,7 +170,7 @@ def verdict(status, solver: str, reference: str, rows_: list[dict]) -> Verdict:
     mine = [r for r in rows_ if r["solver"] == solver and np.isfinite(r["tolerance"])]
     bad = [r for r in mine if not r["rms"] <= r["tolerance"]]
     if bad:
-        w = max(bad, key=lambda r: r["rms"] / r["tolerance"] if np.isfinite(r["rms"]) else np.inf)
+        w = worst_row(rows_, solver)
         more = f" and {len(bad) - 1} more" if len(bad) > 1 else ""
         return Verdict("fail", f"fail: {w['channel']} RMS {number(w['rms'])} = {factor(w['rms'] / w['tolerance'])} "
                                f"× its tolerance {number(w['tolerance'])}{more}", outside)
@@ -175,8 +181,9 @@ def verdict(status, solver: str, reference: str, rows_: list[dict]) -> Verdict:
 
 class Outcome(NamedTuple):
     """One run of a case as the pages and the command line show it: its `status`, its `verdict`
-    (`verdict`), its `worst` normalised RMS difference (`worst`; NaN for the reference) and its
-    solve wall time `wall_s` (s; NaN for a result that was not run)."""
+    (`verdict`), its `worst` normalised RMS difference (`worst`; NaN for the reference), its solve
+    wall time `wall_s` (s; NaN for a result that was not run) and the `channel` of its worst
+    difference, the one its verdict names ('' when none)."""
 
     case: str
     solver: str
@@ -184,6 +191,7 @@ class Outcome(NamedTuple):
     verdict: Verdict
     worst: float
     wall_s: float
+    channel: str = ""
 
 
 def summary(verdicts: list) -> str:
@@ -195,13 +203,28 @@ def summary(verdicts: list) -> str:
             + (f" ({outside} outside linear validity)" if outside else ""))
 
 
+def worst_row(rows_: list[dict], solver: str) -> dict | None:
+    """A solver's worst channel, the one its verdict names: of its graded channels (those with a
+    tolerance) the largest RMS difference over its tolerance (a non-finite one first), or, when
+    none is graded, the largest normalised RMS difference of every compared channel."""
+    mine = [r for r in rows_ if r["solver"] == solver]
+    graded = [r for r in mine if np.isfinite(r["tolerance"])]
+    if graded:
+        return max(graded, key=lambda r: r["rms"] / r["tolerance"] if np.isfinite(r["rms"]) else np.inf)
+    finite = [r for r in mine if np.isfinite(r["rms"])]
+    return max(finite, key=lambda r: r["rms"]) if finite else None
+
+
 def worst(rows_: list[dict], solver: str) -> float:
-    """The largest normalised RMS difference of a solver over its graded channels (those with a
-    tolerance: the ones its verdict judges), or over every compared channel when none is graded."""
-    mine = [r for r in rows_ if r["solver"] == solver and np.isfinite(r["rms"])]
-    graded = [r["rms"] for r in mine if np.isfinite(r["tolerance"])]
-    vals = graded or [r["rms"] for r in mine]
-    return max(vals) if vals else np.nan
+    """The normalised RMS difference of a solver's worst channel (`worst_row`); NaN without one."""
+    r = worst_row(rows_, solver)
+    return r["rms"] if r is not None else np.nan
+
+
+def worst_channel(rows_: list[dict], solver: str) -> str:
+    """The name of a solver's worst channel (`worst_row`); '' without one."""
+    r = worst_row(rows_, solver)
+    return r["channel"] if r is not None else ""
 
 
 def aliased(f: float, fs: float) -> float:

@@ -34,12 +34,15 @@ RECORD = "page.json"        # in OUT/CASE/: the page's key and what it gave the 
 DRAWERS = os.cpu_count() or 1   # processes drawing pages during a report's runs, at most
 
 
-def case_page(out: Path, case, names, warn=None) -> dict:
-    """Write one case's page and figures (`out/CASE/`, swapped in whole: `files.generation`);
-    {"accuracy": its accuracy rows, "runs": each run's accuracy.Outcome}."""
+def case_page(out: Path, case, names, warn=None, folder: Path | None = None) -> dict:
+    """Write one case's page and figures from the results under `out` into `folder/CASE/` (default
+    `out`: the report's page; `flexmbd compare`'s goes to OUT/compare), swapped in whole
+    (`files.generation`); {"accuracy": its accuracy rows, "runs": each run's accuracy.Outcome}."""
+    folder = Path(folder or out)
     indexed = (Path(out) / "index.html").is_file()
-    with files.generation(out) as stage:
-        return pages.write_case(out, stage, case, names, warn, indexed)
+    with files.generation(folder) as stage:
+        return pages.write_case(out, stage, case, names, warn, indexed,
+                                up=Path(os.path.relpath(out, folder / case.name)).as_posix())
 
 
 def write(out: Path, chosen_cases, names, warn=None, progress=None, reuse: bool = False,
@@ -244,7 +247,7 @@ def _record(out: Path, case, key: str) -> dict | None:
 def record(key: str, got: dict, said: list) -> str:
     """The page's record (RECORD): its key, accuracy rows, runs' outcomes and warnings, as JSON."""
     runs = [{"case": o.case, "solver": o.solver, "status": [o.status.kind, o.status.why, o.status.t],
-             "verdict": list(o.verdict), "worst": o.worst, "wall_s": o.wall_s} for o in got["runs"]]
+             "verdict": list(o.verdict), "worst": o.worst, "wall_s": o.wall_s, "channel": o.channel} for o in got["runs"]]
     return files.json_text({"key": key, "accuracy": got["accuracy"], "runs": runs, "warnings": said}) + "\n"
 
 
@@ -258,7 +261,7 @@ def reused(out: Path, stage: Path, case, key: str, warn) -> dict | None:
     nan = lambda v: float("nan") if v is None else v                   # written as null (files.json_text)
     try:
         runs = [accuracy.Outcome(o["case"], o["solver"], results.Status(*o["status"]), accuracy.Verdict(*o["verdict"]),
-                                 nan(o["worst"]), nan(o["wall_s"])) for o in rec["runs"]]
+                                 nan(o["worst"]), nan(o["wall_s"]), o.get("channel", "")) for o in rec["runs"]]
         got = {"accuracy": [{k: nan(v) for k, v in row.items()} for row in rec["accuracy"]], "runs": runs}
     except (OSError, ValueError, KeyError, TypeError):
         return None

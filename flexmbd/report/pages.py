@@ -164,9 +164,10 @@ def matrix(runs: list) -> tuple[str, str]:
             legend + "\n\n" + tables.markdown(["case"] + names, rows_md))
 
 
-def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) -> dict:
+def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True, up: str = "..") -> dict:
     """One case's page from the results under `out`, written into `stage/CASE/`; it links to the
-    report's index when there is one (`indexed`), and says how to build one otherwise:
+    report's index when there is one (`indexed`), and says how to build one otherwise; `up` is the
+    report folder seen from the page's folder (OUT/CASE: '..'):
     {"accuracy": its accuracy rows, "runs": each run's accuracy.Outcome}."""
     names = loading.page_solvers(out, case, names)
     res = loading.load_results(out, case, names, warn)
@@ -185,7 +186,8 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     peaks = accuracy.peak_table(case, ok, own, dt,
                                 others=[fine] + ([spectra.frozen_channel_modes(case, frozen[1])] if frozen else []))
     runs = [accuracy.Outcome(case.name, s, r.status, accuracy.verdict(r.status, s, ref, acc),
-                             accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s if loading.ran(r) else np.nan)
+                             accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s if loading.ran(r) else np.nan,
+                             accuracy.worst_channel(acc, s) if s != ref else "")
             for s, r in res.items()]
     d = stage / case.name
     sections = [("Runs", *runs_section(case, runs))]          # (title, html, markdown)
@@ -208,7 +210,7 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
     if field:
         sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0].startswith("Stress")), len(sections)),
                         field)
-    movie = animation.section(out, case)                    # the animation `flexmbd animate` wrote, if any
+    movie = animation.section(out, case, up)                # the animation `flexmbd animate` wrote, if any
     if movie:
         sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0] == "Deformed shape at chosen instants"),
                              len(sections)), movie)
@@ -302,8 +304,8 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True) 
 
     title = f"{case.name}: {case.title}"
     build_index = f"no index yet: flexmbd report --no-run --out {out} builds it from the stored results"
-    top_html = "<a href='../index.html'>index</a>" if indexed else f"<code>{html.escape(build_index)}</code>"
-    top_md = "[index](../index.md)" if indexed else f"`{build_index}`"
+    top_html = f"<a href='{up}/index.html'>index</a>" if indexed else f"<code>{html.escape(build_index)}</code>"
+    top_md = f"[index]({up}/index.md)" if indexed else f"`{build_index}`"
     page = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
             f"<style>{CSS}</style></head><body><p>{top_html}</p><h1>{html.escape(title)}</h1>"]
     md = [f"# {title}\n", top_md + "\n"]
@@ -395,16 +397,18 @@ def write_index(out: Path, stage: Path, runs: list, warn=None) -> None:
     """The report's index (index.html, index.md) into `stage`: the summary line, the case x solver
     matrix of verdicts (`matrix`), the table of every run (`runs`: accuracy.Outcome), links to every case page and the reviewer tables, and the
     latest work-precision run (`bench_section`)."""
-    head = ["case", "solver", "verdict", "worst RMS diff / max|ref|", "wall [s]"]
-    summary = [[o.case, o.solver, o.verdict, o.worst, o.wall_s] for o in runs]
+    head = ["case", "solver", "verdict", "worst channel", "its RMS diff / max|ref|", "wall [s]"]
+    summary = [[o.case, o.solver, o.verdict, o.channel, o.worst, o.wall_s] for o in runs]
     line = accuracy.summary([o.verdict for o in runs])
     links_html = [[f"<a href='{r[0]}/index.html'>{html.escape(r[0])}</a>"] + r[1:] for r in summary]
     links_md = [[f"[{r[0]}]({r[0]}/index.md)"] + r[1:] for r in summary]
     when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     intro = (f"Every case on every solver. A run passes when every graded channel's RMS difference from the "
              f"case's reference solver, over the reference's largest magnitude, is within the case's tolerance; "
-             f"the worst difference is the largest of them (a channel without a tolerance in the case is drawn and "
-             f"tabled, not graded). Generated {when}, commit "
+             f"the worst channel is the one furthest beyond (or nearest) its tolerance, the one a verdict names (a "
+             f"channel without a tolerance in the case is drawn and tabled, not graded; a rigid model is graded on "
+             f"the channels it has: not on deflection, stress, or a flexible case's energy, whose strain part it "
+             f"cannot hold). Generated {when}, commit "
              f"{results.git_commit() or 'unknown'}. Reviewer tables: ")
     pages = ["accuracy.csv", "accuracy.md", "accuracy.tex"]
     bench_html, bench_md = bench_section(stage, warn)
@@ -415,7 +419,7 @@ def write_index(out: Path, stage: Path, runs: list, warn=None) -> None:
             + ", ".join(f"<a href='{f}'>{f}</a>" for f in pages) + "."
             + (" Benchmarks: <a href='bench/index.html'>bench</a>." if (out / "bench" / "index.html").exists() else "")
             + (" Across commits: <a href='history.html'>history</a>." if (out / "history").is_dir() else "")
-            + "</p>" + grid_html + "<h2>Every run</h2>" + tables.html_table(head, links_html, raw_cols=(0,), left=3)
+            + "</p>" + grid_html + "<h2>Every run</h2>" + tables.html_table(head, links_html, raw_cols=(0,), left=4)
             + bench_html + "</body></html>")
     atomic_write(stage / "index.html", page + "\n")
     atomic_write(stage / "index.md", "# flexmbd report\n\n**" + line + "**\n\n" + intro + ", ".join(f"[{f}]({f})" for f in pages)

@@ -7,6 +7,8 @@ times the retained modes (`finer`, `spectral_modes`), the system frozen at insta
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from flexmbd import files, flexbody
@@ -61,6 +63,12 @@ def spectral_modes(case) -> tuple[dict, dict]:
     too high."""
     own, fine = channel_modes(case, system_modes(case)), {}
     more = finer(case)
+    try:
+        system_modes(more) if more is not None else None
+    except InputError as e:                             # the finer set's loop does not close: match the own only
+        print(f"flexmbd: warning: {case.name}: the system with {FINER} x the modes is not linearized ({e}); "
+              f"spectral peaks are matched against the case's own modes only", file=sys.stderr)
+        more = None
     if more is not None:
         n = {b.modes.count for b in more.bodies.values() if b.type == "beam" and b.modes.count}
         tag = f"{'/'.join(map(str, sorted(n)))} modes"

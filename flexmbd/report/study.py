@@ -5,7 +5,8 @@ A study is cases x the product of the varied keys' values (`grid`) x solvers; ea
 set of `--set` overrides, and its results live in OUT/points/ID/results/CASE/SOLVER.{csv,json}
 (ID: `point_id`, a digest of the overrides), so a study run again keeps every result already
 stored with the key of its run (`executor.into`) and runs only the missing ones. Every point is
-loaded and checked before anything runs.
+loaded and checked before anything runs, and before that, without building the grid, a key varied
+twice and a grid beyond the cost limits are refused (`check`).
 
 The table (`table`, OUT/study.parquet) has one row per point, solver, channel and metric
 (METRICS), with each varied key as a column, the run's status and its provenance; it holds no
@@ -18,6 +19,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
+import re
+import sys
 import tomllib
 from dataclasses import dataclass, field
 from itertools import product
@@ -26,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import cases, channels, metrics, results, solvers
+from flexmbd import cases, channels, cost, metrics, results, solvers
 from flexmbd.errors import InputError
 from flexmbd.files import atomic_write
 from flexmbd.report import accuracy, loading
@@ -145,9 +149,69 @@ def grid(st: Study) -> list[tuple[str, ...]]:
     """Every point of the study as its overrides ('KEY=VALUE', ...), the last key varying fastest;
     the finest point (every key at its last value) last. A varied key 'K1+K2' sets K1 and K2 to
     the same value (e.g. the mode count of two beams)."""
-    keys = [k for k, _ in st.vary]
-    return [tuple(f"{part}={v}" for k, v in zip(keys, combo) for part in k.split("+"))
-            for combo in product(*(vs for _, vs in st.vary))]
+    return [_overrides(st, combo) for combo in product(*(vs for _, vs in st.vary))]
+
+
+def _overrides(st: Study, combo) -> tuple[str, ...]:
+    """The overrides of the point whose varied keys have the values `combo` (one per key)."""
+    return tuple(f"{part}={v}" for (k, _), v in zip(st.vary, combo) for part in k.split("+"))
+
+
+# ---------------------------------------------------------------------------------------------
+# checked before the grid is built
+
+# Measured on this project's 2-core machine, rounded up: loading and checking one point of a case
+# (cases.load with its overrides, its solver tables) 0.6-0.7 ms, holding 20-30 kB until the table
+# is written; writing the table and timing.csv reads each run's result twice (1.3-1.7 ms a read of
+# the cantilever's 2001 samples x 3 columns, 0.05 us more a stored value) and makes its rows
+# (7-9 us and 1.2 kB a row: a channel's metric).
+POINT_S = 1e-3              # s, a point loaded and checked
+POINT_B = 4e4               # bytes, a point held
+RUN_S = 4e-3                # s, a run's result read for the table and timing.csv
+VALUE_S = 1e-7              # s, a stored value read
+ROW_S = 1e-5                # s, a row of the table
+ROW_B = 2e3                 # bytes, a row of the table
+
+
+def check(st: Study, load, where: str, allow_large: bool = False) -> None:
+    """Refuse (InputError naming `where`: --vary, or a study file's study.vary) a study that varies
+    one key twice, or whose grid is beyond the cost limits (`stages`: README.md, "Cost limits"),
+    before any point is built; with `allow_large` such a grid is announced on stderr instead."""
+    seen = {}
+    for key, _ in st.vary:
+        for part in key.split("+"):
+            if part in seen:
+                tied = f" ({seen[part]} and {key})" if "+" in seen[part] + key else ""
+                raise InputError(f"{where}: {part} is varied twice{tied}; give each key once, with all its values")
+            seen[part] = key
+    for stage in stages(st, load):
+        why = cost.excess(stage)
+        if why and not allow_large:
+            raise InputError(f"{where}: {stage.what} {why}; vary fewer values or pass --allow-large")
+        if why:
+            print(f"flexmbd: note: {where}: {stage.what} {why}; going on (--allow-large)", file=sys.stderr, flush=True)
+
+
+def stages(st: Study, load) -> list:
+    """The study's own stages (cost.Stage, without progress shown), estimated from the number of
+    its points and from its first point of each case (`load(name, overrides)`): loading and
+    checking every point, and its table (the runs' results read, their rows)."""
+    n = math.prod(len(vs) for _, vs in st.vary)
+    first = _overrides(st, [vs[0] for _, vs in st.vary])
+    chosen = list(st.solvers) or list(solvers.NAMES)
+    runs = values = rows = 0
+    for name in st.cases:
+        case = load(name, first)
+        per = n * len(loading.jobs(case, chosen))
+        runs += per
+        values += per * cost.samples(case, case.duration) * (len(case.channels) + 1)
+        rows += per * len(case.channels) * len(METRICS)
+    points = n * len(st.cases)
+    what = (f"{points:,} points ({' x '.join(str(len(vs)) for _, vs in st.vary)} values"
+            f"{f' x {len(st.cases)} cases' if len(st.cases) > 1 else ''})")
+    return [cost.Stage(f"loading and checking {what}", "--vary", memory=points * POINT_B, seconds=points * POINT_S),
+            cost.Stage(f"writing the table of {runs:,} runs at {what}, {rows:,} rows", "--vary",
+                       memory=points * POINT_B + rows * ROW_B, seconds=runs * RUN_S + values * VALUE_S + rows * ROW_S)]
 
 
 def values(st: Study, overrides) -> dict:
@@ -236,9 +300,18 @@ def table(st: Study, out: Path, points: list) -> pd.DataFrame:
                     for metric, v in _metrics(case, ch, r, ref_r if s != ref else None, here).items():
                         rows.append({**base, "metric": metric, "reference": ref if metric == "rms_vs_reference" else
                                      ("finest point" if metric == "rms_vs_finest" else ""), "value": v})
+    if not rows:
+        return pd.DataFrame()
     df = pd.DataFrame(rows)
+    for k in integers(st):                                  # integers stay integers, beside a reference's empty cells
+        df[k] = pd.array([row[k] for row in rows], dtype="Int64")
     return df[["case", "point", *keys, "solver", "channel", "metric", "value", "reference", "tolerance", "status",
-               "solver_version", "key", "flexmbd"]] if rows else df
+               "solver_version", "key", "flexmbd"]]
+
+
+def integers(st: Study) -> list:
+    """The varied keys whose every value is an integer (their column: pandas' nullable Int64)."""
+    return [k for k, vs in st.vary if all(type(_value(v)) is int for v in vs)]
 
 
 def _read(out: Path, case, solver: str):
@@ -325,7 +398,7 @@ def figures(st: Study, df: pd.DataFrame, where: Path) -> list:
             others = np.ones(len(df), dtype=bool)
             for k in keys:
                 if k != key:
-                    others &= (df[k] == finest[k]).to_numpy()
+                    others &= (df[k] == finest[k]).fillna(False).to_numpy(dtype=bool)
             for metric in DRAWN:
                 sel = df[(df["case"] == case) & (df["metric"] == metric) & others]
                 sel = sel[sel["value"].astype(float) > 0]          # finite: on a log scale (the finest point: 0)
@@ -337,17 +410,26 @@ def figures(st: Study, df: pd.DataFrame, where: Path) -> list:
 
 def figure(sel: pd.DataFrame, case: str, key: str, metric: str, reference: str | None = None):
     """One metric of the rows `sel` against `key`: a panel per channel, a curve per solver (the
-    `reference` named so in the legend), the channel's tolerance dashed (log scales)."""
+    `reference` named so in the legend, which stands right of the panels), the channel's tolerance
+    dashed (log scales); the key shortened (`short`) and its labels wrapped to their room (`wrap`)."""
     import matplotlib.pyplot as plt
     from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
 
     from flexmbd.report import figures as figs
     chans = list(dict.fromkeys(sel["channel"]))
-    width = max(3.2 * len(chans), 5.0)
-    fig, axes = plt.subplots(1, len(chans), figsize=(width, 3.6), squeeze=False)
-    fig.subplots_adjust(left=0.55 / width + 0.04, right=0.98, bottom=0.2, top=0.83, wspace=0.38)   # fixed: quick
-    numeric = pd.api.types.is_numeric_dtype(sel[key]) and not pd.api.types.is_bool_dtype(sel[key])
     every = list(dict.fromkeys(sel["solver"]))
+    names = [figs.label(s, reference=reference) for s in every] + ["tolerance"]
+    panels = max(3.2 * len(chans), 5.0)                             # inches: the panels, then the legend
+    width = panels + 0.6 + CHAR_IN * 0.7 * max(map(len, names))     # 8-point
+    xlabel = wrap(short(key), int(0.85 * panels / len(chans) / CHAR_IN))
+    title = wrap(f"{case}: {metric} against {short(key)}", int(width / CHAR_IN))
+    more = LINE_IN * (xlabel.count("\n") + title.count("\n"))
+    height = 3.6 + more
+    fig, axes = plt.subplots(1, len(chans), figsize=(width, height), squeeze=False)
+    fig.subplots_adjust(left=(0.55 + 0.04 * panels) / width, right=0.98 * panels / width, wspace=0.38,   # fixed: quick
+                        bottom=(0.72 + LINE_IN * xlabel.count("\n")) / height,
+                        top=1 - (0.61 + LINE_IN * title.count("\n")) / height)
+    numeric = pd.api.types.is_numeric_dtype(sel[key]) and not pd.api.types.is_bool_dtype(sel[key])
     for ax, ch in zip(axes[0], chans):
         part = sel[sel["channel"] == ch]
         order = list(dict.fromkeys(part[key]))
@@ -370,9 +452,39 @@ def figure(sel: pd.DataFrame, case: str, key: str, metric: str, reference: str |
         ax.xaxis.set_minor_locator(NullLocator())
         ax.set_xticks(order if numeric else range(len(order)), [f"{v:g}" if numeric else str(v) for v in order])
         ax.set_title(ch, fontsize=10)
-        ax.set_xlabel(key)
+        ax.set_xlabel(xlabel)
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel(LABEL[metric], fontsize=9)
-    figs.legend(axes[0][-1], fontsize=8)
-    fig.suptitle(f"{case}: {metric} against {key}", fontsize=10)
+    drawn = {lab: h for ax in axes[0] for h, lab in zip(*ax.get_legend_handles_labels())}
+    fig.legend([drawn[n] for n in names if n in drawn], [n for n in names if n in drawn], fontsize=8, frameon=False,
+               loc="center left", bbox_to_anchor=(panels / width, 0.5))
+    fig.suptitle(title, fontsize=10)
     return fig
+
+
+CHAR_IN = 0.085             # inches: about the width of a character of 10-point text
+LINE_IN = 0.17              # inches: a line of 10-point text
+
+
+def short(key: str) -> str:
+    """A varied key as a figure names it: tied keys that differ in one dotted part as that part's
+    values in braces ('bodies.{beam1,beam2}.modes.count'); any other as written."""
+    parts = [k.split(".") for k in key.split("+")]
+    if len(parts) < 2 or len({len(p) for p in parts}) > 1:
+        return key
+    differ = [i for i in range(len(parts[0])) if len({p[i] for p in parts}) > 1]
+    if len(differ) != 1:
+        return key
+    i = differ[0]
+    return ".".join(parts[0][:i] + ["{" + ",".join(p[i] for p in parts) + "}"] + parts[0][i + 1:])
+
+
+def wrap(text: str, width: int) -> str:
+    """`text` in lines of at most `width` characters where it can be broken: after a '.', '+', ','
+    or space (a longer piece stays whole)."""
+    lines = [""]
+    for piece in re.findall(r"[^.+, ]+[.+, ]*|[.+, ]+", text):
+        if lines[-1] and len(lines[-1]) + len(piece.rstrip()) > width:
+            lines.append("")
+        lines[-1] += piece
+    return "\n".join(line.rstrip() for line in lines)

@@ -1,4 +1,4 @@
-"""Tables in Markdown, HTML and LaTeX (booktabs, siunitx), and the reviewer files accuracy.{csv,md,tex}.
+"""Tables in Markdown, HTML and LaTeX (booktabs), and the reviewer files accuracy.{csv,md,tex}.
 
 Every number in every format goes through `fmt`, so the pages and the three reviewer files
 show the same digits.
@@ -134,26 +134,32 @@ def html_table(head: list, rows: list[list], raw_cols: tuple = (), left: int = 1
 
 
 # ---------------------------------------------------------------------------------------------
-# LaTeX: booktabs and siunitx tables to \input into a paper
+# LaTeX: booktabs tables to \input into a paper
 
-# the LaTeX table of one case: (row key, header, alignment, a number)
+# the LaTeX table of one case: (row key, header, alignment, a number); the differences and the
+# tolerance are relative (over the reference's largest magnitude): no unit beside them
 LATEX_COLUMNS = [("solver", "solver", "l", False), ("label", "channel", "l", False),
                  ("rms", "RMS", "r", True), ("max", "max", "r", True),
                  ("f_ref", "$f_\\mathrm{ref}$ [Hz]", "r", True), ("f_solver", "$f$ [Hz]", "r", True),
                  ("tolerance", "tol.", "r", True), ("pass", "result", "l", False)]
-PACKAGES = "\\usepackage{booktabs}\n\\usepackage{siunitx}"
+PACKAGES = "\\usepackage{booktabs}"
 # widths (pt) the tables are fitted to: a two-column article's column and its text (10 pt, letter)
 COLUMN_PT, TEXT_PT = 229.0, 469.0
 CHAR_PT, SEP_PT = 4.3, 12.0     # \footnotesize: a character's width (generous), a column's separation
 FILL = 0.97                     # the share of its place a table may take
+# rows of one float: 40 \footnotesize rows (9.5 pt each) and a caption of a few lines take about
+# 450 pt, within the text height of a two-column article's page (549 to 598 pt: letter or A4, 10
+# or 12 pt); a longer table goes on in the next float ("continued")
+ROWS = 40
 
 
 def tex_number(v) -> str:
-    """A number as siunitx typesets it: \\num{} of its 3 significant digits (`accuracy.number`),
-    scientific notation as a power of ten; {--} for a missing one."""
+    """A number as LaTeX math: its 3 significant digits (`accuracy.number`), written as they are
+    (never grouped: 0.00425, 12346), scientific notation as a power of ten; -- for a missing one."""
     if v is None or not math.isfinite(float(v)):
         return "--"
-    return f"\\num{{{accuracy.number(float(v))}}}"
+    mant, _, exp = accuracy.number(float(v)).partition("e")
+    return f"${mant}" + (f"\\times10^{{{int(exp)}}}" if exp else "") + "$"
 
 
 def tex(s: str) -> str:
@@ -165,22 +171,42 @@ def tex(s: str) -> str:
 
 
 def shown_width(cell: str) -> int:
-    """Characters a cell takes when typeset: a \\num{} as its digits (a power of ten: its
-    mantissa and 'x10' and the exponent), LaTeX commands not counted."""
-    def num(m) -> str:
-        mant, _, exp = m.group(1).partition("e")
-        return mant + ("x10" + exp if exp else "")
-    text = re.sub(r"\\num\{([^}]*)\}", num, cell)
-    text = re.sub(r"\\[a-zA-Z]+(\{\})?", "", text).replace("$", "").replace("{", "").replace("}", "")
-    return len(text)
+    """Characters a cell takes when typeset: a number (`tex_number`) as its digits (a power of
+    ten: its mantissa, 'x10' and the exponent), other LaTeX commands not counted."""
+    text = cell.replace("\\times", "x")
+    text = re.sub(r"\\[a-zA-Z]+(\{\})?", "", text)
+    return len(re.sub(r"[${}^]", "", text))
+
+
+def pieces(body: list[list], most: int = ROWS) -> list[list[list]]:
+    """A table's rows cut into floats of at most `most` rows each: a group (a heading, a row of one
+    cell, and the rows under it) kept whole in the next float when it fits one, else cut, its
+    heading said again (continued) at the top of the next."""
+    groups = []
+    for r in body:
+        if len(r) == 1 or not groups:
+            groups.append([])
+        groups[-1].append(r)
+    out, cur = [], []
+    for g in groups:
+        if cur and len(cur) + len(g) > most:
+            out.append(cur)
+            cur = []
+        while len(g) > most:
+            out.append(g[:most])
+            g = ([[g[0][0] + " (continued)"]] if len(g[0]) == 1 else []) + g[most:]
+        cur += g
+    return out + [cur] if cur else out
 
 
 def latex_table(caption: str, label: str, head: list, align: list, body: list[list], note: str = "",
                 wrap: int | None = None) -> str:
     """A booktabs table of ready LaTeX cells, \\input-able and never scaled: in one column (`table`)
     when its estimated width (`shown_width`) fits a two-column article's column, else across the
-    text (`table*`). A row of two cells is a first cell and a text spanning the other columns, a
-    row of one cell a heading (in italics) spanning them all.
+    text (`table*`), in floats of at most ROWS rows each (`pieces`), so that each fits a page: the
+    first with the caption and label, the others "Continued from Table N" (labels LABEL:2, ...).
+    A row of two cells is a first cell and a text spanning the other columns, a row of one cell a
+    heading (in italics) spanning them all.
     What is still too wide for its place is wrapped: the column `wrap` (ragged right) and the
     spanning texts."""
     full = [r for r in body if len(r) == len(head)]
@@ -199,30 +225,41 @@ def latex_table(caption: str, label: str, head: list, align: list, body: list[li
     cells = lambda r: r if len(r) == len(head) else [f"\\multicolumn{{{len(head)}}}{{@{{}}l}}{{\\emph{{{r[0]}}}}}"] \
         if len(r) == 1 else [r[0], f"\\multicolumn{{{len(head) - 1}}}{{{span}}}"
                                    f"{{{'' if span == 'l' else chr(92) + 'raggedright '}{r[1]}}}"]
-    lines = [f"\\begin{{{env}}}[tbp]", "\\centering", "\\footnotesize",
-             f"\\caption{{{caption}}}", f"\\label{{{label}}}",
-             f"\\begin{{tabular}}{{@{{}}{''.join(align)}@{{}}}}", "\\toprule", " & ".join(head) + " \\\\", "\\midrule"]
-    lines += [" & ".join(cells(r)) + " \\\\" for r in body]
-    lines += ["\\bottomrule", "\\end{tabular}"]
-    if note:
-        lines += ["\\par\\smallskip", f"\\parbox{{\\linewidth}}{{\\raggedright {note}}}"]
-    lines.append(f"\\end{{{env}}}")
-    return "\n".join(lines) + "\n"
+    floats = []
+    for k, part in enumerate(pieces(body)):
+        said = (caption, label) if k == 0 else (f"Continued from Table~\\ref{{{label}}}.", f"{label}:{k + 1}")
+        lines = [f"\\begin{{{env}}}[tbp]", "\\centering", "\\footnotesize",
+                 f"\\caption{{{said[0]}}}", f"\\label{{{said[1]}}}",
+                 f"\\begin{{tabular}}{{@{{}}{''.join(align)}@{{}}}}", "\\toprule", " & ".join(head) + " \\\\",
+                 "\\midrule"]
+        lines += [" & ".join(cells(r)) + " \\\\" for r in part]
+        lines += ["\\bottomrule", "\\end{tabular}"]
+        if note:
+            lines += ["\\par\\smallskip", f"\\parbox{{\\linewidth}}{{\\raggedright {note}}}"]
+        lines.append(f"\\end{{{env}}}")
+        floats.append("\n".join(lines) + "\n")
+    return "\n".join(floats)
 
 
 def latex_case(case: str, rows_: list[dict]) -> str:
-    """One case's accuracy table (booktabs, siunitx): per solver and channel (by its name and unit,
-    row key `label`: `channels.label`) the RMS and largest difference over the reference's largest
-    magnitude, the dominant frequencies, the tolerance and the result; a run that did not end (row
-    key `status`) one row saying so."""
+    """One case's accuracy table (booktabs): per solver and channel (by its name, row key `label`:
+    `channels.label` without its unit, which the relative differences beside it do not have) the
+    RMS and largest difference over the reference's largest magnitude, the dominant frequencies,
+    the tolerance and the result; a run that did not end (row key `status`) one row saying so."""
     ref = next((r["reference"] for r in rows_ if r["reference"]), "")
+    text = lambda r, k: unitless(r.get(k) or r["channel"]) if k == "label" else fmt(r[k])
     body = [[tex(r["solver"]), tex(r["status"])] if r.get("status") else
-            [tex_number(r[k]) if n else tex(fmt(r.get(k) or r["channel"])) for k, _, _, n in LATEX_COLUMNS]
-            for r in rows_]
+            [tex_number(r[k]) if n else tex(text(r, k)) for k, _, _, n in LATEX_COLUMNS] for r in rows_]
     return latex_table(f"{tex(case)}: accuracy against {tex(ref)}. RMS and largest difference over the "
-                       "reference's largest magnitude; dominant vibration frequencies; the result compares the "
-                       "RMS difference with the tolerance.", f"tab:accuracy:{case}",
+                       "reference's largest magnitude, and the tolerance on the RMS difference: ratios, without a "
+                       "unit; dominant vibration frequencies; the result compares the RMS difference with the "
+                       "tolerance.", f"tab:accuracy:{case}",
                        [h for _, h, _, _ in LATEX_COLUMNS], [a for _, _, a, _ in LATEX_COLUMNS], body, wrap=1)
+
+
+def unitless(label: str) -> str:
+    """A channel's name without the SI unit `channels.label` ends it with ('deflection y at 8 m')."""
+    return re.sub(r" \[[^\[\]]*\]$", "", label)
 
 
 def latex_summary(runs: list) -> str:
@@ -240,13 +277,13 @@ def latex_summary(runs: list) -> str:
     note = (f"{mark}\\,outside its model's linear validity." if any(o.verdict.outside for o in shown) else "")
     return latex_table("Verdict of every run, by case: pass when every graded channel's RMS difference from the "
                        "case's reference solver, over the reference's largest magnitude, is within its tolerance; the "
-                       "worst such difference; the solve wall time.", "tab:accuracy:summary",
+                       "worst such difference (a ratio, without a unit); the solve wall time.", "tab:accuracy:summary",
                        ["solver", "verdict", "worst RMS", "wall [s]"], list("llrr"), body, note)
 
 
 def latex_document(rows_: list[dict], runs: list) -> str:
     """accuracy.tex: the summary table and one table per case, each \\input-able into a document
-    loading booktabs and siunitx (no document of its own)."""
+    loading booktabs (no document of its own)."""
     cases = list(dict.fromkeys(r["case"] for r in rows_))
     head = ("% flexmbd accuracy tables: \\input{accuracy.tex} into a document with\n"
             + "".join(f"% {line}\n" for line in PACKAGES.splitlines()))
