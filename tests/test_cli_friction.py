@@ -10,7 +10,6 @@ import argparse
 import json
 import re
 import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +19,7 @@ from flexmbd import cases, results, version
 from flexmbd.cli import EXIT, main, parser
 from flexmbd.report import accuracy, tables
 from flexmbd.report.accuracy import Outcome
+from test_tables import compile_input
 
 ROOT = Path(__file__).resolve().parent.parent
 FAST = ["--solvers", "analytic,fe-linear", "--workers", "1"]
@@ -208,11 +208,5 @@ def test_a_long_summary_is_cut_into_floats_that_each_fit_a_page():
 @pytest.mark.skipif(shutil.which("pdflatex") is None, reason="no TeX engine on this machine")
 def test_the_whole_accuracy_tex_of_every_case_compiles_and_fits(tmp_path):
     rows, runs = many_runs()
-    (tmp_path / "accuracy.tex").write_text(tables.latex_document(tables.with_failed(rows, runs), runs))
-    (tmp_path / "paper.tex").write_text(f"\\documentclass[twocolumn]{{article}}\n{tables.PACKAGES}\n"
-                                        "\\begin{document}\nText.\n\\input{accuracy.tex}\n\\end{document}\n")
-    r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "paper.tex"], cwd=tmp_path,
-                       capture_output=True, text=True, timeout=120)
-    log = (tmp_path / "paper.log").read_text(errors="replace")
-    assert r.returncode == 0, log[-2000:]
+    log = compile_input(tmp_path, tables.latex_document(tables.with_failed(rows, runs), runs))
     assert "Float too large" not in log and "Overfull \\hbox" not in log

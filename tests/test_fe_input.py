@@ -14,7 +14,8 @@ import pytest
 
 from flexmbd.cli import main
 from flexmbd.fe import meshfile, solid
-from tests.test_fe_meshfile import line_of, refused, write
+from test_fe_meshfile import line_of, refused, write
+from test_solids import case_file
 
 DATA = Path(__file__).resolve().parent / "data"
 
@@ -23,46 +24,11 @@ STEEL = "MAT1,1,2.1+11,,.3,7850.\n"
 INP = "*NODE\n1, 0., 0., 0.\n2, 1., 0., 0.\n3, 0., 1., 0.\n4, 0., 0., 1.\n*ELEMENT, TYPE=C3D4\n1, 1, 2, 3, 4\n"
 BAR = "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nCBAR,1,1,1,2,0.,1.,0.\nPBAR,1,1,1.-4,1.-8,1.-8,2.-8\n" + STEEL
 
-CASE = """title = "solid"
-duration = 0.01
-[materials.steel]
-E = 2.1e11
-nu = 0.3
-rho = 7850.0
-[bodies.block]
-type = "solid"
-material = "steel"
-mesh = {{ file = "{mesh}" }}
-frame = "clamp"
-modes = {{ count = 4 }}
-[bodies.block.interfaces.clamp]
-set = "{clamp}"
-kind = "rigid"
-[bodies.block.interfaces.tip]
-set = "{tip}"
-[joints.fix]
-type = "fixed"
-parent = "ground"
-child = "block"
-[loads.push]
-type = "point_force"
-body = "block"
-at = "tip"
-force = [0.0, -50.0, 0.0]
-[channels.tip_y]
-kind = "deflection"
-body = "block"
-at = "tip"
-[integrator]
-output_dt = 1e-3
-"""
-
 
 def run_refused(tmp_path, capsys, mesh, solver="flexmbd", clamp="clamp", tip="tip") -> str:
     """The one stderr line of `flexmbd run` of a case of a solid meshed by `mesh`, checked to be
     exit status 2 with nothing written."""
-    path = tmp_path / "case.toml"
-    path.write_text(CASE.format(mesh=mesh, clamp=clamp, tip=tip))
+    path = case_file(tmp_path, f'file = "{mesh}"', clamp=clamp, tip=tip, count=4, name="case")
     code = main(["run", str(path), "--solver", solver, "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
     assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
