@@ -30,7 +30,8 @@ KERNEL_FREE = ["test_study.py", "test_results.py", "test_fe_modes.py", "test_ora
                "test_fe_meshfile.py", "test_fe_element.py", "test_fe_stress.py", "test_figures.py", "test_cases.py",
                "test_tables.py", "test_spatial.py", "test_mujoco_loops.py", "test_pinocchio_loops.py",
                "test_exudyn_beam_loops.py", "test_accuracy.py", "test_capabilities.py", "test_completion.py",
-               "test_jit.py", "test_layers.py", "test_profiles.py", "test_progress.py", "test_solvers.py"]
+               "test_jit.py", "test_layers.py", "test_profiles.py", "test_progress.py", "test_solvers.py",
+               "test_fe_input.py", "test_inputs_study.py"]
 
 
 def pytest_configure(config):
