@@ -1,12 +1,14 @@
-"""Case -> Model: the Model arrays (model.Arrays) of a case's bodies, joints and loads."""
+"""Case -> Model: the Model arrays (model.Arrays) of a case's bodies, joints and loads, and the
+cut joints (`constraints.Cut`) of its loops on that Model."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from flexmbd import flexbody, invariants, profiles, spatial
+from flexmbd import constraints, flexbody, invariants, profiles, spatial
 from flexmbd.cases import Rigid
 from flexmbd.joints import JOINT_CODES, NQ, NV, initial_q
+from flexmbd.constraints import ROWS, Cut, Side, axis_basis
 from flexmbd.model import Arrays, Model, empty_arrays, empty_loads
 
 
@@ -67,6 +69,39 @@ def from_case(case, bodies: dict | None = None) -> Model:
     return Model(nb=nb, nq=nq, nv=nv, arrays=arrays, names=("ground",) + tuple(order),
                  jnt_names=tuple(jnames), jnt_motion=tuple(motion), load_profiles=loads[1],
                  bodies=dict(bodies), q0=np.array(q0, dtype=float), v0=np.array(v0, dtype=float))
+
+
+def loops(model: Model, case) -> constraints.Loops | None:
+    """The loops of a resolved case (`case.loops`: its cut joints) on its Model; None without."""
+    return constraints.Loops(model, cuts(model, case)) if case.loops else None
+
+
+def cuts(model: Model, case) -> list:
+    """The Cuts of the case's loop joints (`case.loops`) on `model` (built from `case`): each side
+    on its body's node (a flexible beam: the node's mode block, foreshortening and position) or at
+    its offset, turned so that the joint axis is the side frame's third (`constraints.axis_basis`)."""
+    out = []
+    for j in case.loops.values():
+        if j.type not in ROWS:
+            raise ValueError(f"joint {j.name!r}: a {j.type} joint cannot close a loop (it constrains nothing)")
+        B = axis_basis(j.axis)
+        triad = np.array(j.triad)                       # rows: the triad's axes in the parent frame
+        P = side(model, case, j.parent, j.point, j.offset, triad.T @ B)
+        C = side(model, case, j.child, j.child_point, j.child_offset, B)
+        pos, rot = ROWS[j.type]
+        out.append(Cut(name=j.name, type=j.type, P=P, C=C, pos=pos, rot=rot))
+    return out
+
+
+def side(model: Model, case, body: str, point, offset, E) -> Side:
+    """One side of a cut joint on `body`: at a flexible beam's node, or at `offset` in its frame."""
+    i = model.index(body)
+    b = case.bodies[body]
+    if b.type == "beam" and b.flexible and point is not None:
+        fb, p, nm = model.bodies[body], point.node, model.body_nm[i]
+        D = fb.D[p] if b.stiffening else np.zeros((nm, nm))
+        return Side(body=i, E=E, offset=np.zeros(3), Phi=fb.Phi[p], D=D, x0=fb.x0[p])
+    return Side(body=i, E=E, offset=np.asarray(offset, dtype=float))
 
 
 def attach(A: dict, i: int, j, pbody, fb: flexbody.FlexBody | None) -> None:

@@ -150,8 +150,8 @@ def system_modes(case, about: str, as_json: bool) -> int:
     from flexmbd import linearize
     from flexmbd import jit
     if not jit.is_cached():
-        warn("compiling the solver's kernel once for this source version, to linearize the case "
-             "(about a minute; cached afterwards)")
+        from flexmbd import solver
+        warn(solver.compiling(", to linearize the case"))
     with files.signals_exit():                          # may compile the kernel; writes nothing
         modes = linearize.for_case(case, about, progress=True)
     rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping, "damping_resolution": m.damping_resolution,

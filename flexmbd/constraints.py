@@ -35,7 +35,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from flexmbd import profiles, spatial
-from flexmbd.cases import closure
 from flexmbd.dynamics import node_kinematics
 from flexmbd.kernel import entry
 from flexmbd.model import Model, make_data
@@ -85,28 +84,22 @@ def axis_basis(axis) -> np.ndarray:
     return np.column_stack([n1, cross(a, n1), a])
 
 
-def side(model: Model, case, body: str, point, offset, E) -> Side:
-    i = model.index(body)
-    b = case.bodies[body]
-    if b.type == "beam" and b.flexible and point is not None:
-        fb, p, nm = model.bodies[body], point.node, model.body_nm[i]
-        D = fb.D[p] if b.stiffening else np.zeros((nm, nm))
-        return Side(body=i, E=E, offset=np.zeros(3), Phi=fb.Phi[p], D=D, x0=fb.x0[p])
-    return Side(body=i, E=E, offset=np.asarray(offset, dtype=float))
-
-
-def cuts(model: Model, case) -> list:
-    """The Cuts of the case's loop joints (`case.loops`) on `model` (built from `case`)."""
-    out = []
-    for j in case.loops.values():
-        if j.type not in ROWS:
-            raise ValueError(f"joint {j.name!r}: a {j.type} joint cannot close a loop (it constrains nothing)")
-        B = axis_basis(j.axis)
-        triad = np.array(j.triad)                       # rows: the triad's axes in the parent frame
-        P = side(model, case, j.parent, j.point, j.offset, triad.T @ B)
-        C = side(model, case, j.child, j.child_point, j.child_offset, B)
-        pos, rot = ROWS[j.type]
-        out.append(Cut(name=j.name, type=j.type, P=P, C=C, pos=pos, rot=rot))
+def pick(J, names: list, scale=None) -> list:
+    """The first of `names` (columns of J) that each add to J's rank, up to its rank. `scale` (n,),
+    when given, is each column's own size (what its coordinate can move the rows by at most): a
+    column whose part outside the span of those before it is below 1e-9 of its own size adds
+    nothing, so a mode's round-off out of its plane (1e-12 of its slope) is never taken for a
+    direction it moves in."""
+    J = np.asarray(J, dtype=float)
+    if scale is not None:
+        J = J / np.maximum(np.asarray(scale, dtype=float), np.abs(J).max(axis=0, initial=0.0) + 1e-300)
+    tol = 1e-9 * max(np.abs(J).max(initial=0.0), 1e-300)
+    full, out = np.linalg.matrix_rank(J, tol=tol) if J.size else 0, []
+    for c, name in enumerate(names):
+        if len(out) == full:
+            break
+        if np.linalg.matrix_rank(J[:, [names.index(n) for n in out] + [c]], tol=tol) == len(out) + 1:
+            out.append(name)
     return out
 
 
@@ -208,12 +201,13 @@ def rows(c: Cut, P: Frame, C: Frame):
 
 
 class Loops:
-    """The cut joints of a case on its Model: evaluation, assembly and projection."""
+    """The cut joints (`Cut`s: a case's are `build.cuts`) on a Model: evaluation, assembly and
+    projection."""
 
     NotClosed = NotClosed
 
-    def __init__(self, model: Model, case):
-        self.model, self.cuts = model, cuts(model, case)
+    def __init__(self, model: Model, cuts: list):
+        self.model, self.cuts = model, list(cuts)
         self.data = make_data(model)
         self.zero = np.zeros(model.nv)
         self.dep = None
@@ -270,7 +264,7 @@ class Loops:
                 if m.jnt_nv[i] == 1 and not m.jnt_prescribed[i] and m.jnt_qadr[i] == m.jnt_vadr[i]]
         cand += [k for i in range(m.nb, 0, -1) if m.jnt_qadr[i] == m.jnt_vadr[i]
                  for k in range(m.body_madr[i] + m.body_nm[i] - 1, m.body_madr[i] - 1, -1)]
-        dep = closure.pick(G[:, cand], cand, [self.size(k) for k in cand])
+        dep = pick(G[:, cand], cand, [self.size(k) for k in cand])
         return np.array(sorted(dep), dtype=int)
 
     def size(self, k: int) -> float:

@@ -13,6 +13,11 @@ a few, which is what a guard needs. What no formula knows is how an adaptive int
 size will go: a model that nears a singular configuration (a beam so soft that it folds) makes
 it take far smaller steps than estimated, which the progress bar then shows.
 
+A solver's own stages are its module's knowledge (`stages(case, t_end, settings)`: the in-house
+integrator's in solver.py, each peer's in its adapter), built from the shared estimates here (the
+FE modes, fixed steps, the key that drives a step count); this module adds the output table every
+solver writes, and a plug-in is estimated by that alone.
+
 The limits (README.md, "Cost limits"): no stage may need more than MEMORY_LIMIT bytes (so that
 the process stays under 4 GB with its libraries), nor take more than SILENT_LIMIT seconds
 without showing progress on stderr; a stage that shows progress (the in-house integrator's bar,
@@ -29,8 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import constraints, flexbody, solvers
-from flexmbd.adapters import fe_linear as fe_linear_adapter
+from flexmbd import flexbody, solvers
 from flexmbd.errors import InputError
 
 MEMORY_LIMIT = 3e9          # bytes, of one stage
@@ -105,22 +109,17 @@ def _duration(s: float) -> str:
 
 
 def stages(case, solver: str | None, t_end: float | None = None) -> list:
-    """Every costly stage of `solver` on `case` up to t_end (default: the case's duration)."""
+    """Every costly stage of `solver` on `case` up to t_end (default: the case's duration): a
+    built-in solver's own, from its module (`stages(case, t_end, settings)`: flexmbd's in
+    solver.py, each peer's in its adapter), and the output table every solver writes (`output`)."""
     t_end = case.duration if t_end is None else t_end
     if solver is None:
         return modes(case)
     if solvers.status_for(case, solver):               # unavailable or not applicable: nothing runs
         return []
     opt = solvers.settings(case, solver)
-    out = {"flexmbd": lambda: modes(case) + flexmbd(case, t_end),
-           "exudyn-ffrf": lambda: modes(case) + exudyn_ffrf(case, t_end, opt),
-           "fe-linear": lambda: fe_linear(case, t_end, opt),
-           "analytic": lambda: analytic(case, t_end, opt),
-           "exudyn-beam": lambda: exudyn_beam(case, t_end, opt),
-           "mujoco-rod": lambda: mujoco_rod(case, t_end, opt),
-           "mujoco": lambda: modes(case, rigid=True) + fixed_step(case, t_end, opt["dt"], "solvers.mujoco.dt", 6e-6),
-           "pinocchio": lambda: modes(case, rigid=True)}.get(solver, list)()      # a plug-in: its output only
-    return out + [output(case, t_end)]
+    own = getattr(solvers.module(solver), "stages", None) if solver in solvers.BUILT_IN else None
+    return (own(case, t_end, opt) if own else []) + [output(case, t_end)]      # a plug-in: its output only
 
 
 def samples(case, t_end: float) -> int:
@@ -128,7 +127,7 @@ def samples(case, t_end: float) -> int:
     return int(round(t_end / case.integrator.output_dt)) + 1
 
 
-def _time_key(case, t_end: float, step_key: str, step: float, default: float) -> str:
+def time_key(case, t_end: float, step_key: str, step: float, default: float) -> str:
     """The key that drives a step count: the step when it is below its default, else the duration."""
     if step < default:
         return step_key
@@ -157,7 +156,7 @@ def output(case, t_end: float) -> Stage:
     nb, nc = len(res.tree), len(case.channels)
     per_sample = 8 * (100 * (nb + 1) + 2 * (res.nq + res.nv) + 20)
     state_s = 1.5e-4 + 5e-5 * nb
-    key = _time_key(case, t_end, "integrator.output_dt", case.integrator.output_dt, 1e-3)
+    key = time_key(case, t_end, "integrator.output_dt", case.integrator.output_dt, 1e-3)
     if nc * VALUE_S > state_s:
         key = "channels"
     return Stage(f"forming and storing {nc} channels at {n} output samples (duration / output_dt), "
@@ -263,56 +262,6 @@ def evaluation(case) -> float:
     return sum(1e-5 + 3e-8 * b.modes ** 2 + 2.5e-10 * b.modes ** 3 for b in case.modelled.tree)
 
 
-# h omega (step x the highest retained frequency, rad/s) of each adaptive method's steps at rtol
-# 1e-8: accuracy, not stability, sets it. Measured on the pendulum (437 Hz, t_end 0.5 s): adams
-# 0.092, dopri5 0.095, rk45 0.096, dop853 0.35. It grows about as rtol^0.15 (dopri5: 0.154 at rtol
-# 1e-6, 0.039 at 1e-10) up to the method's stability bound (adams 0.102 at 1e-6).
-REACH = {"adams": 0.09, "dopri5": 0.095, "rk45": 0.095, "dop853": 0.35}
-STABLE = {"adams": 0.1, "dopri5": 3.3, "rk45": 2.8, "dop853": 4.0}
-# right-hand sides per step (pendulum: adams 1.84, dopri5 6.3, rk45 6.0, dop853 12.0, fox-goodwin
-# 2.0) and the Python around each one (s; pendulum, against 16 us for the right-hand side: adams
-# 18.6 us, rk4 30 us, rk45 53 us, dop853 36 us; dopri5 and fox-goodwin are compiled whole)
-# exp-adams: two a step and its linearizations, 2.6 a step on the pendulum at 1 ms (5.0 on the
-# double pendulum, where every one is full), and its eigenbasis work around them, about 3 us each
-EVALS = {"adams": 2, "dopri5": 7, "rk45": 7, "dop853": 13, "rk4": 4, "fox-goodwin": 2, "exp-adams": 2.6}
-AROUND = {"adams": 3e-6, "rk4": 1.5e-5, "rk45": 4e-5, "dop853": 2e-5, "dopri5": 0.0, "fox-goodwin": 0.0,
-          "exp-adams": 3e-6}
-# a closed loop's right-hand side (`constraints.Loops.rates`): one evaluation per constraint row more,
-# and the Python around them (rows, Jacobians, the multipliers' solve, scipy's step): measured
-# 0.36 ms (slider_crank), 0.45 ms (four_bar), 0.73 ms (four_bar_rigid, cores busy) per right-hand side
-LOOP_AROUND = 4e-4
-
-
-def flexmbd(case, t_end: float) -> list:
-    """The in-house integrator: evaluations x the cost of one (`evaluation`). Adaptive methods
-    take at least duration / max_step steps, and about duration x the highest retained frequency
-    / REACH (at rtol 1e-8, scaled as rtol^0.15, at most STABLE); a run whose step size collapses
-    (a singular moment) takes more, which no estimate knows. rk45 and dop853 show no progress."""
-    ig = case.integrator
-    method = ig.method
-    if method in ("rk4", "fox-goodwin", "exp-adams"):
-        steps = t_end / ig.dt
-        evals = steps * EVALS[method] + case.modelled.nv + 2
-        key, how = _time_key(case, t_end, "integrator.dt", ig.dt, 1e-4), "duration / dt"
-    else:
-        omega, beam = highest_frequency(case)
-        reach = min(REACH[method] * (ig.rtol / 1e-8) ** 0.15, STABLE[method])
-        steps = max(t_end / ig.max_step, t_end * omega / reach)
-        evals = steps * EVALS[method]
-        key, how = _time_key(case, t_end, "integrator.max_step", ig.max_step, 1e-3), "at least duration / max_step"
-        if t_end * omega / reach > t_end / ig.max_step:
-            key = "duration" if t_end == case.duration else "--t-end"
-            how = (f"duration x the highest retained frequency of beam {beam!r}, {omega / (2 * math.pi):.3g} Hz, "
-                   f"over h omega = {reach:.2g}")
-    per_eval = evaluation(case) + AROUND[method]
-    if case.loops:
-        rows = sum(len(constraints.ROWS.get(j.type, ((), ()))[0]) + len(constraints.ROWS.get(j.type, ((), ()))[1])
-                   for j in case.loops.values())
-        per_eval = (1 + rows) * evaluation(case) + LOOP_AROUND
-    return [Stage(f"integrating {steps:.3g} {method} steps ({how})", key, memory=0.0,
-                  seconds=evals * per_eval, progress=method not in ("rk45", "dop853"))]
-
-
 def highest_frequency(case) -> tuple[float, str]:
     """(omega, beam): an estimate of the highest retained natural frequency (rad/s) of the modal
     model, which bounds an explicit method's step (h omega of order 1): the `count` lowest of the
@@ -384,83 +333,6 @@ def fixed_step(case, t_end: float, dt: float, key: str, per_step: float) -> list
     """A solver stepping at dt rounded to divide output_dt."""
     out_dt = case.integrator.output_dt
     steps = (samples(case, t_end) - 1) * max(round(out_dt / dt), 1)
-    return [Stage(f"stepping {steps:.3g} steps of {out_dt / max(round(out_dt / dt), 1):.3g} s", _time_key(case, t_end, key, dt, 1e-4),
+    return [Stage(f"stepping {steps:.3g} steps of {out_dt / max(round(out_dt / dt), 1):.3g} s", time_key(case, t_end, key, dt, 1e-4),
                   memory=0.0, seconds=steps * per_step)]
 
-
-def fe_linear(case, t_end: float, opt: dict) -> list:
-    """Full-order FE: the exact scheme exponentiates the dense 2n x 2n system matrix and steps by
-    dense products; the modal scheme solves the dense n x n eigenproblem and steps every mode;
-    newmark factorizes once and steps by sparse solves; damping takes a dense eigensolution of all
-    n DOFs."""
-    name, body = next((n, b) for n, b in case.bodies.items() if b.type != "point_mass")   # point masses: node masses
-    n = solid_dofs(body) if body.type == "solid" else 6 * body.elements
-    damped = body.damping_ratio > 0
-    mesh = body.type == "solid" and not body.is_frame   # a 3-D mesh; a frame steps as a beam
-    scheme = opt["scheme"] or ("newmark" if mesh else "exact" if damped else "modal")
-    dt = opt["dt"] or (5e-5 if scheme == "newmark" else case.integrator.output_dt)
-    out_dt = case.integrator.output_dt
-    stride = max(round(out_dt / dt), 1)
-    steps = (samples(case, t_end) - 1) * stride
-    if scheme == "exact":
-        setup_s, setup_b, per_step = 3e-10 * (2 * n) ** 3, 48.0 * (2 * n) ** 2, 1e-9 * (2 * n) ** 2
-    elif scheme == "modal":                     # eigh of the dense pair (its bar: elapsed against this
-        # estimate), then per step O(n) and u = Phi q at every sample (2 n^2 flops each)
-        setup_s, setup_b = fe_linear_adapter.EIGH_S * n ** 3, 48.0 * n ** 2
-        per_step = 1e-8 * n + 2e-5 + 4e-10 * n * n / stride
-    elif mesh:                                  # a 3-D mesh's factor fills in more: 2.1 ms a step at 5,463 DOFs
-        setup_s, setup_b, per_step = 1e-4 * n, SOLID_BYTES * n, 4e-7 * n + 2e-5
-    else:
-        setup_s, setup_b, per_step = 1e-5 * n, 8.0 * 200 * n, 1e-8 * 12 * n + 2e-5
-    if damped:
-        setup_s, setup_b = setup_s + 5e-10 * n ** 3, setup_b + 40.0 * n ** 2
-    matrix = f"bodies.{name}.mesh" if body.type == "solid" else f"bodies.{name}.elements"
-    steps_key = "solvers.fe-linear.dt" if opt["dt"] and opt["dt"] < out_dt else \
-        ("duration" if t_end == case.duration else "--t-end")
-    return [Stage(f"setting up the {scheme} scheme for {n} DOFs", matrix, memory=setup_b, seconds=setup_s,
-                  progress=scheme == "modal"),
-            Stage(f"stepping {n} DOFs through {steps:.3g} {scheme} steps of {out_dt / stride:.3g} s",
-                  steps_key if steps * per_step > setup_s else matrix,
-                  memory=32.0 * samples(case, t_end) * n, seconds=steps * per_step,
-                  progress=mesh)]
-
-
-def analytic(case, t_end: float, opt: dict) -> list:
-    """Closed forms: modes per plane x output samples (the modal responses) and x 4001 quadrature
-    points (the modal loads of gravity), two planes."""
-    n, k = opt["modes"], samples(case, t_end)
-    key = "solvers.analytic.modes" if n > 200 else _time_key(case, t_end, "integrator.output_dt",
-                                                              case.integrator.output_dt, 1e-3)
-    return [Stage(f"summing {n} continuous modes per plane over {k} samples", key,
-                  memory=8.0 * n * (6 * k + 3 * 4001), seconds=2e-7 * n * k + 2e-4 * n)]
-
-
-def exudyn_beam(case, t_end: float, opt: dict) -> list:
-    """Exudyn's beam elements: steps x elements (sparse Newton iterations), with progress shown."""
-    n_beams = sum(1 for b in case.bodies.values() if b.type == "beam")
-    el, out_dt, dt = opt["elements"] * n_beams, case.integrator.output_dt, opt["dt"]
-    dt = out_dt / max(round(out_dt / dt), 1) if dt <= out_dt else dt
-    steps = t_end / dt
-    key = "solvers.exudyn-beam.elements" if el > 10000 else _time_key(case, t_end, "solvers.exudyn-beam.dt", opt["dt"], 1e-4)
-    return [Stage(f"stepping {el} beam elements through {steps:.3g} steps", key,
-                  memory=8.0 * 6 * (el + n_beams) * 300, seconds=steps * (2e-5 + 2e-6 * el), progress=True)]
-
-
-def exudyn_ffrf(case, t_end: float, opt: dict) -> list:
-    """Exudyn's reduced bodies: steps x the dense modal blocks (modes^2), with progress shown."""
-    m2 = sum((m + 7) ** 2 for _, _, m, _ in beams(case))
-    out_dt, dt = case.integrator.output_dt, opt["dt"]
-    dt = out_dt / max(round(out_dt / dt), 1) if dt <= out_dt else dt
-    steps = t_end / dt
-    return [Stage(f"stepping the reduced bodies through {steps:.3g} steps", _time_key(case, t_end, "solvers.exudyn-ffrf.dt",
-                                                                         opt["dt"], 2.5e-5),
-                  memory=0.0, seconds=steps * (5e-5 + 4e-7 * m2), progress=True)]
-
-
-def mujoco_rod(case, t_end: float, opt: dict) -> list:
-    """MuJoCo's rod: steps x edges, with progress shown."""
-    edges = opt["edges"]
-    st = fixed_step(case, t_end, opt["dt"], "solvers.mujoco-rod.dt", 1e-5 + 4e-6 * edges)[0]
-    key = "solvers.mujoco-rod.edges" if edges > 1000 else st.key
-    return [Stage(f"{st.what} with a rod of {edges} edges", key, memory=8.0 * 2000 * edges, seconds=st.seconds,
-                  progress=True)]

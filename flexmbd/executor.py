@@ -42,7 +42,6 @@ THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
 TRIES = 2               # runs of a job whose worker died, before it is a failed result
 POOL_ABOVE = 5.0        # s of estimated work (`cost.stages`) from which the default pool starts workers
 COMPILES = ("flexmbd",)  # solvers whose first run on a machine compiles the kernel (`jit.is_cached`)
-COMPILE_S = 80.0        # s, about what that compile takes on this project's reference machine
 START = "fork" if sys.platform.startswith("linux") else "spawn"   # how a local worker starts (`Worker`)
 CONNECT_S = 5.0         # s within which a --scheduler must take a connection and answer Dask's handshake
 
@@ -191,11 +190,11 @@ def _run(jobs: list, k: int, own: dict) -> Result:
 
 def _longest_first(jobs: list, runnable: list) -> tuple[list, dict]:
     """The runnable jobs' indices, longest first, and k -> its estimated seconds (`cost.stages`;
-    while the kernel is not compiled, the first job of COMPILES also pays COMPILE_S)."""
+    while the kernel is not compiled, the first job of COMPILES also pays its solver's COMPILE_S)."""
     seconds = {k: _seconds(*jobs[k]) for k in runnable}
     first = next((k for k in runnable if jobs[k][1] in COMPILES), None)
     if first is not None and not jit.is_cached():       # its compile: the longest job of all
-        seconds[first] += COMPILE_S
+        seconds[first] += solvers.module(jobs[first][1]).COMPILE_S
     return sorted(runnable, key=lambda k: -seconds[k]), seconds
 
 

@@ -19,9 +19,9 @@ Methods (the case's `[integrator] method`):
           functional iteration (PECE), as in the paper: ODEPACK's VODE through scipy
   rk45, dop853   explicit embedded Runge-Kutta pairs (scipy's solve_ivp), for comparison
   rk4     classical fixed-step Runge-Kutta, step `dt`
-A state or acceleration that is not finite, or a velocity beyond DIVERGED (results.DIVERGED_V,
-the divergence rule's bound on a velocity state), ends the run with a failed status at the time
-it happened; every output instant reached before it is kept. A caller's `check` of the output
+A state or acceleration that is not finite, or a velocity beyond DIVERGED (the divergence rule's
+bound on a velocity state), ends the run as failed (`Ended`: why, and when) at the time it
+happened; every output instant reached before it is kept. A caller's `check` of the output
 samples (the divergence rule on the channels: `solver.watch`) ends it too, at the first sample it
 fails (kept, for the rule after the run to cut), judged as the samples come: after each chunk of
 the compiled integrators, at each sample of the Python loops (adams, rk4).
@@ -32,24 +32,37 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from scipy import integrate as scipy_ivp
 from scipy.integrate import ode, solve_ivp
 
-from flexmbd import results
 from flexmbd.dense import mv
 from flexmbd.jit import compiling, njit
 from flexmbd.kernel.bound import bind
 from flexmbd.kernel.entry import handle, rhs
 from flexmbd.model import Model, make_data
-from flexmbd.progress import Progress
 
-DIVERGED = results.DIVERGED_V    # |v| beyond this (rad/s, m/s, modal units) counts as divergence
+DIVERGED = 1e8      # |v| beyond this (rad/s, m/s, modal units) counts as divergence: the divergence rule's
+                    # bound on a velocity state, the same for every solver (`results.first_failure` its others)
+
+
+class Ended(NamedTuple):
+    """How a run of the integrators ended: `ok`, or failed for `why` at `t` (s; None: not known).
+    The harness makes it a run's status (`solver.run`)."""
+
+    ok: bool = True
+    why: str = ""
+    t: float | None = None
+
+
+def failed(why: str, t=None) -> Ended:
+    return Ended(False, why, None if t is None else float(t))
 
 
 class Stop(Exception):
-    """Raised inside the right-hand side to end a run that has failed; args[0] is its Status."""
+    """Raised inside the right-hand side to end a run that has failed; args[0] is its `Ended`."""
 
 
 @dataclass
@@ -57,7 +70,7 @@ class Simulation:
     t: np.ndarray                   # (n,) output instants, s
     q: np.ndarray                   # (n, nq)
     v: np.ndarray                   # (n, nv)
-    status: results.Status = field(default_factory=results.Status)
+    status: Ended = field(default_factory=Ended)
     steps: int = 0
     rhs_evals: int = 0
     wall_s: float = 0.0
@@ -75,7 +88,7 @@ def rhs_function(model: Model):
         count[0] += 1
         yd = rhs(ev, float(t), y, nq)
         if not np.all(np.isfinite(yd)):
-            raise Stop(results.failed(NON_FINITE[1], t))
+            raise Stop(failed(NON_FINITE[1], t))
         return yd
 
     f.bound = b                 # alive as long as f: the compiled code reaches it by address
@@ -184,12 +197,14 @@ def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
 
 
 def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e-8, atol: float = 1e-10,
-             max_step: float = 1e-3, dt: float = 1e-4, output_dt: float = 1e-3, progress: bool = True,
-             label: str = "", check=None, refresh: int | None = None) -> Simulation:
+             max_step: float = 1e-3, dt: float = 1e-4, output_dt: float = 1e-3, progress=None,
+             check=None, refresh: int | None = None) -> Simulation:
     """Integrate from (model.q0, model.v0) over [0, t_end]; states sampled every output_dt.
-    check(t (m,), Q (m, nq), V (m, nv)) -> (i, Status) | None: the first of new output samples at
-    which the run has failed (`judge`); the run ends there, that sample its last. refresh: exp-adams'
-    steps between two linearizations (None: EXP_REFRESH)."""
+    check(t (m,), Q (m, nq), V (m, nv)) -> (i, status) | None: the first of new output samples at
+    which the run has failed (`judge`; the status's `why` and `t` are kept); the run ends there,
+    that sample its last. refresh: exp-adams' steps between two linearizations (None:
+    EXP_REFRESH). progress: told the time reached (`update(t)`, `tracking(f)`: f wrapped to tell
+    it at each evaluation; `close()` at the end), as `progress.Progress` is; None: nothing told."""
     refresh = EXP_REFRESH if refresh is None else refresh
     n = int(round(t_end / output_dt))
     t_out = np.linspace(0.0, n * output_dt, n + 1)
@@ -202,11 +217,11 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
         settings = {"method": method, "dt": dt, "rtol": rtol, "atol": atol, "output_dt": output_dt}
     if method == "exp-adams":
         settings = {"method": method, "dt": dt, "refresh": refresh, "output_dt": output_dt}
-    bar = Progress(t_end, label) if progress else None
+    bar = progress or None
     Y = np.full((t_out.size, y0.size), np.nan)
     Y[0] = y0
     start = time.perf_counter()
-    status, steps, k = results.Status(), 0, 0
+    status, steps, k = Ended(), 0, 0
     judged = None if check is None else lambda k0, k1: judge(check, t_out, Y, model.nq, k0, k1)
     try:
         if y0.size == 0:                # nothing moves (every joint fixed, no modes): every sample is the start
@@ -237,7 +252,7 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
     keep = slice(0, k + 1)
     code = state_code(Y[k], model.nq) if status.ok else OK     # the integrators without a check of their own
     if code != OK:
-        status = results.failed(WHY[code], t_out[k])
+        status = failed(WHY[code], t_out[k])
     return Simulation(t=t_out[keep], q=Y[keep, :model.nq], v=Y[keep, model.nq:], status=status,
                       steps=steps, rhs_evals=count[0], wall_s=wall, settings=settings)
 
@@ -344,12 +359,12 @@ def fox_goodwin(ev, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
 def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50, judged=None):
     """Drive the compiled `fox_goodwin` over chunks of output instants."""
     if model.nq != model.nv:
-        raise Stop(results.failed("fox-goodwin needs q and v aligned (no spherical or free joints)", 0.0))
+        raise Stop(failed("fox-goodwin needs q and v aligned (no spherical or free joints)", 0.0))
     b, nq = bind(model, make_data(model)), model.nq
     ev = handle(b)
     acc = np.ascontiguousarray(rhs(ev, 0.0, y0, nq)[nq:])
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(acc))):
-        return 0, 0, 1, results.failed("non-finite state", 0.0)
+        return 0, 0, 1, failed("non-finite state", 0.0)
     y, counts = y0.copy(), np.zeros(3, dtype=np.int64)
     Jinv = np.ascontiguousarray(newmark_matrix(ev, nq, 0.0, y0, dt, 1.0 / 12.0, 0.5))
     counts[2] += y0.size + 2
@@ -382,7 +397,7 @@ def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50, judged=Non
     ev = handle(b)
     f0 = rhs(ev, 0.0, y0, nq)
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(f0))):
-        return 0, 0, 1, results.failed("non-finite state", 0.0)
+        return 0, 0, 1, failed("non-finite state", 0.0)
     w = atol + rtol * np.abs(y0)
     d0, d1 = np.sqrt(np.mean((y0 / w) ** 2)), np.sqrt(np.mean((f0 / w) ** 2))
     h = min(0.01 * d0 / d1 if min(d0, d1) > 1e-5 else 1e-6, max_step)      # Hairer's first guess
@@ -412,20 +427,20 @@ def _in_chunks(advance, t_out, counts, bar, chunk, judged=None):
         j, code, t = advance(k, k1)
         k0, k = k, k + j
         if code != OK:
-            return k, int(counts[0]), int(counts[2]), results.failed(WHY[code], t)
+            return k, int(counts[0]), int(counts[2]), failed(WHY[code], t)
         hit = judged(k0 + 1, k) if judged and k > k0 else None
         if hit is not None:
             return hit[0], int(counts[0]), int(counts[2]), hit[1]
         if bar:
             bar.update(t_out[k])
-    return k, int(counts[0]), int(counts[2]), results.Status()
+    return k, int(counts[0]), int(counts[2]), Ended()
 
 
 def judge(check, t_out, Y, nq, k0, k1):
     """`check` (simulate's) of the output samples k0..k1 (rows of Y): (the first failed sample's
-    index, its Status) or None."""
+    index, its `Ended`) or None."""
     hit = check(t_out[k0:k1 + 1], Y[k0:k1 + 1, :nq], Y[k0:k1 + 1, nq:])
-    return None if hit is None else (k0 + hit[0], hit[1])
+    return None if hit is None else (k0 + hit[0], failed(hit[1].why, hit[1].t))
 
 
 def reached(Y) -> int:
@@ -438,7 +453,7 @@ def _check(y, t, nq):
     """Stop a run whose state y = [q; v] breaks the divergence rule (`state_code`)."""
     code = state_code(y, nq)
     if code != OK:
-        raise Stop(results.failed(WHY[code], t))
+        raise Stop(failed(WHY[code], t))
 
 
 def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq, judged=None):
@@ -457,7 +472,7 @@ def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq, judged=None):
         if not r.successful():
             why = str(said[-1].message).removeprefix("vode: ").split(" (Perhaps")[0].rstrip(". ") if said else ""
             return k - 1, int(r._integrator.iwork[10]), \
-                results.failed(f"VODE return code {r.get_return_code()}{': ' + why if why else ''}", r.t)
+                failed(f"VODE return code {r.get_return_code()}{': ' + why if why else ''}", r.t)
         _check(y, t_out[k], nq)
         Y[k] = y
         if bar:
@@ -465,7 +480,7 @@ def _adams(f, y0, t_out, Y, rtol, atol, max_step, bar, nq, judged=None):
         hit = judged(k, k) if judged else None
         if hit is not None:
             return k, int(r._integrator.iwork[10]), hit[1]
-    return k, int(r._integrator.iwork[10]), results.Status()
+    return k, int(r._integrator.iwork[10]), Ended()
 
 
 def _rk4(f, y0, t_out, Y, dt, bar, nq, judged=None):
@@ -483,7 +498,7 @@ def _rk4(f, y0, t_out, Y, dt, bar, nq, judged=None):
                 return k, steps, hit[1]
     except Stop as e:
         return k - 1, steps, e.args[0]
-    return t_out.size - 1, steps, results.Status()
+    return t_out.size - 1, steps, Ended()
 
 
 def _rk4_interval(f, y, t0, t1, dt, nq) -> int:
@@ -508,13 +523,13 @@ PROJECTED = {"dopri5": "RK45", "rk45": "RK45", "dop853": "DOP853", "rk4": None} 
 
 
 def simulate_loops(loops, t_end: float, method: str = "dopri5", rtol: float = 1e-8, atol: float = 1e-10,
-                   max_step: float = 1e-3, output_dt: float = 1e-3, progress: bool = True,
-                   label: str = "", dt: float = 1e-4) -> Simulation:
+                   max_step: float = 1e-3, output_dt: float = 1e-3, progress=None,
+                   dt: float = 1e-4) -> Simulation:
     """Integrate a tree closed by cut joints (`constraints.Loops`) from its assembled start
     (the case's values closed by `loops.close`) over [0, t_end], sampled every output_dt: each
     output interval by an explicit embedded Runge-Kutta pair (scipy's, continuing with the last
     step size) or by classical Runge-Kutta in equal steps <= dt (`rk4`) on the constrained
-    rates, then the state projected onto the constraints (`loops.close`), which therefore hold
+    rates (`progress` told as `simulate`'s), then the state projected onto the constraints (`loops.close`), which therefore hold
     to its tolerance at every output instant. Only the one-step methods (PROJECTED) restart
     cleanly after a projection."""
     model = loops.model
@@ -527,7 +542,7 @@ def simulate_loops(loops, t_end: float, method: str = "dopri5", rtol: float = 1e
     count = [0]
     start = time.perf_counter()
     if method not in PROJECTED:
-        return Simulation(t=t_out[:0], q=Y[:0, :nq], v=Y[:0, nq:], settings=settings, status=results.failed(
+        return Simulation(t=t_out[:0], q=Y[:0, :nq], v=Y[:0, nq:], settings=settings, status=failed(
             f"integrator {method!r} cannot restart after each projection onto a closed loop's constraints "
             f"(use {', '.join(list(PROJECTED)[:-1])} or {list(PROJECTED)[-1]})", 0.0))
 
@@ -535,8 +550,8 @@ def simulate_loops(loops, t_end: float, method: str = "dopri5", rtol: float = 1e
         count[0] += 1
         return loops.rates(t, y[:nq], y[nq:])[0]
 
-    bar = Progress(t_end, label) if progress else None
-    status, steps, h, k = results.Status(), 0, None, 0
+    bar = progress or None
+    status, steps, h, k = Ended(), 0, None, 0
     try:
         Y[0] = np.concatenate(loops.close(0.0, model.q0, model.v0))
         for k in range(1, t_out.size):
@@ -551,7 +566,7 @@ def simulate_loops(loops, t_end: float, method: str = "dopri5", rtol: float = 1e
                     r.step()
                     steps += 1
                 if r.status == "failed":
-                    status = results.failed(r.message, r.t)
+                    status = failed(r.message, r.t)
                     k -= 1
                     break
                 h, y = r.step_size or None, r.y
@@ -563,7 +578,7 @@ def simulate_loops(loops, t_end: float, method: str = "dopri5", rtol: float = 1e
         status, k = e.args[0], reached(Y)
     except loops.NotClosed as e:
         when = "cannot close at the initial values" if k == 0 else "no longer closes"
-        status = results.failed(f"the loop of joint {e.args[0]!r} {when} (residual {e.args[1]:.3g})", t_out[k])
+        status = failed(f"the loop of joint {e.args[0]!r} {when} (residual {e.args[1]:.3g})", t_out[k])
         k = max(k - 1, 0)
     if bar:
         bar.close()
@@ -578,7 +593,7 @@ def _solve_ivp(f, y0, t_out, Y, method, rtol, atol, max_step):
     k = sol.y.shape[1] - 1
     Y[:k + 1] = sol.y.T
     stages = {"rk45": 6, "dop853": 12}[method]
-    status = results.Status() if sol.success else results.failed(sol.message, sol.t[-1])
+    status = Ended() if sol.success else failed(sol.message, sol.t[-1])
     return k, sol.nfev // stages, status
 
 
@@ -943,7 +958,7 @@ def _exp_adams(model, y0, t_out, Y, dt, output_dt, bar, chunk=50, judged=None, r
     ev = handle(b)
     f0 = rhs(ev, 0.0, y0, nq)
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(f0))):
-        return 0, 0, 1, results.failed("non-finite state", 0.0)
+        return 0, 0, 1, failed("non-finite state", 0.0)
     m, p = (max(int(round(dt / output_dt)), 1), 1) if dt >= output_dt else (1, int(np.ceil(output_dt / dt - 1e-9)))
     h, n = output_dt * m / p, y0.size
     Yh, Fh = np.zeros((EXP_ORDER, n)), np.zeros((EXP_ORDER, n))

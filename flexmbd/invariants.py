@@ -15,7 +15,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd.flexbody import FlexBody
 from flexmbd.jit import njit
 from flexmbd.spatial import cross_force_into, skew, skew_rows
 
@@ -40,9 +39,12 @@ class Invariants(NamedTuple):
     #                                          the terms they enter are skipped
 
 
-def invariants(fb: FlexBody, stiffening: bool = False) -> Invariants:
+def invariants(fb, stiffening: bool = False) -> Invariants:
     """The inertia shape invariants I1..I10 of one reduced body (leading axis of size 1), and with
-    `stiffening` the foreshortening sums Db, Dh (docs/formulation.md §4b; zero without)."""
+    `stiffening` the foreshortening sums Db, Dh (docs/formulation.md §4b; zero without). `fb` holds
+    the body's arrays by name, as `flexbody.FlexBody` does: node positions x0 (N, 3), masses m (N,),
+    rotary inertias J (N, 3, 3), mode blocks Phi (N, 6, nm), and what the reduction adds (a solid's
+    consistent-mass sums Mx0, MPt; the foreshortening D)."""
     m, x0 = fb.m, fb.x0
     Pt = fb.Phi[:, 3:, :]                                            # (N, 3, nm)
     if fb.Mx0.shape[0]:                                             # a consistent mass (a solid)

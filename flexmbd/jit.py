@@ -6,7 +6,7 @@ Every compiled function in flexmbd is decorated with `njit` (or, for the kernel'
 numba's cache notices edits to a function's own file but not to the functions it calls from
 other files, so the cache lives in a folder named after a hash of every source file that holds
 compiled code (`compiled_sources`: those that import from `flexmbd.jit`, this file and the
-kernel's), of the Model layout in model.py and of the constants in results.py: any edit to them
+kernel's) and of the Model layout in model.py: any edit to them
 starts a fresh cache, and a stale compiled kernel can never be loaded. Each function's cache
 (`Cache`) lives in that folder only, never beside the sources, and an entry that cannot be loaded
 (a file cut short or overwritten) is removed and compiled again.
@@ -40,11 +40,11 @@ _SOURCE = Path(__file__).resolve().parent             # the flexmbd package
 def compiled_sources() -> list[Path]:
     """The source files the compiled code depends on, sorted: this file (the compile options),
     the kernel's files, every file that imports from `flexmbd.jit` (those with compiled
-    functions), model.py (the Model layout) and results.py (the constants they use)."""
+    functions) and model.py (the Model layout)."""
     out = []
     for p in sorted(_SOURCE.rglob("*.py")):
         rel = p.relative_to(_SOURCE).as_posix()
-        if rel in ("jit.py", "model.py", "results.py") or rel.startswith("kernel/") \
+        if rel in ("jit.py", "model.py") or rel.startswith("kernel/") \
                 or b"from flexmbd.jit import" in p.read_bytes():
             out.append(p)
     return out

@@ -12,10 +12,12 @@ from __future__ import annotations
 import numpy as np
 
 from flexmbd import spatial
-from flexmbd.cases import JOINT_COORDS
 from flexmbd.jit import njit
 from flexmbd.spatial import plux, quat_rate, quat_to_rot, xlt, xrot
 
+# each joint type's (coordinates, velocities): one each for revolute and prismatic, a quaternion and
+# the angular velocity for spherical, a quaternion and a position and [w; v] for free
+JOINT_COORDS = {"fixed": (0, 0), "revolute": (1, 1), "prismatic": (1, 1), "spherical": (4, 3), "free": (7, 6)}
 FIXED, REVOLUTE, PRISMATIC, SPHERICAL, FREE = range(5)
 JOINT_CODES = {"fixed": FIXED, "revolute": REVOLUTE, "prismatic": PRISMATIC,
                "spherical": SPHERICAL, "free": FREE}

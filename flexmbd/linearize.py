@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import linalg, optimize
 
-from flexmbd import constraints, dynamics, flexbody, joints
+from flexmbd import build, constraints, dynamics, flexbody, joints
 from flexmbd.build import from_case
 from flexmbd.errors import InputError
 from flexmbd.kernel.entry import forward_dynamics
@@ -45,7 +45,7 @@ def model_of(case) -> Model:
 
 def loops_of(case, model: Model) -> constraints.Loops | None:
     """The case's cut joints on its Model (None without loops)."""
-    return constraints.Loops(model, case.modelled) if case.loops else None
+    return build.loops(model, case.modelled)
 
 
 def coordinates(model: Model, loops: constraints.Loops | None) -> np.ndarray:

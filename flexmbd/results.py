@@ -109,8 +109,7 @@ def unavailable(why: str) -> Status:
     return Status("unavailable", why)
 
 
-# the divergence rule, one for every solver: see `first_failure`
-DIVERGED_V = 1e8            # |v| of a solver's velocity state (rad/s, m/s, modal units)
+# the divergence rule, one for every solver: see `first_failure` (on a velocity state: `integrate.DIVERGED`)
 DIVERGED_LENGTHS = 2.0      # a deflection beyond twice its beam's length
 
 

@@ -11,16 +11,23 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd import channels, constraints, dynamics, flexbody, integrate, jit, results
+from flexmbd import build, channels, constraints, cost, dynamics, flexbody, integrate, jit, results
 from flexmbd.build import from_case
 from flexmbd.kernel import entry
 from flexmbd.model import Model, make_data
+from flexmbd.progress import Progress
 from flexmbd.results import Result
 from flexmbd.version import __version__
 
 SETTINGS = {}           # the case's [integrator] table holds this solver's settings
 LOOPS = True            # cut joints: constraints.Loops
 SOLIDS = True           # flexible solids: flexbody.solid_body
+STYLE = {"color": "#1f77b4", "marker": "o"}     # on the figures (report.figures.looks), solid lines
+# s, a cold compile of the kernel (its entry and a run's integrator, into an empty cache) on this
+# project's reference machine: `bench.compile_seconds` 40.8 s in the full run of 2201fdb, a whole
+# first `flexmbd run` 41.0-42.3 s (docs/performance.md, "cold compile"). The executor adds it to
+# the first flexmbd job while the kernel is not cached; the notices say it (`compiling`).
+COMPILE_S = 41.0
 
 
 def version() -> str:
@@ -31,6 +38,69 @@ def applies(case) -> str:
     return ""
 
 
+def compiling(why: str = "") -> str:
+    """The notice that the kernel compiles now (`jit.is_cached` is False), what for (`why`, e.g.
+    ', to linearize the case') and about how long (COMPILE_S)."""
+    return (f"compiling the solver's kernel once for this source version{why} "
+            f"(about {round(COMPILE_S, -1):.0f} s; cached afterwards)")
+
+
+def stages(case, t_end, settings) -> list:
+    """The costly stages of a run (`cost.stages`): the FE modes of its beams and solids, and the
+    integration."""
+    return cost.modes(case) + integration(case, t_end)
+
+
+# h omega (step x the highest retained frequency, rad/s) of each adaptive method's steps at rtol
+# 1e-8: accuracy, not stability, sets it. Measured on the pendulum (437 Hz, t_end 0.5 s): adams
+# 0.092, dopri5 0.095, rk45 0.096, dop853 0.35. It grows about as rtol^0.15 (dopri5: 0.154 at rtol
+# 1e-6, 0.039 at 1e-10) up to the method's stability bound (adams 0.102 at 1e-6).
+REACH = {"adams": 0.09, "dopri5": 0.095, "rk45": 0.095, "dop853": 0.35}
+STABLE = {"adams": 0.1, "dopri5": 3.3, "rk45": 2.8, "dop853": 4.0}
+# right-hand sides per step (pendulum: adams 1.84, dopri5 6.3, rk45 6.0, dop853 12.0, fox-goodwin
+# 2.0) and the Python around each one (s; pendulum, against 16 us for the right-hand side: adams
+# 18.6 us, rk4 30 us, rk45 53 us, dop853 36 us; dopri5 and fox-goodwin are compiled whole)
+# exp-adams: two a step and its linearizations, 2.6 a step on the pendulum at 1 ms (5.0 on the
+# double pendulum, where every one is full), and its eigenbasis work around them, about 3 us each
+EVALS = {"adams": 2, "dopri5": 7, "rk45": 7, "dop853": 13, "rk4": 4, "fox-goodwin": 2, "exp-adams": 2.6}
+AROUND = {"adams": 3e-6, "rk4": 1.5e-5, "rk45": 4e-5, "dop853": 2e-5, "dopri5": 0.0, "fox-goodwin": 0.0,
+          "exp-adams": 3e-6}
+# a closed loop's right-hand side (`constraints.Loops.rates`): one evaluation per constraint row more,
+# and the Python around them (rows, Jacobians, the multipliers' solve, scipy's step): measured
+# 0.36 ms (slider_crank), 0.45 ms (four_bar), 0.73 ms (four_bar_rigid, cores busy) per right-hand side
+LOOP_AROUND = 4e-4
+
+
+def integration(case, t_end: float) -> list:
+    """The in-house integrator: evaluations x the cost of one (`cost.evaluation`). Adaptive methods
+    take at least duration / max_step steps, and about duration x the highest retained frequency
+    / REACH (at rtol 1e-8, scaled as rtol^0.15, at most STABLE); a run whose step size collapses
+    (a singular moment) takes more, which no estimate knows. rk45 and dop853 show no progress."""
+    ig = case.integrator
+    method = ig.method
+    if method in ("rk4", "fox-goodwin", "exp-adams"):
+        steps = t_end / ig.dt
+        evals = steps * EVALS[method] + case.modelled.nv + 2
+        key, how = cost.time_key(case, t_end, "integrator.dt", ig.dt, 1e-4), "duration / dt"
+    else:
+        omega, beam = cost.highest_frequency(case)
+        reach = min(REACH[method] * (ig.rtol / 1e-8) ** 0.15, STABLE[method])
+        steps = max(t_end / ig.max_step, t_end * omega / reach)
+        evals = steps * EVALS[method]
+        key, how = cost.time_key(case, t_end, "integrator.max_step", ig.max_step, 1e-3), "at least duration / max_step"
+        if t_end * omega / reach > t_end / ig.max_step:
+            key = "duration" if t_end == case.duration else "--t-end"
+            how = (f"duration x the highest retained frequency of beam {beam!r}, {omega / (2 * np.pi):.3g} Hz, "
+                   f"over h omega = {reach:.2g}")
+    per_eval = cost.evaluation(case) + AROUND[method]
+    if case.loops:
+        rows = sum(len(constraints.ROWS.get(j.type, ((), ()))[0]) + len(constraints.ROWS.get(j.type, ((), ()))[1])
+                   for j in case.loops.values())
+        per_eval = (1 + rows) * cost.evaluation(case) + LOOP_AROUND
+    return [cost.Stage(f"integrating {steps:.3g} {method} steps ({how})", key, memory=0.0,
+                       seconds=evals * per_eval, progress=method not in ("rk45", "dop853"))]
+
+
 def run(case, t_end, settings, progress: bool = True) -> Result:
     t0 = time.perf_counter()
     model = from_case(case.modelled, flexbody.for_case(case.modelled))
@@ -38,26 +108,24 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
 
     # compile (or load from the cache) before the clock starts
     if not jit.is_cached():
-        print("flexmbd: compiling the solver's kernel once for this source version "
-              "(about a minute; cached afterwards)", file=sys.stderr, flush=True)
+        print(f"flexmbd: {compiling()}", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
     ig = case.integrator
-    loops = constraints.Loops(model, case.modelled) if case.loops else None
+    loops = build.loops(model, case.modelled)
     integrate.warm_up(model, ig.method if ig.method in ("dopri5", "fox-goodwin", "exp-adams") and not loops else "")
     compile_s = time.perf_counter() - t0
 
-    label = f"{case.name} / flexmbd"
+    bar = Progress(t_end, f"{case.name} / flexmbd") if progress else None
     if loops:
         sim = integrate.simulate_loops(loops, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
-                                       max_step=ig.max_step, output_dt=ig.output_dt, progress=progress, label=label,
-                                       dt=ig.dt)
+                                       max_step=ig.max_step, output_dt=ig.output_dt, progress=bar, dt=ig.dt)
     else:
         sim = integrate.simulate(model, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
                                  max_step=ig.max_step, dt=ig.dt, output_dt=ig.output_dt, refresh=ig.refresh,
-                                 progress=progress, label=label, check=watch(case, model))
+                                 progress=bar, check=watch(case, model))
     E = energies(model, sim.q, sim.v)
     traj = trajectory(case, model, sim.t, sim.q, sim.v, E, loops)
-    status = sim.status
+    status = results.Status() if sim.status.ok else results.failed(sim.status.why, sim.status.t)
     if not status.ok and status.why in integrate.NON_FINITE:
         status = stiffening_limit(case, model, sim, traj) or status
     modes = {n: {"count": fb.n_modes, "boundary": fb.boundary, "freq_hz": np.round(fb.freq_hz, 4).tolist()}

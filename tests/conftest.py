@@ -22,8 +22,8 @@ HEAVY = ["test_report_build.py", "test_faults.py", "test_report_verdicts.py", "t
          "test_loops.py", "test_pure_python.py", "test_stiffening.py", "test_linearize.py"]
 
 # The files none of whose tests compiles or loads flexmbd's kernel, in this process or any it
-# starts. One worker runs them while the other compiles the kernel (`compiled_kernel`, about a
-# minute of one core on a fresh checkout); a file here that did need it would compile it a second
+# starts. One worker runs them while the other compiles the kernel (`compiled_kernel`, about 40 s
+# of one core on a fresh checkout); a file here that did need it would compile it a second
 # time alongside, which costs time and changes no result.
 KERNEL_FREE = ["test_study.py", "test_results.py", "test_fe_modes.py", "test_oracle_lagrange.py",
                "test_reference_solvers.py", "test_invariants.py", "test_exudyn_ffrf_loops.py", "test_fe_solid.py",
@@ -85,7 +85,7 @@ def once(shared: Path, name: str, build) -> Path:
 def compiled_kernel(shared_dir) -> None:
     """flexmbd's kernel, its compiled integrators and the compiled functions of a run (its energies,
     a loop's constraints), compiled (or loaded from numba's cache) by one process at a time: the
-    first compiles them (about a minute of one core), the others load them from the cache. A
+    first compiles them (about 40 s of one core), the others load them from the cache. A
     session fixture that needs them asks for this one (pytest sets up session fixtures before
     module ones)."""
     from flexmbd import cases, flexbody, integrate, jit, solvers

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbd import cases, dynamics, flexbody, integrate, solver
+from flexmbd import build, cases, dynamics, flexbody, integrate, solver
 from flexmbd.adapters.common import beam_inertia
 from flexmbd.build import from_case
-from flexmbd.constraints import Loops, axis_basis
+from flexmbd.constraints import axis_basis
 from flexmbd.model import make_data
 from flexmbd.kernel import entry
 
@@ -23,7 +23,7 @@ CASES = Path(__file__).resolve().parents[1] / "cases"
 def loops_of(name, overrides=()):
     case = cases.load(str(CASES / f"{name}.toml"), list(overrides))
     model = from_case(case.modelled, flexbody.for_case(case.modelled))
-    return case, model, Loops(model, case.modelled)
+    return case, model, build.loops(model, case.modelled)
 
 
 @pytest.fixture(scope="module")

@@ -29,9 +29,10 @@ import pandas as pd
 import pytest
 
 import flexmbd
-from flexmbd import cases, cost, files, integrate, linearize, results, solvers
+from flexmbd import cases, cost, files, integrate, linearize, results, solver, solvers
 from flexmbd.cli import main
 from flexmbd.errors import InputError
+from flexmbd.progress import Progress
 from flexmbd.report import spectra
 from tests.test_faults import BASE, CASE, ENV, ONE, SOLVER, check, cli, edit_result, no_leftovers
 from tests.test_faults import base  # noqa: F401 - the fixture: a copy of the shipped analytic baseline
@@ -497,7 +498,7 @@ def test_the_state_matrix_tells_its_bar_each_coordinate():
 
 
 def test_a_bar_over_coordinates_counts_them(capsys):
-    bar = integrate.Progress(802, "pendulum / linearizing", after_s=0.0, every_s=0.0, unit="coordinates")
+    bar = Progress(802, "pendulum / linearizing", after_s=0.0, every_s=0.0, unit="coordinates")
     bar.update(401)
     err = capsys.readouterr().err
     assert err.startswith("pendulum / linearizing [###############               ] 401/802 coordinates, "), err
@@ -511,19 +512,19 @@ def test_soft_pendulum_adams_run_is_estimated_with_progress():
     """Its estimate is small (the estimate cannot know that the step size collapses), and every
     in-house method but scipy's rk45 and dop853 is counted as showing progress."""
     case = cases.load("pendulum", ["materials.steel.E=1e3"])
-    (st,) = cost.flexmbd(case, case.duration)
+    (st,) = solver.integration(case, case.duration)
     assert st.progress and st.seconds < cost.SILENT_LIMIT
     for method, shown in (("adams", True), ("dopri5", True), ("rk4", True), ("fox-goodwin", True), ("rk45", False),
                           ("dop853", False)):
         c = cases.load("pendulum", [f"integrator.method='{method}'"])
-        assert cost.flexmbd(c, 0.1)[0].progress is shown, method
+        assert solver.integration(c, 0.1)[0].progress is shown, method
 
 
 def test_soft_pendulum_bar_is_due_two_seconds_in_even_off_a_terminal(monkeypatch):
     """The first line comes 2 s in (not only after the 10 s between lines off a terminal), then
     one every 10 s."""
     monkeypatch.setattr(sys, "stderr", io.StringIO())           # not a terminal
-    bar = integrate.Progress(2.0, "pendulum / flexmbd")
+    bar = Progress(2.0, "pendulum / flexmbd")
     assert not bar.tty and bar.every == 10.0
     assert not bar.due(bar.start + 1.9) and bar.due(bar.start + 2.0)
     bar.last = bar.start + 2.0
@@ -533,7 +534,7 @@ def test_soft_pendulum_bar_is_due_two_seconds_in_even_off_a_terminal(monkeypatch
 def test_soft_pendulum_bar_moves_within_an_output_interval(capsys):
     """The right-hand side tells the bar its time: a step size that collapses at t = 0.0303 s
     shows as the time standing there, though no output instant is reached."""
-    bar = integrate.Progress(2.0, "pendulum / flexmbd", after_s=0.0, every_s=0.0)
+    bar = Progress(2.0, "pendulum / flexmbd", after_s=0.0, every_s=0.0)
     f = bar.tracking(lambda t, y: -y)
     assert np.array_equal(f(0.0303, np.ones(2)), -np.ones(2))
     assert "pendulum / flexmbd [                              ] t = 0.030/2 s, " in capsys.readouterr().err
@@ -542,7 +543,7 @@ def test_soft_pendulum_bar_moves_within_an_output_interval(capsys):
 def test_soft_pendulum_bar_is_left_alone_once_its_right_hand_side_raised(capsys):
     """After the right-hand side raised (a failed run's Stop), VODE calls back with the exception
     pending until it returns; the bar then reads no clock (which would fail) and draws nothing."""
-    bar = integrate.Progress(2.0, "pendulum / flexmbd", after_s=0.0, every_s=0.0)
+    bar = Progress(2.0, "pendulum / flexmbd", after_s=0.0, every_s=0.0)
     said = []
 
     def f(t, y):
@@ -558,20 +559,19 @@ def test_soft_pendulum_bar_is_left_alone_once_its_right_hand_side_raised(capsys)
     assert capsys.readouterr().err == ""
 
 
-def test_soft_pendulum_adams_evaluations_reach_the_bar(monkeypatch):
+def test_soft_pendulum_adams_evaluations_reach_the_bar():
     """simulate hands adams (and rk4) the right-hand side that updates the bar: the bar hears of
     times between the output instants."""
     heard = []
 
-    class Bar(integrate.Progress):
+    class Bar(Progress):
         def update(self, t):
             heard.append(float(t))
 
-    monkeypatch.setattr(integrate, "Progress", Bar)
     model = linearize.model_of(cases.load("pendulum", ["bodies.beam.modes.count=0"]))
     for method in ("adams", "rk4"):
         heard.clear()
-        integrate.simulate(model, 0.02, method=method, dt=1e-3, output_dt=0.01)
+        integrate.simulate(model, 0.02, method=method, dt=1e-3, output_dt=0.01, progress=Bar(0.02, "pendulum"))
         assert any(0.0 < t < 0.01 for t in heard), (method, heard)
 
 

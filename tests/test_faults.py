@@ -756,15 +756,15 @@ def test_report_with_a_missing_case_path_runs_nothing(tmp_path):
 
 
 SOLVING = """import sys
-from flexmbd import integrate
-real = integrate.Progress.update
+from flexmbd import progress
+real = progress.Progress.update
 def update(self, t):
     if not getattr(update, "said", False):
         update.said = True
         sys.stderr.write("solving\\n")
         sys.stderr.flush()
     return real(self, t)
-integrate.Progress.update = update
+progress.Progress.update = update
 from flexmbd.cli import exit_with, main
 exit_with(main(sys.argv[1:]))
 """

@@ -102,7 +102,7 @@ def test_a_driven_loop_takes_no_mode_as_a_dependent_coordinate():
     from flexmbd import build, constraints, flexbody
     case = cases.load(ALU, RIGID_CRANK).modelled
     model = build.from_case(case, flexbody.for_case(case))
-    loops = constraints.Loops(model, case)
+    loops = build.loops(model, case)
     dep = loops.partition(model.q0, model.v0)
     joints = {model.jnt_vadr[model.index(b)] for b in ("coupler", "follower")}
     assert set(dep.tolist()) == joints, dep

@@ -16,10 +16,11 @@ import time
 import numpy as np
 from scipy.optimize import brentq
 
-from flexmbd import channels
+from flexmbd import channels, cost
 from flexmbd.adapters import common
 
 SETTINGS = {"modes": ("int+", 200)}     # continuous modes summed per bending plane
+STYLE = {"color": "#8c564b", "marker": "D"}     # on the figures (report.figures.looks), solid lines
 
 
 def version() -> str:
@@ -43,6 +44,16 @@ def applies(case) -> str:
         if c.kind not in ("deflection", "stress_vm") or c.component == "x":
             return f"channel {cname!r} has no closed form here"
     return ""
+
+
+def stages(case, t_end, settings) -> list:
+    """The costly stages of a run (`cost.stages`). Closed forms: modes per plane x output samples
+    (the modal responses) and x 4001 quadrature points (the modal loads of gravity), two planes."""
+    n, k = settings["modes"], cost.samples(case, t_end)
+    key = "solvers.analytic.modes" if n > 200 else cost.time_key(case, t_end, "integrator.output_dt",
+                                                                   case.integrator.output_dt, 1e-3)
+    return [cost.Stage(f"summing {n} continuous modes per plane over {k} samples", key,
+                       memory=8.0 * n * (6 * k + 3 * 4001), seconds=2e-7 * n * k + 2e-4 * n)]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -68,7 +68,7 @@ import time
 
 import numpy as np
 
-from flexmbd import cases, channels, flexbody, profiles, results
+from flexmbd import cases, channels, cost, flexbody, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
@@ -98,6 +98,7 @@ def newton_atol(case, opt: dict) -> float:
 
 
 LOOPS = True                                 # closes kinematic loops (cut joints: `close_loops`)
+STYLE = {"color": "#2ca02c", "marker": "v"}     # on the figures (report.figures.looks), solid lines
 
 OV = exu.OutputVariableType
 CLOSURE_TOL = 1e-12                          # m: the initial loop closure's Newton tolerance
@@ -130,6 +131,19 @@ def applies(case) -> str:
         if out_of_plane(c):
             return f"channel {cname!r}: out-of-plane component in a planar model"
     return ""
+
+
+def stages(case, t_end, settings) -> list:
+    """The costly stages of a run (`cost.stages`): Exudyn's beam elements, steps x elements
+    (sparse Newton iterations), with progress shown."""
+    n_beams = sum(1 for b in case.bodies.values() if b.type == "beam")
+    el, out_dt, dt = settings["elements"] * n_beams, case.integrator.output_dt, settings["dt"]
+    dt = out_dt / max(round(out_dt / dt), 1) if dt <= out_dt else dt
+    steps = t_end / dt
+    key = "solvers.exudyn-beam.elements" if el > 10000 else cost.time_key(case, t_end, "solvers.exudyn-beam.dt",
+                                                                            settings["dt"], 1e-4)
+    return [cost.Stage(f"stepping {el} beam elements through {steps:.3g} steps", key,
+                       memory=8.0 * 6 * (el + n_beams) * 300, seconds=steps * (2e-5 + 2e-6 * el), progress=True)]
 
 
 def out_of_plane(c: cases.Channel) -> bool:

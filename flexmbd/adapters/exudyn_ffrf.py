@@ -85,7 +85,7 @@ from types import MappingProxyType
 import numpy as np
 import scipy.sparse as sp
 
-from flexmbd import cases, channels, flexbody, invariants, profiles, results
+from flexmbd import cases, channels, cost, flexbody, invariants, profiles, results
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
 from flexmbd.cases import closure
@@ -105,6 +105,7 @@ SETTINGS = {
 
 LOOPS = True                             # closed loops: cut joints as Exudyn joints (module docstring)
 SOLIDS = True                            # flexible solids: the FlexBody with the mesh's consistent mass (docstring)
+STYLE = {"color": "#ff7f0e", "marker": "^"}     # on the figures (report.figures.looks), solid lines
 INDEX2 = ("fox-goodwin", "trapezoidal-index2")   # the schemes with velocity-level (index-2) constraints
 NODE_TYPE = exu.NodeType.RotationEulerParameters
 CONSTRAINED = {"fixed": [1, 1, 1, 1, 1, 1], "revolute": [1, 1, 1, 1, 1, 0],
@@ -151,6 +152,18 @@ def applies(case) -> str:
                 f"node's rigid anchor marker; a spherical one, and a revolute one about z in a planar case, "
                 f"hold the node's position)")
     return cuts_apply(case, planar)
+
+
+def stages(case, t_end, settings) -> list:
+    """The costly stages of a run (`cost.stages`): the FE modes of its bodies, and Exudyn's reduced
+    bodies stepped, steps x the dense modal blocks (modes^2), with progress shown."""
+    m2 = sum((m + 7) ** 2 for _, _, m, _ in cost.beams(case))
+    out_dt, dt = case.integrator.output_dt, settings["dt"]
+    dt = out_dt / max(round(out_dt / dt), 1) if dt <= out_dt else dt
+    steps = t_end / dt
+    return cost.modes(case) + [cost.Stage(f"stepping the reduced bodies through {steps:.3g} steps",
+                                          cost.time_key(case, t_end, "solvers.exudyn-ffrf.dt", settings["dt"], 2.5e-5),
+                                          memory=0.0, seconds=steps * (5e-5 + 4e-7 * m2), progress=True)]
 
 
 def cuts_apply(case, planar: str) -> str:

@@ -52,7 +52,7 @@ import scipy.linalg
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from flexmbd import channels, flexbody, profiles
+from flexmbd import channels, cost, flexbody, profiles
 from flexmbd.adapters import common
 from flexmbd.fe import frame, solid, stress
 from flexmbd.progress import Progress, Ticking
@@ -71,6 +71,7 @@ SOLIDS = True                           # a clamped solid: its whole mesh (`run_
 MODAL_DOFS = 12_000                     # the modal scheme's largest model: K, M, Phi dense, 1.2 GB each
 EIGH_S = 1e-9                           # s per n^3 of the dense generalized eigh (6,813 DOFs: 320 s on
                                         # 2 busy cores, 2.4 GB resident)
+STYLE = {"color": "#7f7f7f", "marker": "s"}     # on the figures (report.figures.looks), solid lines
 
 
 def applies(case) -> str:
@@ -83,6 +84,43 @@ def applies(case) -> str:
         return ("modal damping of a solid's full model needs all of its modes (a dense eigenproblem of the mesh's "
                 "size)")
     return why
+
+
+def stages(case, t_end, settings) -> list:
+    """The costly stages of a run (`cost.stages`). Full-order FE: the exact scheme exponentiates the
+    dense 2n x 2n system matrix and steps by dense products; the modal scheme solves the dense n x n
+    eigenproblem and steps every mode; newmark factorizes once and steps by sparse solves; damping
+    takes a dense eigensolution of all n DOFs."""
+    name, body = next((n, b) for n, b in case.bodies.items() if b.type != "point_mass")   # point masses: node masses
+    n = cost.solid_dofs(body) if body.type == "solid" else 6 * body.elements
+    damped = body.damping_ratio > 0
+    mesh = body.type == "solid" and not body.is_frame   # a 3-D mesh; a frame steps as a beam
+    scheme = settings["scheme"] or ("newmark" if mesh else "exact" if damped else "modal")
+    dt = settings["dt"] or (5e-5 if scheme == "newmark" else case.integrator.output_dt)
+    out_dt = case.integrator.output_dt
+    stride = max(round(out_dt / dt), 1)
+    steps = (cost.samples(case, t_end) - 1) * stride
+    if scheme == "exact":
+        setup_s, setup_b, per_step = 3e-10 * (2 * n) ** 3, 48.0 * (2 * n) ** 2, 1e-9 * (2 * n) ** 2
+    elif scheme == "modal":                     # eigh of the dense pair (its bar: elapsed against this
+        # estimate), then per step O(n) and u = Phi q at every sample (2 n^2 flops each)
+        setup_s, setup_b = EIGH_S * n ** 3, 48.0 * n ** 2
+        per_step = 1e-8 * n + 2e-5 + 4e-10 * n * n / stride
+    elif mesh:                                  # a 3-D mesh's factor fills in more: 2.1 ms a step at 5,463 DOFs
+        setup_s, setup_b, per_step = 1e-4 * n, cost.SOLID_BYTES * n, 4e-7 * n + 2e-5
+    else:
+        setup_s, setup_b, per_step = 1e-5 * n, 8.0 * 200 * n, 1e-8 * 12 * n + 2e-5
+    if damped:
+        setup_s, setup_b = setup_s + 5e-10 * n ** 3, setup_b + 40.0 * n ** 2
+    matrix = f"bodies.{name}.mesh" if body.type == "solid" else f"bodies.{name}.elements"
+    steps_key = "solvers.fe-linear.dt" if settings["dt"] and settings["dt"] < out_dt else \
+        ("duration" if t_end == case.duration else "--t-end")
+    return [cost.Stage(f"setting up the {scheme} scheme for {n} DOFs", matrix, memory=setup_b, seconds=setup_s,
+                       progress=scheme == "modal"),
+            cost.Stage(f"stepping {n} DOFs through {steps:.3g} {scheme} steps of {out_dt / stride:.3g} s",
+                       steps_key if steps * per_step > setup_s else matrix,
+                       memory=32.0 * cost.samples(case, t_end) * n, seconds=steps * per_step,
+                       progress=mesh)]
 
 
 def load_vectors(case, n_dof: int, node=None) -> list:

@@ -55,7 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import mujoco
-from flexmbd import cases, channels, profiles, results
+from flexmbd import cases, channels, cost, profiles, results
 from flexmbd.cases.closure import pick
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, quat_to_rot, rot_to_quat
@@ -66,6 +66,7 @@ SETTINGS = {
     "dt": ("float+", 1e-4),                         # s, RK4 step (rounded so that it divides output_dt)
     "beam_mass": (common.BEAM_MASS, "prism"),       # a beam's inertia: the prism, or its lumped mesh
 }
+STYLE = {"color": "#e377c2", "marker": "P"}     # on the figures (report.figures.looks), solid lines
 UNCLOSED = {"prismatic": "MuJoCo's equality constraints hold a point (connect) or a frame (weld), none leaves a "
                          "slide free",
             "free": "it constrains nothing"}
@@ -92,6 +93,12 @@ def applies(case) -> str:
         if j.type in UNCLOSED:
             return f"loop joint {name!r} is {j.type}: {UNCLOSED[j.type]}"
     return ""
+
+
+def stages(case, t_end, settings) -> list:
+    """The costly stages of a run (`cost.stages`): the meshes of its beams (their rigid limit) and
+    the RK4 steps."""
+    return cost.modes(case, rigid=True) + cost.fixed_step(case, t_end, settings["dt"], "solvers.mujoco.dt", 6e-6)
 
 
 def rigid_case(case):

@@ -49,7 +49,7 @@ import time
 import numpy as np
 
 import mujoco
-from flexmbd import cases, channels, profiles, results
+from flexmbd import cases, channels, cost, profiles, results
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, rot_to_quat
 from flexmbd.progress import Progress
@@ -60,6 +60,7 @@ SETTINGS = {
     "edge_timeconst": ("float+", 1e-6),     # s, solref time constant of the edge equalities
     "integrator": (("discrete", "RK4", "Euler"), "discrete"),
 }
+STYLE = {"color": "#d62728", "marker": "<"}     # on the figures (report.figures.looks), solid lines
 
 
 def version() -> str:
@@ -92,6 +93,15 @@ def applies(case) -> str:
     if body.damping_ratio > 0:
         return "modal damping has no counterpart in the rod"
     return ""
+
+
+def stages(case, t_end, settings) -> list:
+    """The costly stages of a run (`cost.stages`): MuJoCo's rod, steps x edges, with progress shown."""
+    edges = settings["edges"]
+    st = cost.fixed_step(case, t_end, settings["dt"], "solvers.mujoco-rod.dt", 1e-5 + 4e-6 * edges)[0]
+    key = "solvers.mujoco-rod.edges" if edges > 1000 else st.key
+    return [cost.Stage(f"{st.what} with a rod of {edges} edges", key, memory=8.0 * 2000 * edges, seconds=st.seconds,
+                       progress=True)]
 
 
 def point_masses(case) -> dict:

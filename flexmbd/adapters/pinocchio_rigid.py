@@ -62,7 +62,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.integrate import DOP853, RK45, Radau
 
-from flexmbd import cases, channels, profiles, results
+from flexmbd import cases, channels, cost, profiles, results
 from flexmbd.cases import closure
 from flexmbd.adapters import common, pinocchio_model
 
@@ -75,6 +75,7 @@ SETTINGS = {
     "beam_mass": (common.BEAM_MASS, "prism"),     # a beam's inertia: the prism, or its lumped mesh
     "baumgarte": ("float0+", 10.0),               # 1/s, rate at which a loop's closure error decays (0: off)
 }
+STYLE = {"color": "#9467bd", "marker": ">"}     # on the figures (report.figures.looks), solid lines
 METHODS = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau}
 QUAT_JOINTS = ("JointModelSpherical", "JointModelFreeFlyer")
 PROX_ACCURACY, PROX_MU, PROX_ITER = 1e-12, 1e-10, 20    # constraintDynamics' proximal iterations
@@ -96,6 +97,12 @@ def applies(case) -> str:
             return (f"cut joint {name!r} is revolute on a loop whose joints do not all turn about its axis: "
                     f"Pinocchio's point constraint closes a hinge only on a planar loop")
     return ""
+
+
+def stages(case, t_end, settings) -> list:
+    """The costly stages of a run (`cost.stages`): the meshes of its beams (their rigid limit); its
+    integration is not estimated."""
+    return cost.modes(case, rigid=True)
 
 
 def loop_joints(case, cut) -> list:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from flexmbd.constraints import pick      # the rank rule of the dependent coordinates, the solver's own
 from flexmbd.errors import InputError
 
 CLOSES = 1e-9       # m (rad): the largest residual a closed loop may keep, relative to the mechanism's size
@@ -62,25 +63,6 @@ def dependent(case) -> list:
     without motion, from the last in the tree backwards."""
     return [case.joints[link.joint].name for link in reversed(case.tree)
             if case.joints[link.joint].type in ("revolute", "prismatic") and case.joints[link.joint].motion is None]
-
-
-def pick(J, names: list, scale=None) -> list:
-    """The first of `names` (columns of J) that each add to J's rank, up to its rank. `scale` (n,),
-    when given, is each column's own size (what its coordinate can move the rows by at most): a
-    column whose part outside the span of those before it is below 1e-9 of its own size adds
-    nothing, so a mode's round-off out of its plane (1e-12 of its slope) is never taken for a
-    direction it moves in."""
-    J = np.asarray(J, dtype=float)
-    if scale is not None:
-        J = J / np.maximum(np.asarray(scale, dtype=float), np.abs(J).max(axis=0, initial=0.0) + 1e-300)
-    tol = 1e-9 * max(np.abs(J).max(initial=0.0), 1e-300)
-    full, out = np.linalg.matrix_rank(J, tol=tol) if J.size else 0, []
-    for c, name in enumerate(names):
-        if len(out) == full:
-            break
-        if np.linalg.matrix_rank(J[:, [names.index(n) for n in out] + [c]], tol=tol) == len(out) + 1:
-            out.append(name)
-    return out
 
 
 def assemble(case, where: str) -> dict:

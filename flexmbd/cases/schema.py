@@ -9,6 +9,8 @@ nested dict schema.
 
 from __future__ import annotations
 
+from flexmbd.joints import JOINT_COORDS     # the joint types' coordinate counts: the solver's, one place
+
 REQUIRED = object()
 
 # every number of a case (and of a solver's settings) is finite and at most this in magnitude; the
@@ -202,7 +204,6 @@ CASE = {
 }
 
 
-JOINT_COORDS = {"fixed": (0, 0), "revolute": (1, 1), "prismatic": (1, 1), "spherical": (4, 3), "free": (7, 6)}
 JOINT_DOFS = {k: nv for k, (_, nv) in JOINT_COORDS.items()}
 
 # the keys without default that each kind of channel reads (the others must be left out)

@@ -1,4 +1,4 @@
-"""The compiled layer above the algorithms (layer 4), behind `entry.forward(model, data, t, q, v,
+"""The compiled part above the algorithms (in the solver's layer, 1), behind `entry.forward(model, data, t, q, v,
 tau)` and the integrators' `entry.rhs`:
 
     bound   the Model's arrays and a Data as one object (structrefs), passed by address

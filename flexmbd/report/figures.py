@@ -6,7 +6,9 @@ bodies; the index's work-precision figure of a benchmark run."""
 
 from __future__ import annotations
 
+import ast
 import hashlib
+import importlib.util
 import re
 import warnings
 import zlib
@@ -20,7 +22,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib import ticker  # noqa: E402
 
-from flexmbd import channels, metrics  # noqa: E402
+from flexmbd import channels, metrics, solvers  # noqa: E402
 from flexmbd.errors import InputError  # noqa: E402
 from flexmbd.files import atomic_write, user_cache  # noqa: E402
 
@@ -33,10 +35,22 @@ def drawn_unit(case, name: str) -> tuple[str, float]:
     return DRAWN.get(u, (u, 1.0))
 
 
-# one colour and marker per solver on every figure and page: the registered solvers' own, solid lines
-STYLE = {"flexmbd": ("#1f77b4", "o"), "fe-linear": ("#7f7f7f", "s"), "analytic": ("#8c564b", "D"),
-         "exudyn-ffrf": ("#ff7f0e", "^"), "exudyn-beam": ("#2ca02c", "v"), "mujoco-rod": ("#d62728", "<"),
-         "pinocchio": ("#9467bd", ">"), "mujoco": ("#e377c2", "P")}
+def declared(name: str, what: str):
+    """A built-in solver's module-level literal `what` (its `STYLE`), read from its module's source
+    without importing it: a solver's look is the same where its engine is not installed (a page drawn
+    from stored results) and costs no engine's import. None when the module declares none."""
+    path = solvers.BUILT_IN.get(name)
+    spec = importlib.util.find_spec(path) if path else None
+    source = spec.loader.get_source(path) if spec and spec.loader else None
+    for node in ast.parse(source or "").body:
+        if isinstance(node, ast.Assign) and [getattr(t, "id", None) for t in node.targets] == [what]:
+            return ast.literal_eval(node.value)
+    return None
+
+
+# one colour and marker per solver on every figure and page: each built-in solver's own (the `STYLE`
+# its module declares: `color`, `marker`), solid lines
+STYLE = {name: (look["color"], look["marker"]) for name in solvers.BUILT_IN if (look := declared(name, "STYLE"))}
 
 # any other name (a plug-in, an imported result): one of the (colour, marker, line style) combinations
 # of colours none of STYLE's, the colour changing fastest, chosen by a hash of the name (`looks`)

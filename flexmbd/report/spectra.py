@@ -172,8 +172,8 @@ def prepare(chosen_cases, notice=None) -> None:
     `notice(line)` is told when the kernel is not yet compiled for this source version."""
     from flexmbd import jit
     if notice and chosen_cases and not jit.is_cached():
-        notice("compiling the solver's kernel once for this source version, to linearize the cases for "
-               "their spectra (about a minute; cached afterwards)")
+        from flexmbd import solver
+        notice(solver.compiling(", to linearize the cases for their spectra"))
     with files.signals_exit():
         for case in chosen_cases:
             spectral_modes(case)
