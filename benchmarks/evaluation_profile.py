@@ -12,8 +12,8 @@ state (`bench.evaluation`):
                 articulated_inertias, accelerations); a pass's cost is the difference between
                 k and k-1 (each pass reads only what the ones before it wrote)
     entry       the whole evaluation through the kernel's C entry, as the integrators reach it
-                (`kernel.bound.call_entry`, [dq/dt; qdd] written)
-    python      `kernel.entry.forward` from Python, as a user calls it (`bench.median_us`)
+                (`compiled.bound.call_entry`, [dq/dt; qdd] written)
+    python      `compiled.entry.forward` from Python, as a user calls it (`bench.median_us`)
 
 Best of 7 repeats of a loop of many evaluations, in microseconds per evaluation. The compiled
 loop is compiled here (about half a minute); nothing else is written. Times vary by about 20 %
@@ -32,12 +32,12 @@ import numpy as np
 from flexmbd import cases
 from flexmbd.bench import chain_case, evaluation, median_us
 from flexmbd.build import from_case
-from flexmbd.dynamics import (accelerations, articulated_inertias, body_forces, external_forces,
-                              forward_kinematics, prescribed)
-from flexmbd.jit import njit
-from flexmbd.kernel.bound import bind, bound_at, call_entry
-from flexmbd.kernel.entry import entry_address
-from flexmbd.model import make_data
+from flexmbd.mbd.dynamics import (accelerations, articulated_inertias, body_forces, external_forces,
+                                  forward_kinematics, prescribed)
+from flexmbd.mbd.compiled.jit import njit
+from flexmbd.mbd.compiled.bound import bind, bound_at, call_entry
+from flexmbd.mbd.compiled.entry import entry_address
+from flexmbd.mbd.model import make_data
 
 PASSES = ("prescribed", "forward_kinematics", "external_forces", "body_forces",
           "articulated_inertias", "accelerations")

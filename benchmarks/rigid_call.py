@@ -6,7 +6,7 @@ what the work costs, against Pinocchio's `aba` on the same chain.
 For each n-link revolute chain of `flexmbd bench` (`bench.chain_case`) at the bench's fixed
 random state (`bench.state`), in microseconds per call:
 
-    forward     `kernel.entry.forward(model, data, t, q, v, tau)`, as `flexmbd bench` times it
+    forward     `compiled.entry.forward(model, data, t, q, v, tau)`, as `flexmbd bench` times it
     dispatch    numba's dispatch of a compiled function with `_accelerations`' six arguments and
                 an empty body: the price of calling compiled code from Python with them
     python      the rest of `forward` in Python: the call, finding the model's bound kernel data
@@ -32,9 +32,9 @@ def main(ns) -> None:
     from flexmbd import bench
     from flexmbd.adapters import pinocchio_model
     from flexmbd.build import from_case
-    from flexmbd.kernel.bound import call_entry
-    from flexmbd.kernel.entry import ACCELERATIONS, _bound_of, forward
-    from flexmbd.model import make_data
+    from flexmbd.mbd.compiled.bound import call_entry
+    from flexmbd.mbd.compiled.entry import ACCELERATIONS, _bound_of, forward
+    from flexmbd.mbd.model import make_data
 
     @njit
     def empty(fn, address, t, q, v, tau):

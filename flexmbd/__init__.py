@@ -6,8 +6,6 @@ flexmbd is cheap; solvers and their compiled kernels load on first use."""
 
 from __future__ import annotations
 
-from flexmbd.version import __version__
-
 __all__ = ["load_case", "run", "compare", "verdicts", "system_modes", "units", "__version__"]
 
 
@@ -145,3 +143,12 @@ def system_modes(case, about: str = "initial"):
     df = df[["freq_hz", "damping", "damping_resolution", "label", "share"]]
     df.attrs["units"] = {"freq_hz": "Hz", "damping": "1", "damping_resolution": "1", "share": "1"}
     return df
+
+
+def __getattr__(name: str):
+    """`flexmbd.__version__`, read on first use: importing a part of the package (the solver,
+    `flexmbd.mbd`) loads nothing else of it."""
+    if name == "__version__":
+        from flexmbd.version import __version__
+        return __version__
+    raise AttributeError(f"module 'flexmbd' has no attribute {name!r}")

@@ -42,8 +42,8 @@ from flexmbd import cases, metrics, results, solvers
 from flexmbd.build import from_case
 from flexmbd.errors import InputError
 from flexmbd.files import json_text
-from flexmbd.kernel.entry import forward
-from flexmbd.model import make_data
+from flexmbd.mbd.compiled.entry import forward
+from flexmbd.mbd.model import make_data
 
 BEAM = {"type": "beam", "material": "steel", "length": 1.5, "elements": 30,
         "section": {"shape": "rectangle", "b": 0.01, "h": 0.015}, "modes": {"count": 12}}
@@ -85,7 +85,7 @@ MODAL_SCALE = 1e-3      # modal coordinates of the random state, against 0.3 rad
 
 def evaluation(model):
     """A zero-argument call of one flexmbd forward-dynamics evaluation at the fixed random `state`:
-    `kernel.entry.forward` on the model and a Data, as a user calls it from Python; and that state."""
+    `compiled.entry.forward` on the model and a Data, as a user calls it from Python; and that state."""
     data = make_data(model)
     q, v, tau = state(model)
     return lambda: forward(model, data, 0.0, q, v, tau), (q, v, tau)
@@ -175,7 +175,7 @@ def compile_seconds(method: str = "dopri5") -> dict:
     from Python: the whole process, import included."""
     code = ("import time; t=time.perf_counter(); from flexmbd import bench; "
             "from flexmbd.build import from_case; m=from_case(bench.chain_case(2, True)); "
-            f"f=bench.evaluation(m)[0]; f(); from flexmbd import integrate; integrate.warm_up(m, {method!r}); "
+            f"f=bench.evaluation(m)[0]; f(); from flexmbd.mbd import integrate; integrate.warm_up(m, {method!r}); "
             "print(time.perf_counter()-t)")
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "XDG_CACHE_HOME": cache}

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd import constraints, flexbody, invariants, profiles, spatial
+from flexmbd import flexbody
+from flexmbd.mbd import constraints, invariants, profiles, spatial
 from flexmbd.cases import Rigid
-from flexmbd.joints import JOINT_CODES, NQ, NV, initial_q
-from flexmbd.constraints import ROWS, Cut, Side, axis_basis
-from flexmbd.model import Arrays, Model, empty_arrays, empty_loads
+from flexmbd.mbd.joints import JOINT_CODES, NQ, NV, initial_q
+from flexmbd.mbd.constraints import ROWS, Cut, Side, axis_basis
+from flexmbd.mbd.model import Arrays, Model, empty_arrays, empty_loads
 
 
 def from_case(case, bodies: dict | None = None) -> Model:

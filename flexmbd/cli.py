@@ -148,7 +148,7 @@ def system_modes(case, about: str, as_json: bool) -> int:
     """The assembled system's frequencies, damping and labels (linearize.py), with a progress bar
     past a couple of seconds."""
     from flexmbd import linearize
-    from flexmbd import jit
+    from flexmbd.mbd.compiled import jit
     if not jit.is_cached():
         from flexmbd import solver
         warn(solver.compiling(", to linearize the case"))

@@ -32,7 +32,8 @@ from multiprocessing import connection, get_context
 
 from threadpoolctl import threadpool_limits
 
-from flexmbd import cases, files, jit, results, solvers
+from flexmbd import cases, files, results, solvers
+from flexmbd.mbd.compiled import jit
 from flexmbd.errors import InputError
 from flexmbd.progress import job, jobs_done
 from flexmbd.results import Result

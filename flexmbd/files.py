@@ -37,6 +37,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from flexmbd.errors import InputError, Interrupted
+from flexmbd.mbd.cache import user_cache  # noqa: F401 - the user's cache folder, the solver's and the harness's
 
 REASONS = {
     errno.ENOSPC: "no space left on the device",
@@ -50,15 +51,6 @@ REASONS = {
     errno.EISDIR: "a folder is there, not a file",
     errno.ENOENT: "no such file or folder",
 }
-
-
-def user_cache(*parts) -> Path:
-    """A path in flexmbd's folder of the user's cache ($XDG_CACHE_HOME, else ~/.cache): what is
-    kept between processes because it costs time to make again (compiled code, drawn figures).
-    An empty or relative $XDG_CACHE_HOME is ignored, as the XDG specification says (relative, it
-    would put the cache wherever the command runs: in a checkout, `flexmbd/` is the package)."""
-    base = os.environ.get("XDG_CACHE_HOME", "")
-    return Path(base if os.path.isabs(base) else Path.home() / ".cache", "flexmbd", *parts)
 
 
 def json_text(x, **kw) -> str:

@@ -19,13 +19,14 @@ from typing import NamedTuple
 import numpy as np
 from scipy import linalg, optimize
 
-from flexmbd import build, constraints, dynamics, flexbody, joints
+from flexmbd import build, flexbody
+from flexmbd.mbd import constraints, dynamics, joints
 from flexmbd.build import from_case
 from flexmbd.errors import InputError
-from flexmbd.kernel.entry import forward_dynamics
-from flexmbd.model import Model, make_data
+from flexmbd.mbd.compiled.entry import forward_dynamics
+from flexmbd.mbd.model import Model, make_data
 from flexmbd.progress import Progress
-from flexmbd.kernel import entry
+from flexmbd.mbd.compiled import entry
 
 STEP = 1e-6          # central-difference step on q and v (coordinates are O(1) rad or mass-normalized)
 

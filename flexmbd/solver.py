@@ -11,10 +11,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd import build, channels, constraints, cost, dynamics, flexbody, integrate, jit, results
+from flexmbd import build, channels, cost, flexbody, results
+from flexmbd.mbd import constraints, dynamics, integrate
+from flexmbd.mbd.compiled import jit
 from flexmbd.build import from_case
-from flexmbd.kernel import entry
-from flexmbd.model import Model, make_data
+from flexmbd.mbd.compiled import entry
+from flexmbd.mbd.model import Model, make_data
 from flexmbd.progress import Progress
 from flexmbd.results import Result
 from flexmbd.version import __version__

@@ -88,7 +88,9 @@ def compiled_kernel(shared_dir) -> None:
     first compiles them (about 40 s of one core), the others load them from the cache. A
     session fixture that needs them asks for this one (pytest sets up session fixtures before
     module ones)."""
-    from flexmbd import cases, flexbody, integrate, jit, solvers
+    from flexmbd import cases, flexbody, solvers
+    from flexmbd.mbd import integrate
+    from flexmbd.mbd.compiled import jit
     from flexmbd.build import from_case
     if jit.PURE_PYTHON:                                 # NUMBA_DISABLE_JIT=1: nothing to compile
         return

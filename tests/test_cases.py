@@ -145,7 +145,7 @@ def test_motion_table_file_is_checked(tmp_path):
         cases.load(str(p))
     (tmp_path / "q.csv").write_text("t,q\n0,0\n0.1,0.1\n0.2,0.2\n0.3,0.3\n")
     c = cases.load(str(p))
-    from flexmbd import profiles
+    from flexmbd.mbd import profiles
     q, qd, qdd = profiles.motion(c.joints["pivot"].motion, 0.15)
     assert q == pytest.approx(0.15) and qd == pytest.approx(1.0)
 

@@ -12,8 +12,8 @@ from scipy.spatial.transform import Rotation
 import flexmbd
 from flexmbd import cases, channels, flexbody, solver
 from flexmbd.build import from_case
-from flexmbd.kernel.entry import forward_dynamics
-from flexmbd.model import make_data
+from flexmbd.mbd.compiled.entry import forward_dynamics
+from flexmbd.mbd.model import make_data
 
 
 def deflection(fb, p, axis, eta):

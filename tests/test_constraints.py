@@ -1,4 +1,4 @@
-"""Closed loops in the in-house solver (flexmbd/constraints.py): the cut joint's rows against
+"""Closed loops in the in-house solver (flexmbd/mbd/constraints.py): the cut joint's rows against
 finite differences, the assembled start and the rigid four-bar's motion against the one-equation
 four-bar of tests/oracle_four_bar.py, the constraints and the energy at every output instant, and
 the slider-crank against its exact rigid kinematics and its work-energy balance."""
@@ -8,12 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbd import build, cases, dynamics, flexbody, integrate, solver
+from flexmbd import build, cases, flexbody, solver
+from flexmbd.mbd import dynamics, integrate
 from flexmbd.adapters.common import beam_inertia
 from flexmbd.build import from_case
-from flexmbd.constraints import axis_basis
-from flexmbd.model import make_data
-from flexmbd.kernel import entry
+from flexmbd.mbd.constraints import axis_basis
+from flexmbd.mbd.model import make_data
+from flexmbd.mbd.compiled import entry
 
 from oracle_four_bar import angles, crank_angle
 

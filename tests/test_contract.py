@@ -29,7 +29,8 @@ import pandas as pd
 import pytest
 
 import flexmbd
-from flexmbd import cases, cost, files, integrate, linearize, results, solver, solvers
+from flexmbd import cases, cost, files, linearize, results, solver, solvers
+from flexmbd.mbd import integrate
 from flexmbd.cli import main
 from flexmbd.errors import InputError
 from flexmbd.progress import Progress

@@ -4,11 +4,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from flexmbd import joints, spatial
+from flexmbd.mbd import joints, spatial
 from flexmbd.build import from_case
-from flexmbd.kernel import entry
-from flexmbd.kernel.entry import forward_dynamics
-from flexmbd.model import make_data
+from flexmbd.mbd.compiled import entry
+from flexmbd.mbd.compiled.entry import forward_dynamics
+from flexmbd.mbd.model import make_data
 from flexmbd.adapters import pinocchio_model
 from trees import random_case, random_state
 
@@ -88,7 +88,7 @@ def test_flexible_tree_matches_lagrangian_oracle(seed):
 def test_system_mass_matrix_matches_the_oracle(seed):
     """entry.mass_matrix_system (polarization of flexmbd's kinetic energy) against the oracle's
     mass matrix, formed from its own node velocities."""
-    from flexmbd import dynamics
+    from flexmbd.mbd import dynamics
     rng = np.random.default_rng(200 + seed)
     model = from_case(random_case(rng, 5, ["revolute", "prismatic", "fixed"], flexible=0.6))
     q, _ = random_state(rng, model, scale_eta=0.2)

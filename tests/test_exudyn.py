@@ -10,7 +10,8 @@ import pytest
 
 pytest.importorskip("exudyn")
 
-from flexmbd import cases, channels, flexbody, invariants, profiles, solvers  # noqa: E402
+from flexmbd import cases, channels, flexbody, solvers
+from flexmbd.mbd import invariants, profiles  # noqa: E402
 from flexmbd.adapters import exudyn_beam, exudyn_common, exudyn_ffrf  # noqa: E402
 
 

@@ -6,7 +6,8 @@ import pytest
 
 pytest.importorskip("exudyn")
 
-from flexmbd import cases, flexbody, invariants, solvers  # noqa: E402
+from flexmbd import cases, flexbody, solvers
+from flexmbd.mbd import invariants  # noqa: E402
 from flexmbd.adapters import exudyn_ffrf  # noqa: E402
 
 

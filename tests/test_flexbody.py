@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 import scipy.linalg as la
 
-from flexmbd import cases, channels, flexbody, integrate, solver
-from flexmbd.invariants import invariants
+from flexmbd import cases, channels, flexbody, solver
+from flexmbd.mbd import integrate
+from flexmbd.mbd.invariants import invariants
 from flexmbd.fe import assembly, stress
 from flexmbd.build import from_case
 from trees import one_beam

@@ -7,13 +7,14 @@ import pinocchio as pin
 import pytest
 from scipy.integrate import solve_ivp
 
-from flexmbd import cases, flexbody, integrate, results, solver, solvers
+from flexmbd import cases, flexbody, results, solver, solvers
+from flexmbd.mbd import integrate
 from flexmbd.adapters import pinocchio_model
 from flexmbd.build import from_case
 from flexmbd.cases.schema import INTEGRATOR
 from flexmbd.errors import InputError
-from flexmbd.model import make_data
-from flexmbd.kernel import entry
+from flexmbd.mbd.model import make_data
+from flexmbd.mbd.compiled import entry
 
 
 def energies(model, sim):

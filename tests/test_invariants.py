@@ -4,7 +4,7 @@ quadratic velocity forces rebuilt from them against node sums."""
 import numpy as np
 import pytest
 
-from flexmbd import invariants
+from flexmbd.mbd import invariants
 from oracles import node_mass_matrix, quadratic_forces, skew
 from test_flexbody import random_body, scrambled
 

@@ -3,7 +3,7 @@
 import numba
 from numba.core import config
 
-from flexmbd import jit
+from flexmbd.mbd.compiled import jit
 
 
 def test_the_cache_stays_in_the_source_hashed_folder_when_numba_reads_the_environment_again(monkeypatch):

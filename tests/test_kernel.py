@@ -6,8 +6,8 @@ import numpy as np
 
 from flexmbd import bench
 from flexmbd.build import from_case
-from flexmbd.kernel import bound, entry
-from flexmbd.model import make_data
+from flexmbd.mbd.compiled import bound, entry
+from flexmbd.mbd.model import make_data
 
 
 @numba.njit

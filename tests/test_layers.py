@@ -9,15 +9,14 @@ import sys
 from pathlib import Path
 
 import flexmbd
-from flexmbd import jit
+from flexmbd.mbd.compiled import jit
 
 ROOT = Path(flexmbd.__file__).resolve().parent
 
 # module or package (its first dotted part, under flexmbd) -> layer, bottom to top (docs/architecture.md)
 LAYERS = {
-    "errors": 1, "files": 1, "version": 1, "progress": 1, "fe": 1, "results": 1, "metrics": 1, "resources": 1,
-    **{m: 1 for m in ("jit", "dense", "spatial", "profiles", "joints", "invariants", "model", "dynamics", "kernel",
-                      "integrate", "constraints")},                                       # the solver (SOLVER)
+    "mbd": 1, "errors": 1, "files": 1, "version": 1, "progress": 1, "fe": 1, "results": 1, "metrics": 1,
+    "resources": 1,
     "cases": 2, "flexbody": 2,
     "build": 3,
     "channels": 4, "solver": 4, "adapters": 4, "solvers": 4, "linearize": 4, "cost": 4, "external": 4,
@@ -92,39 +91,46 @@ def test_a_planted_upward_import_is_caught():
                "from flexmbd.build import from_case", "def f():\n    from flexmbd import channels\n"]
     for source in planted:
         assert upward("results", source), source
-    assert upward("model", "import flexmbd") == ["model (layer 1) imports __init__ (layer 5)"]
+    assert upward("mbd.model", "import flexmbd") == ["mbd.model (layer 1) imports __init__ (layer 5)"]
     fine = ("from flexmbd import errors, files\nfrom flexmbd.errors import InputError\n"
             "from flexmbd.version import __version__\nfrom flexmbd.fe import assembly\nimport numpy")
     assert not upward("results", fine)
     assert imported(fine) == {"errors", "files", "version", "fe.assembly"}
 
 
-# the in-house solver: these modules import one another and, of the rest of flexmbd, only what
-# OUTSIDE names (the user's cache folder, where jit keeps compiled code), so that the solver can be
-# read, run and tested without the case files: a run's end is its own (`integrate.Ended`), progress
-# an object it is handed
-SOLVER = ("jit", "dense", "spatial", "profiles", "joints", "invariants", "model", "dynamics", "kernel", "integrate",
-          "constraints")
-OUTSIDE = {"jit": {"files"}}
-
-
 def test_the_solver_imports_nothing_of_the_harness():
-    found = {}
+    """Every module of the solver's package (`flexmbd.mbd`) imports only from it, so that the
+    solver can be read, run and tested without the case files; numba and llvmlite appear only in
+    its compiled sub-package."""
+    outside, compiling = [], []
     for rel, p in modules().items():
-        if rel.split(".")[0] in SOLVER:
-            out = {m.split(".")[0] for m in imported(p.read_text())} - set(SOLVER)
-            if out:
-                found[rel.split(".")[0]] = found.get(rel.split(".")[0], set()) | out
-    assert found == OUTSIDE, found
+        source = p.read_text()
+        if rel.startswith("mbd."):
+            outside += [f"{rel} imports {m}" for m in sorted(imported(source)) if not m.startswith("mbd")]
+        roots = {a.name.split(".")[0] for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Import)
+                 for a in n.names}
+        roots |= {n.module.split(".")[0] for n in ast.walk(ast.parse(source))
+                  if isinstance(n, ast.ImportFrom) and n.module and not n.level}
+        if roots & {"numba", "llvmlite"} and not rel.startswith("mbd.compiled."):
+            compiling.append(rel)
+    assert not outside and not compiling, (outside, compiling)
+
+
+def test_importing_the_solver_loads_nothing_else_of_flexmbd():
+    code = ("import sys, flexmbd.mbd.integrate, flexmbd.mbd.constraints; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'flexmbd' and not m.startswith('flexmbd.mbd')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "['flexmbd']", out.stdout          # the package itself, whose __init__ is lazy
 
 
 def test_the_cache_key_covers_every_file_with_compiled_code():
-    """Every file that compiles (an njit or cfunc from flexmbd.jit) is in the hash naming the
+    """Every file that compiles (an njit or cfunc from the solver's jit) is in the hash naming the
     numba cache folder (`jit.compiled_sources`), with jit.py itself and the Model layout."""
     compiling = {p for p in modules().values() if re.search(r"@njit\b|\bcfunc\(", p.read_text())}
     hashed = set(jit.compiled_sources())
-    assert ROOT / "dynamics.py" in compiling and compiling <= hashed, sorted(map(str, compiling - hashed))
-    assert {ROOT / "jit.py", ROOT / "dense.py", ROOT / "model.py", ROOT / "kernel" / "entry.py"} <= hashed
+    assert ROOT / "mbd" / "dynamics.py" in compiling and compiling <= hashed, sorted(map(str, compiling - hashed))
+    assert {ROOT / "mbd" / name for name in ("compiled/jit.py", "compiled/dense.py", "model.py", "compiled/entry.py")} <= hashed
 
 
 def test_loading_a_case_imports_no_solver():

@@ -6,7 +6,7 @@ import pytest
 
 from flexmbd import cases, flexbody, linearize
 from flexmbd.errors import InputError
-from flexmbd.kernel import entry
+from flexmbd.mbd.compiled import entry
 
 
 def test_fixed_base_system_modes_are_the_mode_set():
@@ -59,7 +59,7 @@ def test_pendulum_bending_modes_are_named_after_the_beam_not_the_hinge():
 def test_the_mass_matrix_from_forward_dynamics_is_the_polarized_one():
     """`mass_matrix` (n + 1 forward evaluations) against `entry.mass_matrix_system` (the kinetic
     energy by polarization, checked against the Lagrangian oracle), swung away from the release."""
-    from flexmbd.model import make_data
+    from flexmbd.mbd.model import make_data
     model = linearize.model_of(cases.load("double_pendulum"))
     q = model.q0.copy()
     q[model.jnt_qadr[1:]] += [-0.7, 0.4]

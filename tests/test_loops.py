@@ -99,7 +99,8 @@ def test_a_driven_loop_takes_no_mode_as_a_dependent_coordinate():
     links' in-plane modes move the pins by round-off out of the plane only (1e-12 of their
     slopes), which must not make a mode dependent: its start and its velocity would be set by the
     projection instead of by the dynamics."""
-    from flexmbd import build, constraints, flexbody
+    from flexmbd import build, flexbody
+    from flexmbd.mbd import constraints
     case = cases.load(ALU, RIGID_CRANK).modelled
     model = build.from_case(case, flexbody.for_case(case))
     loops = build.loops(model, case)

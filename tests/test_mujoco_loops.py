@@ -13,7 +13,8 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from flexmbd import cases, solvers, spatial
+from flexmbd import cases, solvers
+from flexmbd.mbd import spatial
 
 mujoco = pytest.importorskip("mujoco")
 

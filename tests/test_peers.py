@@ -13,16 +13,17 @@ suite, against `flexmbd` on cantilever_step.
 import numpy as np
 import pytest
 
-from flexmbd import build, cases, channels, dynamics, flexbody, solvers, spatial
+from flexmbd import build, cases, channels, flexbody, solvers
+from flexmbd.mbd import dynamics, spatial
 from flexmbd.build import from_case
-from flexmbd.kernel.entry import forward_dynamics
-from flexmbd.model import make_data
+from flexmbd.mbd.compiled.entry import forward_dynamics
+from flexmbd.mbd.model import make_data
 
 pin = pytest.importorskip("pinocchio")
 mujoco = pytest.importorskip("mujoco")
 
 from flexmbd.adapters import common, mujoco_common, mujoco_rigid, mujoco_rod, pinocchio_model, pinocchio_rigid  # noqa: E402
-from flexmbd.kernel import entry
+from flexmbd.mbd.compiled import entry
 
 LUMPED = ['solvers.pinocchio.beam_mass="lumped"', 'solvers.mujoco.beam_mass="lumped"']
 

@@ -19,7 +19,8 @@ import pytest
 pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")
 
-from flexmbd import build, solvers, spatial  # noqa: E402
+from flexmbd import build, solvers
+from flexmbd.mbd import spatial  # noqa: E402
 from test_peers import LUMPED, agreement, agrees, rigid  # noqa: E402
 
 T_END = 0.5                         # s

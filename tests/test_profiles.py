@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from flexmbd import profiles
+from flexmbd.mbd import profiles
 
 
 def test_load_factors():

@@ -11,8 +11,8 @@ import numpy as np
 
 from flexmbd import cases
 from flexmbd.build import from_case
-from flexmbd.kernel.entry import forward_dynamics
-from flexmbd.model import make_data
+from flexmbd.mbd.compiled.entry import forward_dynamics
+from flexmbd.mbd.model import make_data
 
 ROOT = Path(__file__).resolve().parent.parent
 SMALL = ["bodies.beam1.elements=8", "bodies.beam1.modes.count=3", "bodies.beam2.elements=8",
@@ -22,9 +22,9 @@ import json, sys
 import numpy as np
 from flexmbd import cases
 from flexmbd.build import from_case
-from flexmbd import jit
-from flexmbd.kernel.entry import forward_dynamics
-from flexmbd.model import make_data
+from flexmbd.mbd.compiled import jit
+from flexmbd.mbd.compiled.entry import forward_dynamics
+from flexmbd.mbd.model import make_data
 m = from_case(cases.load("double_pendulum", json.loads(sys.argv[1])))
 rng = np.random.default_rng(3)
 q, v = m.q0 + 0.1 * rng.standard_normal(m.nq), 0.5 * rng.standard_normal(m.nv)

@@ -5,8 +5,8 @@ again, and a cache folder that cannot be written is replaced by a temporary one,
 package's folder; a plug-in that returns arrays of the wrong shapes, or instants that stop
 increasing, is a failed result saying so, and the command and the report complete around it.
 
-The cache tests compile tiny functions of their own through `flexmbd.jit`, in fresh processes with
-their own XDG_CACHE_HOME (about a second each), never the kernel."""
+The cache tests compile tiny functions of their own through `flexmbd.mbd.compiled.jit`, in fresh
+processes with their own XDG_CACHE_HOME (about a second each), never the kernel."""
 
 import json
 import os
@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 import flexmbd
-from flexmbd import integrate, results
+from flexmbd import results
+from flexmbd.mbd import integrate
 from flexmbd.cases.validate import LOOP_METHODS
 from flexmbd.cli import main
 from tests.test_bad_input import _in_process, _refused
@@ -48,8 +49,8 @@ def test_a_loop_case_with_an_integrator_that_cannot_project_is_refused_when_load
 # the compiled-code cache
 
 TINY = '''
-from flexmbd import jit
-from flexmbd.jit import njit
+from flexmbd.mbd.compiled import jit
+from flexmbd.mbd.compiled.jit import njit
 
 
 @njit
@@ -106,7 +107,7 @@ def test_compiled_code_is_never_written_beside_the_sources(tmp_path, xdg):
     (tmp_path / "tmp").mkdir()
     package = lambda: sorted(str(p) for p in (ROOT / "flexmbd").rglob("*.nb[ic]"))   # noqa: E731
     before = package()
-    code = ("import numpy as np; from flexmbd import jit, spatial; "
+    code = ("import numpy as np; from flexmbd.mbd import spatial; from flexmbd.mbd.compiled import jit; "
             "print(spatial.skew(np.array([1.0, 2.0, 3.0]))[0, 1], jit.cache_dir())")
     r = python(code, tmp_path, XDG_CACHE_HOME=str(tmp_path / xdg) if xdg == "a file" else xdg,
                TMPDIR=str(tmp_path / "tmp"), HOME=str(tmp_path / "home"))

@@ -8,9 +8,9 @@ import pytest
 from flexmbd import cases, channels, solver, solvers
 from flexmbd.errors import InputError
 from flexmbd.build import from_case
-from flexmbd.kernel.entry import forward_dynamics
-from flexmbd.model import make_data
-from flexmbd.spatial import expm_so3
+from flexmbd.mbd.compiled.entry import forward_dynamics
+from flexmbd.mbd.model import make_data
+from flexmbd.mbd.spatial import expm_so3
 
 
 

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from flexmbd import cases, invariants, solvers
+from flexmbd import cases, solvers
+from flexmbd.mbd import invariants
 from flexmbd.cli import main
 
 DATA = Path(__file__).resolve().parent / "data"

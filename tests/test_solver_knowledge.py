@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 
 import flexmbd
-from flexmbd import cases, cli, cost, executor, jit, linearize, solver, solvers
+from flexmbd import cases, cli, cost, executor, linearize, solver, solvers
+from flexmbd.mbd.compiled import jit
 from flexmbd.report import figures, spectra
 
 ROOT = Path(flexmbd.__file__).resolve().parent

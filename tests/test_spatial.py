@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from flexmbd import spatial as sp
+from flexmbd.mbd import spatial as sp
 from oracles import crf, crm
 
 

@@ -67,7 +67,7 @@ def random_case(rng, n_bodies, joint_types, flexible=0.0, gravity=(0.0, -9.81, 0
 
 def random_state(rng, model, scale_q=1.0, scale_eta=1e-3):
     """Random (q, v) with unit quaternions, modal amplitudes of order scale_eta."""
-    from flexmbd.joints import FREE, SPHERICAL
+    from flexmbd.mbd.joints import FREE, SPHERICAL
     q = rng.normal(size=model.nq) * scale_q
     v = rng.normal(size=model.nv)
     for i in range(1, model.nb + 1):

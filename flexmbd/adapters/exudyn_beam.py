@@ -68,7 +68,8 @@ import time
 
 import numpy as np
 
-from flexmbd import cases, channels, cost, flexbody, profiles, results
+from flexmbd import cases, channels, cost, flexbody, results
+from flexmbd.mbd import profiles
 from flexmbd.adapters import common
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu

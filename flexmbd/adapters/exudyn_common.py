@@ -32,7 +32,7 @@ from flexmbd import channels, files, results
 from flexmbd.adapters import common
 from flexmbd.progress import Progress
 
-from flexmbd.spatial import expm_so3
+from flexmbd.mbd.spatial import expm_so3
 
 # solver name in the case file -> Exudyn's implicit solver type. "fox-goodwin" is Exudyn's
 # generalized-alpha solver switched to Newmark beta = 1/12, gamma = 1/2 with index-2 constraints:

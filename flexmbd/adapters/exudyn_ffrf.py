@@ -85,7 +85,8 @@ from types import MappingProxyType
 import numpy as np
 import scipy.sparse as sp
 
-from flexmbd import cases, channels, cost, flexbody, invariants, profiles, results
+from flexmbd import cases, channels, cost, flexbody, results
+from flexmbd.mbd import invariants, profiles
 from flexmbd.adapters import exudyn_common as xc
 from flexmbd.adapters.exudyn_common import eii, exu
 from flexmbd.cases import closure

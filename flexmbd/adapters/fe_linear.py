@@ -52,7 +52,8 @@ import scipy.linalg
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from flexmbd import channels, cost, flexbody, profiles
+from flexmbd import channels, cost, flexbody
+from flexmbd.mbd import profiles
 from flexmbd.adapters import common
 from flexmbd.fe import frame, solid, stress
 from flexmbd.progress import Progress, Ticking

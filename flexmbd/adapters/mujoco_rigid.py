@@ -55,7 +55,8 @@ from dataclasses import dataclass
 import numpy as np
 
 import mujoco
-from flexmbd import cases, channels, cost, profiles, results
+from flexmbd import cases, channels, cost, results
+from flexmbd.mbd import profiles
 from flexmbd.cases.closure import pick
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, quat_to_rot, rot_to_quat

@@ -49,7 +49,8 @@ import time
 import numpy as np
 
 import mujoco
-from flexmbd import cases, channels, cost, profiles, results
+from flexmbd import cases, channels, cost, results
+from flexmbd.mbd import profiles
 from flexmbd.adapters import common
 from flexmbd.adapters.mujoco_common import fmt, rot_to_quat
 from flexmbd.progress import Progress

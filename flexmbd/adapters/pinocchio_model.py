@@ -25,9 +25,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from flexmbd import spatial
-from flexmbd.joints import FIXED, FREE, PRISMATIC, REVOLUTE, SPHERICAL
-from flexmbd.model import Model
+from flexmbd.mbd import spatial
+from flexmbd.mbd.joints import FIXED, FREE, PRISMATIC, REVOLUTE, SPHERICAL
+from flexmbd.mbd.model import Model
 
 
 # ---------------------------------------------------------------------------------------------

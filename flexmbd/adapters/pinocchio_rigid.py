@@ -62,7 +62,8 @@ import numpy as np
 import pinocchio as pin
 from scipy.integrate import DOP853, RK45, Radau
 
-from flexmbd import cases, channels, cost, profiles, results
+from flexmbd import cases, channels, cost, results
+from flexmbd.mbd import profiles
 from flexmbd.cases import closure
 from flexmbd.adapters import common, pinocchio_model
 

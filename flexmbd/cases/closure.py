@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from flexmbd.constraints import pick      # the rank rule of the dependent coordinates, the solver's own
+from flexmbd.mbd.constraints import pick      # the rank rule of the dependent coordinates, the solver's own
 from flexmbd.errors import InputError
 
 CLOSES = 1e-9       # m (rad): the largest residual a closed loop may keep, relative to the mechanism's size

@@ -31,7 +31,7 @@ from types import MappingProxyType
 
 from flexmbd import flexbody
 from flexmbd.cases.schema import JOINT, JOINT_COORDS, TOLERANCES
-from flexmbd.spatial import rotation_rpy
+from flexmbd.mbd.spatial import rotation_rpy
 
 
 def frozen(x):

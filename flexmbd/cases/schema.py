@@ -9,7 +9,7 @@ nested dict schema.
 
 from __future__ import annotations
 
-from flexmbd.joints import JOINT_COORDS     # the joint types' coordinate counts: the solver's, one place
+from flexmbd.mbd.joints import JOINT_COORDS     # the joint types' coordinate counts: the solver's, one place
 
 REQUIRED = object()
 

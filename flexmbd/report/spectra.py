@@ -170,7 +170,7 @@ def prepare(chosen_cases, notice=None) -> None:
     """What page building needs that may run long native code (the system modes: the first one
     compiles flexmbd's kernel), done before any page is staged: SIGINT / SIGTERM end it at once.
     `notice(line)` is told when the kernel is not yet compiled for this source version."""
-    from flexmbd import jit
+    from flexmbd.mbd.compiled import jit
     if notice and chosen_cases and not jit.is_cached():
         from flexmbd import solver
         notice(solver.compiling(", to linearize the cases for their spectra"))

@@ -15,7 +15,7 @@ position is `jnt_x0[i]` and mode block `jnt_Phi[i]`.
 The arrays live in `Model.arrays` (a NamedTuple); the Model shell adds what only Python needs
 (names, motion profiles, the reduced bodies for the trajectory). `build.from_case` makes a Model from a
 case; the algorithms (`dynamics`) read the arrays and a Data by field name, whether they are these
-NamedTuples or the kernel's structrefs with the same fields (`kernel.bound`).
+NamedTuples or the kernel's structrefs with the same fields (`compiled.bound`).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd.invariants import Invariants
+from flexmbd.mbd.invariants import Invariants
 
 
 class Arrays(NamedTuple):

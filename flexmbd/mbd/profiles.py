@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.jit import njit
+from flexmbd.mbd.compiled.jit import njit
 
 LOAD_KINDS = {"constant": 0, "step": 1, "ramp": 2, "harmonic": 3}
 MOTION_KINDS = {"constant_rate": 0, "harmonic": 1, "spin_up": 2, "table": 3}

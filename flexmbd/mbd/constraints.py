@@ -34,10 +34,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flexmbd import profiles, spatial
-from flexmbd.dynamics import node_kinematics
-from flexmbd.kernel import entry
-from flexmbd.model import Model, make_data
+from flexmbd.mbd import profiles, spatial
+from flexmbd.mbd.dynamics import node_kinematics
+from flexmbd.mbd.compiled import entry
+from flexmbd.mbd.model import Model, make_data
 
 ROWS = {"revolute": ((0, 1, 2), (0, 1)), "spherical": ((0, 1, 2), ()), "fixed": ((0, 1, 2), (0, 1, 2)),
         "prismatic": ((0, 1), (0, 1, 2))}       # (position rows, rotation rows) in the B-rotated triad

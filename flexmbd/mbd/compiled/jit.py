@@ -5,9 +5,8 @@ Every compiled function in flexmbd is decorated with `njit` (or, for the kernel'
 
 numba's cache notices edits to a function's own file but not to the functions it calls from
 other files, so the cache lives in a folder named after a hash of every source file that holds
-compiled code (`compiled_sources`: those that import from `flexmbd.jit`, this file and the
-kernel's) and of the Model layout in model.py: any edit to them
-starts a fresh cache, and a stale compiled kernel can never be loaded. Each function's cache
+compiled code (`compiled_sources`: the compiled package's and those that import from this module)
+and of the Model layout in model.py: any edit to them starts a fresh cache, and a stale compiled kernel can never be loaded. Each function's cache
 (`Cache`) lives in that folder only, never beside the sources, and an entry that cannot be loaded
 (a file cut short or overwritten) is removed and compiled again.
 """
@@ -30,22 +29,22 @@ from numba.core.caching import CompileResultCacheImpl, FunctionCache, UserProvid
 from numba.core.ccallback import CFunc
 from numba.core.errors import NumbaPerformanceWarning
 
-from flexmbd.files import user_cache
+from flexmbd.mbd.cache import user_cache
 
 warnings.filterwarnings("ignore", category=NumbaPerformanceWarning)
 
-_SOURCE = Path(__file__).resolve().parent             # the flexmbd package
+_SOURCE = Path(__file__).resolve().parent.parent      # the solver's package, flexmbd/mbd
 
 
 def compiled_sources() -> list[Path]:
     """The source files the compiled code depends on, sorted: this file (the compile options),
-    the kernel's files, every file that imports from `flexmbd.jit` (those with compiled
+    the compiled package's files, every file that imports from this module (those with compiled
     functions) and model.py (the Model layout)."""
     out = []
     for p in sorted(_SOURCE.rglob("*.py")):
         rel = p.relative_to(_SOURCE).as_posix()
-        if rel in ("jit.py", "model.py") or rel.startswith("kernel/") \
-                or b"from flexmbd.jit import" in p.read_bytes():
+        if rel == "model.py" or rel.startswith("compiled/") \
+                or b"from flexmbd.mbd.compiled.jit import" in p.read_bytes():
             out.append(p)
     return out
 

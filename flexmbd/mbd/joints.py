@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd import spatial
-from flexmbd.jit import njit
-from flexmbd.spatial import plux, quat_rate, quat_to_rot, xlt, xrot
+from flexmbd.mbd import spatial
+from flexmbd.mbd.compiled.jit import njit
+from flexmbd.mbd.spatial import plux, quat_rate, quat_to_rot, xlt, xrot
 
 # each joint type's (coordinates, velocities): one each for revolute and prismatic, a quaternion and
 # the angular velocity for spherical, a quaternion and a position and [w; v] for free

@@ -15,8 +15,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd.jit import njit
-from flexmbd.spatial import cross_force_into, skew, skew_rows
+from flexmbd.mbd.compiled.jit import njit
+from flexmbd.mbd.spatial import cross_force_into, skew, skew_rows
 
 
 class Invariants(NamedTuple):

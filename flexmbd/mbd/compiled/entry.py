@@ -15,11 +15,11 @@ from __future__ import annotations
 import numpy as np
 from numba import carray, types
 
-from flexmbd.dynamics import aba, kinetic_energy, pass1, passes23, potential_energy, prescribed
-from flexmbd.jit import PURE_PYTHON, cfunc, njit
-from flexmbd.joints import qdot
-from flexmbd.kernel.bound import Bound, bind, bound_at, call_entry
-from flexmbd.model import Data, Model
+from flexmbd.mbd.dynamics import aba, kinetic_energy, pass1, passes23, potential_energy, prescribed
+from flexmbd.mbd.compiled.jit import PURE_PYTHON, cfunc, njit
+from flexmbd.mbd.joints import qdot
+from flexmbd.mbd.compiled.bound import Bound, bind, bound_at, call_entry
+from flexmbd.mbd.model import Data, Model
 
 _P = types.CPointer(types.float64)
 SIGNATURE = types.void(types.intp, types.float64, _P, _P, _P, _P, types.intp, types.intp, types.intp)

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.dense import mm
-from flexmbd.jit import njit
+from flexmbd.mbd.compiled.dense import mm
+from flexmbd.mbd.compiled.jit import njit
 
 
 def skew_rows(a: np.ndarray) -> np.ndarray:

@@ -19,9 +19,9 @@ from numba.core import cgutils, types
 from numba.experimental import structref
 from numba.extending import intrinsic
 
-from flexmbd.invariants import stack
-from flexmbd.jit import PURE_PYTHON, njit
-from flexmbd.model import Arrays, Data, Model, empty_arrays, empty_data, empty_loads
+from flexmbd.mbd.invariants import stack
+from flexmbd.mbd.compiled.jit import PURE_PYTHON, njit
+from flexmbd.mbd.model import Arrays, Data, Model, empty_arrays, empty_data, empty_loads
 
 
 @structref.register

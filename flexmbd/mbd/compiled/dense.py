@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.jit import njit
+from flexmbd.mbd.compiled.jit import njit
 
 
 @njit(inline="always")

@@ -38,11 +38,11 @@ import numpy as np
 from scipy import integrate as scipy_ivp
 from scipy.integrate import ode, solve_ivp
 
-from flexmbd.dense import mv
-from flexmbd.jit import compiling, njit
-from flexmbd.kernel.bound import bind
-from flexmbd.kernel.entry import handle, rhs
-from flexmbd.model import Model, make_data
+from flexmbd.mbd.compiled.dense import mv
+from flexmbd.mbd.compiled.jit import compiling, njit
+from flexmbd.mbd.compiled.bound import bind
+from flexmbd.mbd.compiled.entry import handle, rhs
+from flexmbd.mbd.model import Model, make_data
 
 DIVERGED = 1e8      # |v| beyond this (rad/s, m/s, modal units) counts as divergence: the divergence rule's
                     # bound on a velocity state, the same for every solver (`results.first_failure` its others)
@@ -78,7 +78,7 @@ class Simulation:
 
 
 def rhs_function(model: Model):
-    """f(t, y) for y = [q; v] (the compiled `kernel.entry.rhs` behind a Python call), and a counter
+    """f(t, y) for y = [q; v] (the compiled `compiled.entry.rhs` behind a Python call), and a counter
     of its evaluations."""
     b, nq = bind(model, make_data(model)), model.nq
     ev = handle(b)
@@ -132,7 +132,7 @@ LANDING = 1e-12      # a step within this (relative to the instant) of an output
 @njit
 def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
     """Integrate from (t_out[0], y) through the instants t_out, writing the state at each into
-    Y[1:], the right-hand side evaluated through `ev` (`kernel.entry.handle`); steps are cut to
+    Y[1:], the right-hand side evaluated through `ev` (`compiled.entry.handle`); steps are cut to
     land on them. Step size by the error of the embedded 4th-order
     solution (RMS norm, weights atol + rtol |y|) with Hairer's PI controller (alpha 0.17, beta 0.04).
     A step that would stop within LANDING of an instant goes to the instant itself, and the

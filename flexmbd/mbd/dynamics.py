@@ -16,7 +16,7 @@ Gravity enters as a fictitious base acceleration a_0 = [0; -g].
 `model` and `data` are read by field name only: the NamedTuples `model.Arrays` and `model.Data`,
 or the kernel's structrefs with the same fields. The functions are compiled with `njit` and run
 as they are in the pure-Python mode; the one compiled entry that evaluates them, and the call from
-Python, are the kernel's (`kernel.entry.forward`). Per-body arrays are zero-padded to the largest
+Python, are the kernel's (`compiled.entry.forward`). Per-body arrays are zero-padded to the largest
 mode count, so a body's blocks are the leading slices `[:6 + nm]`.
 """
 
@@ -24,16 +24,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.dense import (back_subst_vec, cholesky, congruence_add_into, forward_subst, inv_spd, mm, mm_into, mtm,
-                           mtv, mtv_add_into, mv, mv_add_into, mv_into)
-from flexmbd.invariants import first_moment, inertia_and_forces_into
-from flexmbd.jit import njit
-from flexmbd.joints import jcalc
-from flexmbd.model import Model
-from flexmbd.profiles import load_at, motion_at
-from flexmbd.spatial import (cross_force_into, cross_motion, cross_motion_into, expm_so3, inertia_parts, jac_left_so3,
-                             jac_left_so3_dot, mv6_add_into, mv6_into, plux, plux_parts, xcongruence_add_into,
-                             xmul_into, xmv_into, xtv_add_into)
+from flexmbd.mbd.compiled.dense import (back_subst_vec, cholesky, congruence_add_into, forward_subst, inv_spd, mm,
+                                        mm_into, mtm, mtv, mtv_add_into, mv, mv_add_into, mv_into)
+from flexmbd.mbd.invariants import first_moment, inertia_and_forces_into
+from flexmbd.mbd.compiled.jit import njit
+from flexmbd.mbd.joints import jcalc
+from flexmbd.mbd.model import Model
+from flexmbd.mbd.profiles import load_at, motion_at
+from flexmbd.mbd.spatial import (cross_force_into, cross_motion, cross_motion_into, expm_so3, inertia_parts,
+                                 jac_left_so3, jac_left_so3_dot, mv6_add_into, mv6_into, plux, plux_parts,
+                                 xcongruence_add_into, xmul_into, xmv_into, xtv_add_into)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -353,7 +353,7 @@ def passes23(model, data, tau):
 
 
 # ---------------------------------------------------------------------------------------------
-# energies (after pass1; `kernel.entry.energy` evaluates them)
+# energies (after pass1; `compiled.entry.energy` evaluates them)
 
 
 @njit

@@ -1,0 +1,18 @@
+"""The in-house solver: the recursive dynamics of modally reduced flexible bodies in joint
+coordinates (docs/formulation.md), readable and usable without the harness around it.
+
+    spatial      6-D spatial algebra and rotations
+    joints       the one joint switch: codes, coordinate counts, transforms, motion subspaces
+    profiles     prescribed joint motions and load factors in time
+    invariants   the inertia shape invariants of a reduced body (its arrays, by name)
+    model        the Model arrays (constants) and the Data workspace
+    dynamics     the recursive algorithms: kinematics, articulated-body inertias, accelerations
+    constraints  closed loops on the tree: cut joints' rows, assembly, projection
+    integrate    the time integrators (a run's end as `Ended`, progress told to what it is handed)
+    compiled/    the one place numba appears: compiling (`jit`), small dense loops (`dense`), the
+                 Model and a Data as one compiled object (`bound`) and the one compiled entry (`entry`)
+    cache        the user's cache folder, where the compiled code is kept
+
+It imports nothing else of flexmbd (tests/test_layers.py); the harness builds a Model from a case
+(`flexmbd.build`) and reads what the solver returns.
+"""
