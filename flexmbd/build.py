@@ -1,4 +1,4 @@
-"""Case -> Model: the Model arrays (model.Arrays) of a case's bodies, joints and loads, and the
+"""Case -> Model: a case's bodies, joints and loads in the solver's terms (`mbd.tree`), and the
 cut joints (`constraints.Cut`) of its loops on that Model."""
 
 from __future__ import annotations
@@ -6,70 +6,54 @@ from __future__ import annotations
 import numpy as np
 
 from flexmbd import flexbody
-from flexmbd.mbd import constraints, invariants, profiles, spatial
 from flexmbd.cases import Rigid
-from flexmbd.mbd.joints import JOINT_CODES, NQ, NV, initial_q
+from flexmbd.mbd import constraints, invariants, profiles, spatial, tree
 from flexmbd.mbd.constraints import ROWS, Cut, Side, axis_basis
-from flexmbd.mbd.model import Arrays, Model, empty_arrays, empty_loads
+from flexmbd.mbd.model import Model, empty_loads
 
 
 def from_case(case, bodies: dict | None = None) -> Model:
     """Build the Model of a resolved case (`cases.Resolved`: the tree as given, every beam whole;
     the modal model of a Case is that of `case.modelled`); `bodies`: reduced flexible bodies by
-    name (built when None)."""
+    name (built when None). The case's bodies and joints in the solver's terms (`body`, `joint`),
+    the Model from them (`mbd.tree.model`)."""
     if bodies is None:
         bodies = flexbody.for_case(case)
-    order = case.order
-    index = {name: k + 1 for k, name in enumerate(order)}
-    nb = len(order)
+    index = {name: k + 1 for k, name in enumerate(case.order)}
     nm = max([fb.n_modes for fb in bodies.values()] + [0])
+    joints = [case.joint_of(name) for name in case.order]
+    return tree.model([body(case, name, bodies) for name in case.order],
+                      [joint(j, index, case.bodies.get(j.parent)) for j in joints],
+                      case.gravity, point_loads(case, index, bodies, nm))
 
-    A = {k: x for k, x in empty_arrays(nb, nm).items() if not k.startswith("jnt_motion") and k != "jnt_q0"}
-    invs = [None] * (nb + 1)
-    motion, jnames, q0, v0 = [None] * (nb + 1), [""] * (nb + 1), [], []
-    nq = nv = 0
-    for name in order:
-        i = index[name]
-        j = case.joint_of(name)
-        jnames[i], motion[i] = j.name, j.motion
-        A["jnt_prescribed"][i] = j.motion is not None
-        A["parent"][i] = 0 if j.parent == "ground" else index[j.parent]
-        t = JOINT_CODES[j.type]
-        A["jnt_type"][i], A["jnt_nv"][i] = t, NV[t]
-        A["jnt_axis"][i] = j.axis
-        attach(A, i, j, case.bodies.get(j.parent), bodies.get(j.parent))
-        A["jnt_qadr"][i], A["jnt_vadr"][i] = nq, nv
-        q0.extend(initial_q(t, list(j.q0)))
-        v0.extend(j.qd0)
-        nq, nv = nq + NQ[t], nv + NV[t]
 
-        body = case.bodies[name]
-        if isinstance(body, Rigid):                     # a point mass too: its com at the origin, no inertia
-            A["body_inertia"][i] = spatial.inertia(body.mass, np.asarray(body.com, dtype=float),
-                                                   inertia_matrix(body.inertia))
-            A["body_mass"][i] = body.mass
-        elif body.rigid:
-            fb = flexbody.undeformed(name, body)
-            A["body_inertia"][i] = rigid_inertia_of_beam(fb)
-            A["body_mass"][i] = fb.m.sum()
-        else:
-            fb = bodies[name]
-            k = fb.n_modes
-            invs[i] = invariants.invariants(fb, body.stiffening)
-            A["body_mass"][i] = fb.m.sum()
-            A["body_madr"][i], A["body_nm"][i] = nq, k
-            A["flex_K"][i, :k, :k], A["flex_C"][i, :k, :k] = fb.Km, fb.Cm
-            q0.extend([0.0] * k)
-            v0.extend([0.0] * k)
-            nq, nv = nq + k, nv + k
+def body(case, name: str, bodies: dict) -> tree.Body:
+    """A case's body as the solver takes it: a rigid body's (a point mass's: no inertia) and a beam
+    declared rigid's spatial inertia at its origin, or a flexible body's reduced arrays."""
+    b = case.bodies[name]
+    if isinstance(b, Rigid):
+        return tree.Body(name, inertia=spatial.inertia(b.mass, np.asarray(b.com, dtype=float), inertia_matrix(b.inertia)),
+                         mass=b.mass)
+    if b.rigid:
+        fb = flexbody.undeformed(name, b)
+        return tree.Body(name, inertia=rigid_inertia_of_beam(fb), mass=fb.m.sum())
+    return tree.Body(name, flex=bodies[name], stiffening=b.stiffening)
 
-    A.update(motion_arrays(motion, A["jnt_qadr"], A["jnt_nv"], q0))
-    loads = point_loads(case, index, bodies, nm)
-    arrays = Arrays(**A, inv=invariants.stack(invs, nm), **loads[0],
-                    gravity=np.asarray(case.gravity, dtype=float))
-    return Model(nb=nb, nq=nq, nv=nv, arrays=arrays, names=("ground",) + tuple(order),
-                 jnt_names=tuple(jnames), jnt_motion=tuple(motion), load_profiles=loads[1],
-                 bodies=dict(bodies), q0=np.array(q0, dtype=float), v0=np.array(v0, dtype=float))
+
+def joint(j, index: dict, pbody) -> tree.Joint:
+    """A case's joint (`cases.Joint`) as the solver takes it, on its parent `pbody` (None: ground):
+    on a flexible body at its snapped node, elsewhere at its offset (`triad`)."""
+    on_node = not (pbody is None or isinstance(pbody, Rigid) or pbody.rigid)
+    return tree.Joint(j.name, 0 if j.parent == "ground" else index[j.parent], j.type, axis=tuple(j.axis),
+                      Xtriad=triad(j, on_node), node=j.point.node if on_node else -1, q0=tuple(j.q0),
+                      qd0=tuple(j.qd0), motion=j.motion)
+
+
+def triad(j, on_node: bool) -> np.ndarray:
+    """The input triad of joint j (6, 6): its rotation (`j.triad`, rows) at its offset in the
+    parent frame, or at the origin of the node frame it sits on."""
+    R = np.array(j.triad)
+    return spatial.plux(R.T, np.zeros(3) if on_node else np.asarray(j.offset, dtype=float))
 
 
 def loops(model: Model, case) -> constraints.Loops | None:
@@ -103,38 +87,6 @@ def side(model: Model, case, body: str, point, offset, E) -> Side:
         D = fb.D[p] if b.stiffening else np.zeros((nm, nm))
         return Side(body=i, E=E, offset=np.zeros(3), Phi=fb.Phi[p], D=D, x0=fb.x0[p])
     return Side(body=i, E=E, offset=np.asarray(offset, dtype=float))
-
-
-def attach(A: dict, i: int, j, pbody, fb: flexbody.FlexBody | None) -> None:
-    """Input triad of joint i (`cases.Joint` j, its triad's rotation in the parent frame): on ground,
-    a rigid body or a beam declared rigid at its offset (a beam's snapped node); on a flexible beam
-    at its snapped node, which carries it."""
-    R = np.array(j.triad)
-    if pbody is None or isinstance(pbody, Rigid) or pbody.rigid:
-        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.asarray(j.offset, dtype=float))
-    else:
-        p = j.point.node
-        A["jnt_Xtriad"][i] = spatial.plux(R.T, np.zeros(3))
-        A["jnt_node"][i], A["jnt_x0"][i] = p, fb.x0[p]
-        A["jnt_Phi"][i, :, :fb.n_modes] = fb.Phi[p]
-        if pbody.stiffening:
-            A["jnt_D"][i, :fb.n_modes, :fb.n_modes] = fb.D[p]
-
-
-def motion_arrays(motion: list, qadr, nv, q0: list) -> dict:
-    """The jnt_motion_* arrays and jnt_q0 from the joints' motion profiles (None: free joint)."""
-    codes = [profiles.encode_motion(p) if p is not None else None for p in motion]
-    nt = max([c[2].size for c in codes if c is not None] + [2])
-    M = {k: x for k, x in empty_arrays(len(motion) - 1, 0, nt).items() if k.startswith("jnt_motion") or k == "jnt_q0"}
-    for i, c in enumerate(codes):
-        if nv[i] == 1:
-            M["jnt_q0"][i] = q0[qadr[i]]
-        if c is not None:
-            kind, par, tx, tc = c
-            M["jnt_motion_kind"][i], M["jnt_motion_par"][i] = kind, par
-            M["jnt_motion_n"][i] = tx.size
-            M["jnt_motion_x"][i, :tx.size], M["jnt_motion_c"][i, :, :tc.shape[1]] = tx, tc
-    return M
 
 
 def point_loads(case, index: dict, bodies: dict, nm: int):

@@ -40,14 +40,15 @@ def scaled_inertia(monkeypatch, beam: str, block: slice, factor: float = 1.1):
 
 def shifted_joint(monkeypatch, child: str, dx: float):
     """Plant: the input triad of the joint whose child is `child` moved by dx along the parent's x."""
-    original = build.attach
+    original = build.triad
 
-    def planted(A, i, j, pbody, fb):
-        original(A, i, j, pbody, fb)
+    def planted(j, on_node):
+        X = original(j, on_node)
         if j.child == child:
-            r, R = spatial.plux_parts(A["jnt_Xtriad"][i])            # origin, triad -> parent rotation
-            A["jnt_Xtriad"][i] = spatial.plux(R.T, r + np.array([dx, 0.0, 0.0]))
-    monkeypatch.setattr(build, "attach", planted)
+            r, R = spatial.plux_parts(X)                               # origin, triad -> parent rotation
+            X = spatial.plux(R.T, r + np.array([dx, 0.0, 0.0]))
+        return X
+    monkeypatch.setattr(build, "triad", planted)
 
 
 def peers(case) -> dict:

@@ -11,8 +11,9 @@ coordinates (docs/formulation.md), readable and usable without the harness aroun
     integrate    the time integrators (a run's end as `Ended`, progress told to what it is handed)
     compiled/    the one place numba appears: compiling (`jit`), small dense loops (`dense`), the
                  Model and a Data as one compiled object (`bound`) and the one compiled entry (`entry`)
+    tree         a Model from plain descriptions of bodies and joints (examples/two_link_chain.py)
     cache        the user's cache folder, where the compiled code is kept
 
-It imports nothing else of flexmbd (tests/test_layers.py); the harness builds a Model from a case
-(`flexmbd.build`) and reads what the solver returns.
+It imports nothing else of flexmbd (tests/test_layers.py); the harness says a case in its terms
+(`flexmbd.build`: bodies and joints for `tree.model`) and reads what the solver returns.
 """
