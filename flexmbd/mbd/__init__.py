@@ -8,7 +8,9 @@ coordinates (docs/formulation.md), readable and usable without the harness aroun
     model        the Model arrays (constants) and the Data workspace
     dynamics     the recursive algorithms: kinematics, articulated-body inertias, accelerations
     constraints  closed loops on the tree: cut joints' rows, assembly, projection
-    integrate    the time integrators (a run's end as `Ended`, progress told to what it is handed)
+    integrate/   the time integrators, one module a method (a run's end as `Ended`, progress told to
+                 what it is handed)
+    linearize    the equations linearized about a state: the system's modes, damping ratios, labels
     compiled/    the one place numba appears: compiling (`jit`), small dense loops (`dense`), the
                  Model and a Data as one compiled object (`bound`) and the one compiled entry (`entry`)
     tree         a Model from plain descriptions of bodies and joints (examples/two_link_chain.py)
