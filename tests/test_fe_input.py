@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from flexmbd.cli import main
+from flexmbd.errors import InputError
 from flexmbd.fe import meshfile, solid
 from test_fe_meshfile import line_of, refused, write
 from test_solids import case_file
@@ -232,3 +233,14 @@ def test_the_command_refuses_a_bad_mesh_file_with_its_line(tmp_path, capsys, tex
     path = write(tmp_path, "bad.bdf", text)
     err = run_refused(tmp_path, capsys, path)
     assert err.startswith(f"flexmbd: {path}:{line_of(text, at)}: "), err
+
+
+def test_a_gmsh_file_read_without_nodes_is_refused(tmp_path, monkeypatch):
+    """meshio can hand back a mesh without points from a damaged file: one line, not an IndexError."""
+    from types import SimpleNamespace
+
+    from flexmbd.fe.meshfiles import gmsh
+    monkeypatch.setattr(gmsh, "_meshio", lambda source: SimpleNamespace(points=np.zeros(0), cells=[], cell_data={}))
+    with pytest.raises(InputError) as e:
+        gmsh.parse(tmp_path / "damaged.msh")
+    assert "defines no nodes" in str(e.value)

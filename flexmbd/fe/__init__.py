@@ -12,7 +12,8 @@ The chain is a sequence of free functions on plain arrays::
 DOF order: node ``p`` owns global DOFs ``6 p + k``, ``k = [ux, uy, uz, rx, ry, rz]``
 (translations in m, then rotations in rad); ``rz = +duy/dx`` and ``ry = -duz/dx``.
 
-A solid: `mesh` (the Mesh arrays, the box mesher), `meshfile` (Abaqus, NASTRAN and Gmsh files),
+A solid: `mesh` (the Mesh arrays, the box mesher), `meshfile` (Abaqus, NASTRAN and Gmsh files;
+their readers, one module per format, in `meshfiles`),
 `solid` (isoparametric elements, assembly, clamped-interface modes, interfaces, stress); docs/fe.md.
 """
 

@@ -73,7 +73,7 @@ def without_orphans(mesh: Mesh) -> Mesh:
     row = np.full(mesh.n_nodes, -1)
     row[used] = np.arange(used.size)
     masses = mesh.masses.copy()
-    masses[:, 0] = row[masses[:, 0].astype(int)]       # on nodes of elements (`fe.meshfile` checks)
+    masses[:, 0] = row[masses[:, 0].astype(int)]       # on nodes of elements (`fe.meshfiles.convert` checks)
     return mesh._replace(nodes=mesh.nodes[used], cells={k: row[c] for k, c in mesh.cells.items()},
                          node_sets={k: row[v][row[v] >= 0] for k, v in mesh.node_sets.items()},
                          node_ids=mesh.node_ids[used], masses=masses)
