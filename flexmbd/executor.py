@@ -103,13 +103,13 @@ def label(case, solver: str) -> str:
 def into(jobs: list, folder, keep: bool = False, where: Where = Where(), after=None) -> None:
     """Run the (case, solver) jobs and write each result into folder(case) (a results folder:
     FOLDER/CASE/SOLVER.{csv,json}) as it comes. With `keep`, a job whose stored result is readable
-    and has the key of the run it would make (`kept`) is not run: its result stays. `after(case,
+    and has the key of the run it would make (`up_to_date`) is not run: its result stays. `after(case,
     solver)`, when given, is told as each job's result is in place (kept or written)."""
     t0 = time.perf_counter()
     todo, n = [], 0
     told = after or (lambda c, s: None)
     for c, s in jobs:
-        if keep and kept(folder(c), c, s):
+        if keep and up_to_date(folder(c), c, s):
             n += 1
             job(n, len(jobs), f"{label(c, s)} (stored, unchanged)", time.perf_counter() - t0)
             told(c, s)
@@ -122,7 +122,7 @@ def into(jobs: list, folder, keep: bool = False, where: Where = Where(), after=N
     execute(todo, done, where, skipped=len(jobs) - len(todo), t0=t0)
 
 
-def kept(folder, case, solver: str) -> bool:
+def up_to_date(folder, case, solver: str) -> bool:
     """True when `folder` holds a readable result of `solver` on `case` whose key is the one a run
     would have now (`solvers.content_key`); for a solver that cannot run the case here (no key),
     one that says the same of the same case file (its status), so that nothing a page is drawn

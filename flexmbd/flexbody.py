@@ -55,13 +55,13 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import hashlib
 from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from flexmbd import version
 from flexmbd.errors import InputError
 from flexmbd.fe import assembly, element, frame, meshfile, modes, section, solid, stress
 from flexmbd.fe import mesh as fe_mesh
@@ -371,7 +371,7 @@ def digest(path) -> str:
     """SHA-256 (hex) of a file's bytes ('' when it cannot be read: its reader says why): what a
     cached reading of it is keyed by, so that an edited file is read again."""
     try:
-        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        return version.cache_key(Path(path).read_bytes())
     except OSError:
         return ""
 

@@ -1,18 +1,18 @@
 """Results of one solver on one case: the run status, a CSV table (`t` plus channels) and a
 JSON sidecar.
 
-Every solver's run ends in one `Status` (ok / failed with why and when / not applicable /
-unavailable), and one rule (`first_failure`) says when a run has diverged. The CSV and the JSON
-are a pair: both are written to temporary files, then swapped in with SIGINT and SIGTERM
-deferred, and the JSON records the CSV's SHA-256, so a reader sees the old pair or the new one and
-`read` refuses a CSV that does not belong to its JSON.
+Every solver's run ends in one `Status` (ok / failed with why, when and its cause, diverged or
+aborted / not applicable / unavailable), and one rule (`first_failure`) says when a run has
+diverged. The CSV and the JSON are a pair: both are written to temporary files, then swapped in
+with SIGINT and SIGTERM deferred, and the JSON records the CSV's SHA-256, so a reader sees the old
+pair or the new one and `read` refuses a CSV that does not belong to its JSON.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import functools
-import hashlib
 import io
 import json
 import os
@@ -38,21 +38,35 @@ DEPENDENCIES = ("numpy", "scipy", "pandas", "matplotlib", "numba", "exudyn", "pi
 
 KINDS = ("ok", "failed", "not applicable", "unavailable")
 
+# the cause of a failed run (Status.cause), one word each: diverged (the divergence rule: a value not
+# finite, a bound passed; `first_failure`, `diverged`), aborted (it stopped for any other reason: a step
+# size too small, Newton, a solver's error or exception, instants out of order; `failed`)
+CAUSES = ("diverged", "aborted")
+
 
 @dataclass(frozen=True)
 class Status:
     """What became of a run, the same for every solver: `kind` one of KINDS; `why` says why for
-    every kind but ok; `t` (s) is when a failed run failed, None when that is not known. An ok
-    run of a model outside its linear validity (`outside_validity`) carries what was exceeded in
-    `why` and when in `t`. str() gives the one line shown in tables and stored in sidecars."""
+    every kind but ok; `t` (s) is when a failed run failed, None when that is not known; `cause`
+    the class of a failed run, one of CAUSES, set where the failure is made ('' for every other
+    kind; a failed status made without one is aborted). An ok run of a model outside its linear
+    validity (`outside_validity`) carries what was exceeded in `why` and when in `t`. str() gives
+    the one line shown in tables and stored in sidecars (the cause beside it: the sidecar's
+    `cause`)."""
 
     kind: str = "ok"
     why: str = ""
     t: float | None = None
+    cause: str = ""
 
     def __post_init__(self):
         if self.kind not in KINDS:
             raise ValueError(f"status kind {self.kind!r}")
+        if self.kind == "failed" and not self.cause:
+            object.__setattr__(self, "cause", CAUSES[1])
+        if self.cause not in (CAUSES if self.kind == "failed" else ("",)):
+            raise ValueError(f"the cause {self.cause!r} of a {self.kind} run (a failed run's: "
+                             f"{' or '.join(CAUSES)}; none for any other)")
 
     @property
     def ok(self) -> bool:
@@ -77,7 +91,9 @@ class Status:
 
     @classmethod
     def parse(cls, text: str) -> "Status":
-        """The Status whose str() is `text`."""
+        """The Status whose str() is `text`; a failed run's cause, which the line does not hold,
+        as `derived_cause` reads it from the why (a reader that has the cause, a sidecar's
+        `cause`, puts it in: `read`)."""
         if text.startswith("ok, outside linear validity (") and text.endswith(")"):
             inner = text[len("ok, outside linear validity ("):-1]
             m = re.fullmatch(r"(.*) at t = ([-+0-9.eE]+|nan|inf) s", inner, re.S)
@@ -88,11 +104,29 @@ class Status:
         if kind not in KINDS[1:]:
             raise ValueError(f"not a run status: {text!r}")
         m = re.fullmatch(r"(.*) at t = ([-+0-9.eE]+|nan|inf) s", rest, re.S)
-        return cls(kind, m.group(1), float(m.group(2))) if m else cls(kind, rest)
+        why, t = (m.group(1), float(m.group(2))) if m else (rest, None)
+        return cls(kind, why, t, derived_cause(why) if kind == "failed" else "")
 
 
-def failed(why: str, t: float | None = None) -> Status:
-    return Status("failed", why, None if t is None else float(t))
+def derived_cause(why: str) -> str:
+    """The cause of a failed run whose status was stored as its line alone (a sidecar written
+    before sidecars held `cause`, an imported result's metadata): diverged when its why begins as
+    the divergence rule's whys began ("diverged ...", "non-finite ..."), else aborted. Never for
+    a run made here: its cause is set where its failure is made."""
+    return CAUSES[0] if why.startswith(("diverged", "non-finite")) else CAUSES[1]
+
+
+def failed(why: str, t: float | None = None, cause: str = CAUSES[1]) -> Status:
+    """A failed run, aborted unless `cause` says otherwise (`diverged` for the divergence rule)."""
+    return Status("failed", why, None if t is None else float(t), cause)
+
+
+def diverged(why: str, t: float | None = None) -> Status:
+    """A failed run that broke the divergence rule (a value not finite, a bound passed)."""
+    return failed(why, t, CAUSES[0])
+
+
+STATE_NOT_FINITE = "non-finite state"  # the why of a peer's run whose state stopped being finite (diverged)
 
 
 def outside_validity(why: str, t: float | None = None) -> Status:
@@ -131,14 +165,14 @@ def first_failure(t, channels: dict, bounds: dict) -> tuple[int, Status] | None:
         if hit.size and (first is None or hit[0] < first[0]):
             why = (f"non-finite {name}" if not np.isfinite(y[hit[0]]) else
                    f"diverged (|{name}| beyond {bounds[name]:g} m, {DIVERGED_LENGTHS:g} beam lengths)")
-            first = (int(hit[0]), failed(why, t[hit[0]]))
+            first = (int(hit[0]), diverged(why, t[hit[0]]))
     return first
 
 
 def disorder(t) -> tuple[int, Status] | None:
     """The first output sample whose instant is not a finite number after the one before it, as
-    `first_failure` gives a sample: (k, failed status, at the last instant in order, t[k - 1]);
-    None when t (n,) s increases throughout."""
+    `first_failure` gives a sample: (k, failed status, aborted, at the last instant in order,
+    t[k - 1]); None when t (n,) s increases throughout."""
     t = np.asarray(t, dtype=float)
     bad = ~np.isfinite(t)
     bad[1:] |= ~(np.diff(t) > 0)
@@ -252,17 +286,18 @@ def sidecar(r: Result, csv_sha256: str | None = None) -> dict:
     back, or one brought in by `flexmbd import`)."""
     return {"solver": r.solver, "solver_version": r.solver_version, "case": r.case,
             "case_sha256": r.case_sha256, "status": str(r.status), "failed_at_s": r.status.t,
-            "settings": r.settings, "wall_s": r.wall_s, "setup_s": r.setup_s, "steps": r.steps,
-            "rhs_evals": r.rhs_evals, "samples": int(len(r.t)), "channels": list(r.channels),
+            "cause": r.status.cause, "settings": r.settings, "wall_s": r.wall_s, "setup_s": r.setup_s,
+            "steps": r.steps, "rhs_evals": r.rhs_evals, "samples": int(len(r.t)), "channels": list(r.channels),
             "csv_sha256": csv_sha256, **environment(), **r.extra}
 
 
-SIDECAR_KEYS = {"solver", "solver_version", "case", "case_sha256", "status", "failed_at_s", "settings", "wall_s",
-                "setup_s", "steps", "rhs_evals", "samples", "channels", "csv_sha256"}
+SIDECAR_KEYS = {"solver", "solver_version", "case", "case_sha256", "status", "failed_at_s", "cause", "settings",
+                "wall_s", "setup_s", "steps", "rhs_evals", "samples", "channels", "csv_sha256"}
 
 
 def sha256(text: str) -> str:
-    return hashlib.sha256(text.encode()).hexdigest()
+    """SHA-256 (hex) of a stored table's text: what its sidecar records of it (`version.cache_key`)."""
+    return version.cache_key(text)
 
 
 # a solver's (or an imported result's) name names its files, SOLVER.csv and SOLVER.json: a word
@@ -429,6 +464,7 @@ _NAMES = ("a list of strings", lambda v: isinstance(v, list) and all(isinstance(
 # `read` refuses any other value, naming the key, so that none of them meets a value it cannot use
 SIDECAR = {
     "solver": _TEXT, "case": _TEXT, "status": _TEXT, "channels": _NAMES, "samples": _COUNT,
+    "cause": (f"{' or '.join(CAUSES)} for a failed run, else an empty string", lambda v: v in ("", *CAUSES)),
     "steps": _COUNT, "rhs_evals": _COUNT, "wall_s": _SECONDS, "setup_s": _SECONDS, "compile_s": _SECONDS,
     "failed_at_s": ("a finite number (s), or null", lambda v: v is None or (_real(v) and abs(v) <= LARGEST)),
     "kinetic_max_J": ("a number >= 0 (J), or null when not known", lambda v: _unknown(v) or (_real(v) and 0 <= v <= LARGEST)),
@@ -484,7 +520,9 @@ def read(out_dir: Path, case: str, solver: str) -> Result:
     if "poses" in meta:
         check_poses(js, meta["poses"])
     if status.kind == "failed" and meta.get("failed_at_s") is not None:
-        status = Status("failed", status.why, float(meta["failed_at_s"]))
+        status = dataclasses.replace(status, t=float(meta["failed_at_s"]))
+    if status.kind == "failed" and meta.get("cause"):   # older sidecars have none: Status.parse derives it
+        status = dataclasses.replace(status, cause=meta["cause"])
     return Result(solver=solver, case=case, t=df["t"].to_numpy(dtype=float),
                   channels={c: df[c].to_numpy(dtype=float) for c in df.columns if c != "t"},
                   status=status, solver_version=meta.get("solver_version", ""),

@@ -12,10 +12,9 @@ from typing import NamedTuple
 import numpy as np
 
 from flexmbd import build, channels, cost, flexbody, results
-from flexmbd.mbd import constraints, dynamics, integrate
-from flexmbd.mbd.compiled import jit
 from flexmbd.build import from_case
-from flexmbd.mbd.compiled import entry
+from flexmbd.mbd import constraints, dynamics, integrate
+from flexmbd.mbd.compiled import entry, jit
 from flexmbd.mbd.model import Model, make_data
 from flexmbd.progress import Progress
 from flexmbd.results import Result
@@ -118,16 +117,17 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
     compile_s = time.perf_counter() - t0
 
     bar = Progress(t_end, f"{case.name} / flexmbd") if progress else None
+    check = watch(case, model) if not loops else None
     if loops:
         sim = integrate.simulate_loops(loops, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
                                        max_step=ig.max_step, output_dt=ig.output_dt, progress=bar, dt=ig.dt)
     else:
         sim = integrate.simulate(model, t_end, method=ig.method, rtol=ig.rtol, atol=ig.atol,
                                  max_step=ig.max_step, dt=ig.dt, output_dt=ig.output_dt, refresh=ig.refresh,
-                                 progress=bar, check=watch(case, model))
+                                 progress=bar, check=check)
     E = energies(model, sim.q, sim.v)
     traj = trajectory(case, model, sim.t, sim.q, sim.v, E, loops)
-    status = results.Status() if sim.status.ok else results.failed(sim.status.why, sim.status.t)
+    status = status_of(sim.status, getattr(check, "found", ()))
     if not status.ok and status.why in integrate.NON_FINITE:
         status = stiffening_limit(case, model, sim, traj) or status
     modes = {n: {"count": fb.n_modes, "boundary": fb.boundary, "freq_hz": np.round(fb.freq_hz, 4).tolist()}
@@ -139,17 +139,42 @@ def run(case, t_end, settings, progress: bool = True) -> Result:
                   extra={"compile_s": compile_s, "kinetic_max_J": kinetic_max}, trajectory=traj)
 
 
+# the integrators' whys (`integrate.WHY`, `integrate.NON_FINITE`) of a run that broke the divergence rule:
+# a state or an acceleration not finite, a velocity beyond `integrate.DIVERGED`
+DIVERGES = (*integrate.NON_FINITE, integrate.WHY[integrate.DIVERGING])
+
+
+def status_of(end: integrate.Ended, found=()) -> results.Status:
+    """The run's results.Status of how the integrators ended (`integrate.Ended`): ok; the failure
+    the divergence watch found (`found`: the Statuses `watch`'s check returned), as it found it;
+    diverged for the divergence rule's whys of the integrators (DIVERGES); aborted for any other
+    (a step size too small, Newton, a loop that does not close, scipy's or VODE's message)."""
+    if end.ok:
+        return results.Status()
+    hit = next((s for s in found if (s.why, s.t) == (end.why, end.t)), None)
+    if hit is not None:
+        return hit
+    return (results.diverged if end.why in DIVERGES else results.failed)(end.why, end.t)
+
+
 def watch(case, model: Model):
     """The divergence rule checked while the run goes (`integrate.simulate`'s check): the
     deflection channels of new output samples (`channels.failure`) from the modal coordinates of
-    the flexible bodies they name (`shape`); None when there is nothing to check. A beam split
-    into segments is judged after the run only (`solvers.run`)."""
+    the flexible bodies they name (`shape`); None when there is nothing to check. The failures it
+    returns are kept in its `found` (`status_of` reads their cause). A beam split into segments is
+    judged after the run only (`solvers.run`)."""
     bound = channels.bounds(case)
     bodies = list(dict.fromkeys(c.body for n, c in case.channels.items() if n in bound and c.body in model.bodies))
     if not bodies:
         return None
-    return lambda t, Q, V: channels.failure(case, channels.Trajectory(t=t, beams={b: shape(case, model, b, Q)
-                                                                                 for b in bodies}))
+
+    def check(t, Q, V):
+        hit = channels.failure(case, channels.Trajectory(t=t, beams={b: shape(case, model, b, Q) for b in bodies}))
+        if hit is not None:
+            check.found.append(hit[1])
+        return hit
+    check.found = []
+    return check
 
 
 def shape(case, model: Model, name: str, Q) -> channels.Beam:

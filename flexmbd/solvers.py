@@ -29,9 +29,7 @@ validity, no snapshots).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import importlib
-import json
 import time
 import traceback
 from importlib.metadata import entry_points
@@ -229,9 +227,9 @@ def _key(case, name: str, mod, chosen: dict, t_end: float | None) -> str:
     t_end = case.duration if t_end is None else t_end
     parts = {"case": case.content_sha256, "t_end": float(t_end), "solver": name, "settings": chosen,
              "version": mod.version(),
-             "module": hashlib.sha256(own.read_bytes()).hexdigest() if own and own.is_file() else "",
+             "module": version.cache_key(own.read_bytes()) if own and own.is_file() else "",
              "flexmbd": source_sha256()}
-    return hashlib.sha256(json.dumps(parts, sort_keys=True, default=str).encode()).hexdigest()
+    return version.cache_key(parts)
 
 
 def run(case, name: str, t_end: float | None = None) -> Result:

@@ -1,5 +1,6 @@
 """Case loading and validation: the shipped cases load; malformed ones fail with one clear line."""
 
+import re
 import subprocess
 import sys
 import tomllib
@@ -229,15 +230,23 @@ def test_snapshot_instants_default_to_quarters_of_the_duration():
 # the case is read typed outside flexmbd/cases; equal segments reduce once
 
 
+# a case read as the file's dicts: indexed (`case["`), its `data` in any form (`case.data[`, `at = case.data`,
+# `graded_case.data.get(`, `getattr(case, "data")`)
+RAW_READ = re.compile(r"""case\[["']|\b\w*case\w*\.data\b|getattr\(\s*\w*case\w*\s*,\s*["']data["']""")
+
+
 def test_no_case_is_indexed_as_a_dict_outside_the_cases_package():
     """Every consumer reads the resolved case (`case.bodies`, `case.joints`, ...), never the file's
-    dicts: no `case["` or `case.data[` in flexmbd/ outside flexmbd/cases/."""
+    dicts: no `case["` and no `case.data`, under any name, in flexmbd/ outside flexmbd/cases/."""
     root = Path(cases.__file__).resolve().parent.parent
     found = [f"{path.relative_to(root.parent)}:{k}: {line.strip()}"
              for path in sorted(root.rglob("*.py")) if root / "cases" not in path.parents
-             for k, line in enumerate(path.read_text().splitlines(), 1)
-             if 'case["' in line or "case.data[" in line]
-    assert not found, "a case indexed as a dict:\n" + "\n".join(found)
+             for k, line in enumerate(path.read_text().splitlines(), 1) if RAW_READ.search(line)]
+    assert not found, "a case read as a dict:\n" + "\n".join(found)
+    caught = ['x = case["bodies"]', "at = case.data", "d = case.data[key]", "case.data.get('bodies')",
+              "graded_case.data", 'getattr(case, "data")', "at = self.case.data"]
+    missed = ["c.data[on]", "P.data[upper]", "block.data", "case.database", "case.resolved.bodies"]
+    assert all(RAW_READ.search(s) for s in caught) and not any(RAW_READ.search(s) for s in missed)
 
 
 def test_the_flexible_pendulums_twenty_segments_are_reduced_once():

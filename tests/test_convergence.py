@@ -17,6 +17,26 @@ FOLDER = CASES_DIR / convergence.FOLDER
 STUDIES = sorted(FOLDER.glob("*.toml"))
 
 
+def test_the_case_s_own_value_is_read_from_the_resolved_case():
+    """`own_value` reads the typed case (`case.resolved`), never the file's dicts: the value as the
+    file gives it (a material by its name, a list as a list), a solver setting with its default,
+    None for a key the case does not hold."""
+    from types import SimpleNamespace
+    case = cases.load("pendulum")
+    typed = SimpleNamespace(resolved=case.resolved)                        # no `data` to read
+    assert convergence.own_value(typed, "bodies.beam.modes.count+bodies.beam2.modes.count") == 12
+    assert convergence.own_value(typed, "bodies.beam.elements") == 100
+    assert convergence.own_value(typed, "bodies.beam.material") == "steel"
+    assert convergence.own_value(typed, "materials.steel.E") == case.bodies["beam"].material.E
+    assert convergence.own_value(typed, "gravity") == [0.0, -9.81, 0.0]
+    assert convergence.own_value(typed, "bodies.beam.modes") == {"count": 12, "boundary": "clamped-free",
+                                                                 "interfaces": None, "kinds": None}
+    assert convergence.own_value(typed, "integrator.method") == case.integrator.method
+    for key in ("nope", "bodies.nope.elements", "bodies.beam.nope", "bodies.beam.elements.x"):
+        assert convergence.own_value(typed, key) is None, key
+    assert convergence.own_value(case, "solvers.exudyn-beam.dt") == solvers.settings(case, "exudyn-beam")["dt"]
+
+
 def test_the_rate_is_the_exponent_of_a_power_law_and_ignores_points_without_an_error():
     x = np.array([4.0, 8.0, 16.0, 32.0])
     assert convergence.rate(x, 3.0 * x ** -2.0) == pytest.approx(-2.0, abs=1e-12)

@@ -134,6 +134,21 @@ def test_a_dask_cluster_of_another_flexmbd_is_refused_before_any_job(monkeypatch
             executor.same_flexmbd(client, "--scheduler tcp://x:1")
 
 
+def test_a_stored_result_is_up_to_date_when_it_has_the_key_of_the_run(tmp_path):
+    """`executor.up_to_date` (one name per meaning: `report.figures.kept` is a figure drawn once):
+    no stored result, a result of another key or another status, and one with the run's key."""
+    from flexmbd import solvers
+    case = cases.load("cantilever_step")
+    assert not hasattr(executor, "kept") and not executor.up_to_date(tmp_path, case, "analytic")
+    r = results.Result(solver="analytic", case=case.name, case_sha256=case.sha256,
+                       extra={"key": solvers.content_key(case, "analytic")})
+    results.write(r, tmp_path)
+    assert executor.up_to_date(tmp_path, case, "analytic")
+    r.extra["key"] = "0" * 64
+    results.write(r, tmp_path)
+    assert not executor.up_to_date(tmp_path, case, "analytic")
+
+
 def test_a_job_whose_worker_died_twice_is_a_failed_result_saying_so():
     case, solver = jobs()[0]
     r = executor.lost(case, solver, "killed by SIGKILL")

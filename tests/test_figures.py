@@ -1,6 +1,8 @@
 """Figures of the report, drawn from small synthetic histories: what each figure holds, read off the
 matplotlib Figure before it is saved."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -184,7 +186,7 @@ def test_a_failed_run_is_drawn_up_to_its_failure_and_named_so(pendulum):
     t = np.linspace(0.0, 1.0, 101)
     y = 1e-3 * np.sin(2 * np.pi * t)
     bad = Result(solver="exudyn-ffrf", case="pendulum", t=t[:60], channels={"tip_deflection": y[:60] + np.exp(t[:60] * 30) * 1e-6},
-                 status=results.failed("diverged (|tip_deflection| beyond 8 m, 2 beam lengths)", 0.6))
+                 status=results.diverged("diverged (|tip_deflection| beyond 8 m, 2 beam lengths)", 0.6))
     res = {"exudyn-beam": run("exudyn-beam", t, tip_deflection=y), "flexmbd": run("flexmbd", t, tip_deflection=1.01 * y),
            "exudyn-ffrf": bad}
     top, bottom = axes_of(figures.channel_figure(pendulum, "tip_deflection", res, "exudyn-beam"))
@@ -249,3 +251,19 @@ def test_a_figure_drawn_from_the_same_bytes_is_taken_from_the_cache(tmp_path, mo
     monkeypatch.setenv("XDG_CACHE_HOME", str(a / "f.png"))     # a file where the cache's folder would be
     figures.kept(c / "g.png", b"rows 3", make)
     assert len(drawn) == 3 and (c / "g.png").stat().st_size > 1000 and (c / "g.svg").is_file()
+    import hashlib                                              # its key: the recipe it had before `version.cache_key`
+    key = hashlib.sha256(b"rows 1" + Path(figures.__file__).read_bytes() + figures.matplotlib.__version__.encode())
+    assert (tmp_path / "cache" / "flexmbd" / "figures" / f"{key.hexdigest()[:24]}.png").is_file()
+
+
+def test_a_failed_run_is_named_by_its_cause_in_a_legend():
+    """The legend says of a failed run what its verdict says (`results.Status.cause`): diverged or
+    aborted, never 'failed'; the reference keeps its mark first."""
+    from flexmbd import results
+    t = np.linspace(0.0, 0.5, 51)
+    aborted = Result(solver="s", case="c", t=t, status=results.failed("Exudyn: Newton did not converge", 0.5))
+    assert figures.label("s", aborted) == "s (aborted at t = 0.5 s)"
+    assert figures.label("s", Result(solver="s", case="c", status=results.failed("no time"))) == "s (aborted)"
+    diverged = Result(solver="s", case="c", t=t, status=results.diverged("its watch stopped it", 0.5))
+    assert figures.label("s", diverged, "s") == "s (reference, diverged at t = 0.5 s)"
+    assert figures.label("s", run("s", t, x=t)) == "s" and figures.label("s", None, "s") == "s (reference)"

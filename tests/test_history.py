@@ -78,6 +78,23 @@ def test_a_report_records_each_run_of_this_commit_on_this_machine(report):
     assert MarkdownIt("commonmark").enable("table").render(md).count("<table>") == md.count("\n|---") > 3
 
 
+def test_a_machine_s_name_and_the_page_s_key(monkeypatch):
+    """A machine's name ends in the digest of its CPU model and core count it had before every key
+    went through `version.cache_key` (its records' folder); the history page's key
+    (`history_page_key`) changes with a record, the order of the commits and the source."""
+    monkeypatch.setattr(history, "cpu_model", lambda: "Test CPU 3000")
+    monkeypatch.setattr(history.os, "cpu_count", lambda: 8)
+    assert history.machine()["name"].endswith("-911d5b")
+    assert not hasattr(history, "page_key")                 # one name per meaning: report.build.page_key is a case page's
+    recs = [{"file": "a.json", "x": 1}]
+    key = history.history_page_key(recs, ["abc"])
+    assert re.fullmatch("[0-9a-f]{64}", key) and key == history.history_page_key([dict(recs[0])], ["abc"])
+    assert key not in {history.history_page_key([{"file": "a.json", "x": 2}], ["abc"]),
+                       history.history_page_key(recs, ["abd"])}
+    monkeypatch.setattr(solvers, "source_sha256", lambda: "0" * 64)
+    assert history.history_page_key(recs, ["abc"]) != key
+
+
 def test_two_commits_are_ordered_by_git_and_others_by_record_time(tmp_path, monkeypatch):
     """Commits git knows follow its topology whatever their record times; the others fall in by
     the time they were first recorded; a dirty record right after its commit."""

@@ -280,7 +280,7 @@ def test_verdicts_of_a_run():
     assert v(out, "b") == ("pass", "pass: 1 channel within tolerance", "deflection 12 % of length")   # the flag beside
     assert v(out, "a").kind == "fail" and v(out, "a").outside == "deflection 12 % of length"
     assert str(v(out, "a")).endswith("; outside linear validity: deflection 12 % of length")
-    assert v(results.failed("non-finite state", 0.2), "a") == ("diverged", "diverged: non-finite state at t = 0.2 s", "")
+    assert v(results.diverged("non-finite state", 0.2), "a") == ("diverged", "diverged: non-finite state at t = 0.2 s", "")
     assert v(results.failed("step size too small", 0.2), "a").kind == "aborted"
     assert v(results.not_applicable("fixed base"), "a").kind == "not applicable"
     assert v(ok, "ref").kind == "reference"
@@ -408,7 +408,7 @@ def test_a_diverged_run_s_page_says_why_with_the_case_s_explanation():
     from flexmbd import results
     from flexmbd.report import accuracy, pages
     case = cases.load("slewing_beam")
-    st = results.failed("diverged (|tip_deflection| beyond 16 m, 2 beam lengths)", 10.58)
+    st = results.diverged("diverged (|tip_deflection| beyond 16 m, 2 beam lengths)", 10.58)
     runs = [accuracy.Outcome(case.name, "exudyn-ffrf", st, accuracy.verdict(st, "exudyn-ffrf", "exudyn-beam", []),
                              np.nan, 9.0)]
     page, md = pages.runs_section(case, runs)

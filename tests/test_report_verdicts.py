@@ -5,7 +5,10 @@ compared, --json carries the verdicts."""
 import re
 from pathlib import Path
 
-from flexmbd import cases
+import numpy as np
+import pytest
+
+from flexmbd import cases, results
 from flexmbd.cli import main
 
 
@@ -90,3 +93,26 @@ def test_the_worst_channel_is_the_one_the_verdict_names():
     assert accuracy.worst_channel(rows, "s") == "energy" and accuracy.worst(rows, "s") == 0.02
     ungraded = [dict(r, tolerance=float("nan")) for r in rows]
     assert accuracy.worst_channel(ungraded, "s") == "free"
+
+
+@pytest.mark.parametrize("status, word", [
+    (results.diverged("diverged (|tip_deflection| beyond 3 m, 2 beam lengths)", 0.6), "diverged"),
+    (results.diverged("non-finite state", 0.6), "diverged"),
+    (results.diverged("its watch stopped it", 0.6), "diverged"),           # the field, not the why's first word
+    (results.failed("Exudyn: reduction of step size reached minimum step size", 0.6), "aborted"),
+    (results.failed("non-finite, said by a solver that aborts", 0.6), "aborted"),
+    (results.failed("RuntimeError: engine exploded (run, line 3)", 0.6), "aborted")])
+def test_a_failed_run_has_one_word_in_its_verdict_its_cells_and_its_figures(tmp_path, status, word):
+    """A failed run's cause (`results.Status.cause`), read back from its sidecar, is the word of
+    its verdict, of its status cell and of its name in a figure's legend: no page calls a run
+    aborted in its verdict and failed in its figure."""
+    from flexmbd.report import accuracy, figures, tables
+    r = results.Result(solver="s", case="c", t=np.arange(60) * 0.01, channels={"x": np.zeros(60)}, status=status)
+    results.write(r, tmp_path)
+    back = results.read(tmp_path, "c", "s")
+    assert back.status == status
+    v = accuracy.verdict(back.status, "s", "ref", [])
+    assert v.kind == accuracy.run_word(back.status) == word and v.text.startswith(word)
+    assert tables.css_class(back.status) == tables.css_class(v) == word
+    assert figures.label("s", back, "ref") == f"s ({word} at t = 0.6 s)"
+    assert figures.label("ref", back, "ref") == f"ref (reference, {word} at t = 0.6 s)"

@@ -1,6 +1,7 @@
 """Result files and the run status: one status type, one divergence rule, the CSV/JSON pair."""
 
 import contextlib
+import dataclasses
 import errno
 import io
 import json
@@ -26,7 +27,7 @@ from flexmbd.results import Result, Status
 # status
 
 
-@pytest.mark.parametrize("status", [Status(), results.failed("diverged (|v| > 1e+08)", 0.125),
+@pytest.mark.parametrize("status", [Status(), results.diverged("diverged (|v| > 1e+08)", 0.125),
                                     results.failed("Exudyn: no convergence"), results.not_applicable("no motion"),
                                     results.unavailable("No module named 'exudyn'"),
                                     results.failed("VODE return code -1 at t = 3 s inside", 2.5),
@@ -79,7 +80,7 @@ def test_solvers_run_cuts_a_diverged_history(monkeypatch):
 
     monkeypatch.setattr(analytic, "run", blown_up)
     r = solvers.run(cases.load("cantilever_step"), "analytic", 0.1)
-    assert r.status.kind == "failed" and r.status.t == pytest.approx(0.05)
+    assert r.status.kind == "failed" and r.status.t == pytest.approx(0.05) and r.status.cause == "diverged"
     assert len(r.t) == 50 and np.all(r.channels["tip_deflection"] == 0.01)
 
 
@@ -93,6 +94,59 @@ def test_an_exception_in_a_solver_is_a_failed_result(monkeypatch):
     monkeypatch.setattr(analytic, "run", broken)
     r = solvers.run(cases.load("cantilever_step"), "analytic", 0.1)
     assert r.status.kind == "failed" and "RuntimeError: engine exploded" in r.status.why
+    assert r.status.cause == "aborted"
+
+
+# ---------------------------------------------------------------------------------------------
+# a failed run's cause: a field, set where the failure is made, stored in the sidecar
+
+
+def test_a_failed_run_s_cause_is_set_where_its_failure_is_made():
+    """The divergence rule makes a diverged failure (a bound passed, a value not finite), instants
+    out of order and any other failure an aborted one; the cause is what its maker says, never read
+    from its why; only a failed status has one."""
+    t = np.linspace(0.0, 1.0, 11)
+    assert results.first_failure(t, {"tip": np.where(t < 0.55, 0.0, 9.0)}, {"tip": 3.0})[1].cause == "diverged"
+    assert results.first_failure(t, {"a": np.where(t < 0.55, 0.0, np.nan)}, {})[1].cause == "diverged"
+    assert results.disorder([0.0, 0.1, 0.1])[1].cause == results.disorder([0.0, np.nan])[1].cause == "aborted"
+    assert results.diverged("no word of it", 0.2).cause == "diverged"
+    assert results.failed("non-finite, in its words", 0.2).cause == "aborted"
+    assert results.failed("x", 0.2, "diverged") == results.diverged("x", 0.2) != results.failed("x", 0.2)
+    assert Status("failed", "made without one").cause == "aborted"
+    assert {s.cause for s in (Status(), results.not_applicable("x"), results.unavailable("x"),
+                              results.outside_validity("y", 1.0))} == {""}
+    for kind, cause in (("failed", "crashed"), ("ok", "diverged"), ("unavailable", "aborted")):
+        with pytest.raises(ValueError, match="cause"):
+            Status(kind, "x", None, cause)
+
+
+def test_the_integrators_end_becomes_a_status_with_its_cause():
+    """`solver.status_of`: the integrators' whys of the divergence rule (a state or acceleration
+    not finite, a velocity beyond integrate.DIVERGED) are diverged, every other end aborted, and a
+    failure the divergence watch found keeps the watch's own status."""
+    from flexmbd import solver
+    from flexmbd.mbd import integrate
+    assert solver.status_of(integrate.Ended()) == Status()
+    assert set(integrate.NON_FINITE) < set(solver.DIVERGES) and len(solver.DIVERGES) == 3
+    for why in solver.DIVERGES:
+        assert solver.status_of(integrate.failed(why, 0.5)) == results.diverged(why, 0.5)
+    others = set(integrate.WHY.values()) - set(solver.DIVERGES)
+    for why in [*others, "VODE return code -1", "the loop of joint 'j' does not close (residual 0.1)"]:
+        assert solver.status_of(integrate.failed(why, 0.5)) == results.failed(why, 0.5)
+    watched = results.diverged("diverged (|tip| beyond 3 m, 2 beam lengths)", 0.3)
+    assert solver.status_of(integrate.failed(watched.why, 0.3), [watched]) is watched
+
+
+def test_an_exudyn_run_cut_short_keeps_its_cause():
+    """A run Exudyn stopped fails at the last instant it reached with its own cause: the watch's
+    divergence stays diverged, Exudyn's own failure aborted, a run that stopped without one aborted."""
+    xc = pytest.importorskip("flexmbd.adapters.exudyn_common")
+    t = np.linspace(0.0, 1.0, 11)
+    for status, want in ((results.diverged("diverged (|tip| beyond 3 m, 2 beam lengths)", 0.9), "diverged"),
+                         (results.failed("Exudyn: Newton did not converge"), "aborted"), (Status(), "aborted")):
+        r = Result(solver="exudyn-ffrf", case="c", status=status)
+        assert xc.reached(r, t, 4, 1.0) == 4
+        assert (r.status.kind, r.status.cause, r.status.t) == ("failed", want, pytest.approx(0.3))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -101,13 +155,13 @@ def test_an_exception_in_a_solver_is_a_failed_result(monkeypatch):
 
 def _result(k: int, n: int = 20) -> Result:
     return Result(solver="s", case="c", t=np.arange(n) * 0.1, channels={"x": np.full(n, float(k))},
-                  settings={"k": k}, status=results.failed("diverged", 1.5) if k % 2 else Status())
+                  settings={"k": k}, status=results.diverged("diverged", 1.5) if k % 2 else Status())
 
 
 def test_pair_round_trip(tmp_path):
     results.write(_result(3), tmp_path)
     back = results.read(tmp_path, "c", "s")
-    assert back.status == results.failed("diverged", 1.5) and back.settings == {"k": 3}
+    assert back.status == results.diverged("diverged", 1.5) and back.settings == {"k": 3}
     np.testing.assert_array_equal(back.channels["x"], np.full(20, 3.0))
     meta = json.loads((tmp_path / "c" / "s.json").read_text())
     assert meta["csv_sha256"] == results.sha256((tmp_path / "c" / "s.csv").read_text())
@@ -232,6 +286,105 @@ def test_an_interrupted_writer_leaves_a_matching_pair(tmp_path, sig):
         assert len(back.t) == meta["samples"] == 50 + k % 7
         assert np.all(back.channels["x"] == k), (trial, k, back.channels["x"][:3])
         assert sorted(q.name for q in (out / "c").iterdir()) == ["s.csv", "s.json"]
+
+
+# ---------------------------------------------------------------------------------------------
+# the cause in the sidecar; older sidecars without it
+
+
+CAUSED = [results.diverged("diverged (|tip| beyond 3 m, 2 beam lengths)", 0.5), results.diverged("non-finite tip", 0.5),
+          results.diverged("a why without its word", 0.5), results.failed("Exudyn: no convergence", 0.5),
+          results.failed("non-finite, yet aborted by its maker", 0.5)]
+
+
+@pytest.mark.parametrize("status", CAUSED)
+def test_the_cause_is_stored_in_the_sidecar_beside_the_same_line_and_read_back(tmp_path, status):
+    r = _result(0)
+    r.status = status
+    results.write(r, tmp_path)
+    meta = json.loads((tmp_path / "c" / "s.json").read_text())
+    assert meta["status"] == str(status) == f"failed: {status.why} at t = 0.5 s" and meta["cause"] == status.cause
+    assert results.read(tmp_path, "c", "s").status == status
+    results.write(_result(0), tmp_path)                                  # an ok run: no cause
+    assert json.loads((tmp_path / "c" / "s.json").read_text())["cause"] == ""
+    assert results.read(tmp_path, "c", "s").status == Status()
+
+
+@pytest.mark.parametrize("line, cause", [("failed: diverged (|tip| beyond 3 m, 2 beam lengths) at t = 0.5 s", "diverged"),
+                                         ("failed: non-finite state at t = 0.5 s", "diverged"),
+                                         ("failed: non-finite tip_deflection at t = 0.5 s", "diverged"),
+                                         ("failed: step size too small at t = 0.5 s", "aborted"),
+                                         ("failed: RuntimeError: boom (run, line 3)", "aborted"),
+                                         ("ok", ""), ("not applicable: fixed base", "")])
+def test_an_older_sidecar_without_a_cause_is_read_as_before(tmp_path, line, cause):
+    """A sidecar written before sidecars held `cause`: its line alone, the cause derived from its
+    why as the pages did (`results.derived_cause`), and the same line written again."""
+    results.write(_result(0), tmp_path)
+    js = tmp_path / "c" / "s.json"
+    meta = json.loads(js.read_text())
+    del meta["cause"]
+    meta.update(status=line, failed_at_s=0.5 if line.startswith("failed") else None)
+    js.write_text(json.dumps(meta))
+    back = results.read(tmp_path, "c", "s")
+    assert back.status.cause == cause and str(back.status) == line.replace(" (run, line 3)", " (run, line 3) at t = 0.5 s")
+    assert Status.parse(line).cause == cause
+
+
+@pytest.mark.parametrize("status, cause, back", [
+    (results.diverged("x", 0.5), "crashed", None), (results.diverged("x", 0.5), 3, None),
+    (results.diverged("diverged (|tip| beyond 3 m, 2 beam lengths)", 0.5), "", "diverged"),   # none: as an older one
+    (results.failed("non-finite state", 0.5), "", "diverged"),
+    (Status(), "diverged", "")])                                  # a line edited to ok: the line says what the run is
+def test_a_stored_cause_is_one_of_the_words_and_a_failed_run_s(tmp_path, status, cause, back):
+    r = _result(0)
+    r.status = status
+    results.write(r, tmp_path)
+    js = tmp_path / "c" / "s.json"
+    js.write_text(js.read_text().replace(f'"cause": "{status.cause}"', f"\"cause\": {json.dumps(cause)}"))
+    if back is None:
+        with pytest.raises(InputError, match="s.json: cause: expected diverged or aborted for a failed run"):
+            results.read(tmp_path, "c", "s")
+    else:
+        assert results.read(tmp_path, "c", "s").status == dataclasses.replace(status, cause=back)
+
+
+# ---------------------------------------------------------------------------------------------
+# the keys stored results depend on: one recipe (`version.cache_key`), the same bytes as before it
+
+
+def test_the_keys_of_stored_results_are_the_same_as_before_the_one_recipe(tmp_path, monkeypatch):
+    """Values computed with each key's own recipe before they all went through `version.cache_key`:
+    a run's key (a plug-in's, with its module file, and a built-in's), a CSV's hash, a file's digest;
+    a case's hashes by the old recipes (their values move with the shipped files)."""
+    import hashlib
+    from types import SimpleNamespace
+
+    from flexmbd import cases, flexbody, solvers, version
+    monkeypatch.setattr(solvers, "source_sha256", lambda: "f" * 64)
+    (tmp_path / "plug.py").write_text("VERSION = '1.0'\n")
+    plug = SimpleNamespace(__file__=str(tmp_path / "plug.py"), version=lambda: "1.0")
+    case = SimpleNamespace(content_sha256="c" * 64, duration=2.0)
+    assert solvers._key(case, "my-plugin", plug, {"dt": 1e-3, "scheme": "a"}, None) == \
+        "64819a937f2b85b5555a9804f6a5bfd28ed77f5853f1509ae4aeb82eedea76ba"
+    assert solvers._key(case, "analytic", SimpleNamespace(version=lambda: "2"), {}, 1.5) == \
+        "0706a40aec78e10d81b90d27d0568ec3232dc6f1ded7130f308f11bac818a02f"
+    assert results.sha256("t,x\n0,1\n") == "2236b4989592e6ce72adf96ba645c7a1b486744aca25334c60217c4d1da992d7"
+    (tmp_path / "m.bin").write_bytes(b"\x00mesh\x01")
+    assert flexbody.digest(tmp_path / "m.bin") == "dd74ed9f3828347263f2571efa22d3205a7dd04ef26e446ced950510d682a9c2"
+    assert version.cache_key("abc") == version.cache_key(b"a", "b", b"c") == hashlib.sha256(b"abc").hexdigest()
+    assert version.cache_key({"b": 1, "a": [1.5, None]}, digits=12) == \
+        hashlib.sha256(b'{"a": [1.5, null], "b": 1}').hexdigest()[:12]
+    for name, overrides in (("pendulum", ["integrator.rtol=1e-7"]), ("cantilever_step", []), ("brick_pendulum", [])):
+        c = cases.load(name, overrides)
+        text = cases.find(name).read_text()
+        assert c.sha256 == hashlib.sha256((text + "\n".join(overrides)).encode()).hexdigest()[:16]
+        h = hashlib.sha256(json.dumps(c.data, sort_keys=True, default=str).encode())
+        for b in c.bodies.values():
+            if b.type == "solid":
+                for f in (b.mesh.file, b.mesh.stiffness, b.mesh.mass):
+                    if f:
+                        h.update(Path(f).read_bytes())
+        assert c.content_sha256 == h.hexdigest(), name
 
 
 # ---------------------------------------------------------------------------------------------

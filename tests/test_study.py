@@ -37,6 +37,13 @@ def test_the_grid_varies_the_last_key_fastest_and_ends_at_the_finest_point():
     assert study.parse_vary("x.n+y.n=4,8") == ("x.n+y.n", ("4", "8"))
 
 
+def test_a_point_s_folder_is_named_as_before_the_one_key_recipe():
+    """The digest of a point's overrides names its folder of stored runs: the value it had before
+    every key went through `version.cache_key`, so that no stored point is run again."""
+    assert study.point_id(["bodies.beam.modes.count=8", "integrator.dt=1e-4"]) == "e1bb3157ebb8"
+    assert study.point_id([]) == "e3b0c44298fc"
+
+
 def test_a_study_file_gives_the_study_of_the_arguments(tmp_path):
     f = tmp_path / "s.toml"
     f.write_text('[study]\ncases = ["cantilever_step"]\nsolvers = ["analytic"]\n'

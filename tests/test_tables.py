@@ -34,7 +34,7 @@ RUNS = [Outcome("rotating_cantilever", "flexmbd", OUT, accuracy.verdict(OUT, "fl
                 0.0397, 0.8),
         Outcome("rotating_cantilever", "exudyn-beam", OK, accuracy.verdict(OK, "exudyn-beam", "exudyn-beam", ROWS),
                 np.nan, 120.0)]
-DIVERGED = results.failed("diverged (|tip_deflection| beyond 16 m, 2 beam lengths)", 10.58)
+DIVERGED = results.diverged("diverged (|tip_deflection| beyond 16 m, 2 beam lengths)", 10.58)
 RUNS.append(Outcome("rotating_cantilever", "exudyn-beam-2", DIVERGED,
                     accuracy.verdict(DIVERGED, "exudyn-beam-2", "exudyn-beam", ROWS), np.nan, 9.0))
 
@@ -77,7 +77,7 @@ def test_each_verdict_has_its_own_word_icon_and_colour():
     assert len(set(icons)) == len(icons)
     assert len({tables.CLASSES[k] for k in accuracy.VERDICTS}) == len(accuracy.VERDICTS)   # each its class, so its icon
     assert accuracy.run_word(results.failed("step size too small", 0.2)) == "aborted"
-    assert accuracy.run_word(results.failed("non-finite state", 0.2)) == "diverged"
+    assert accuracy.run_word(results.diverged("non-finite state", 0.2)) == "diverged"
     assert accuracy.status_text(DIVERGED) == "diverged (|tip_deflection| beyond 16 m, 2 beam lengths) at t = 10.58 s"
     assert accuracy.status_text(results.failed("step size too small", 0.2)) == "aborted: step size too small at t = 0.2 s"
 

@@ -228,10 +228,12 @@ def error_string(mbs) -> str:
 
 def reached(r, t: np.ndarray, n_ok: int, t_end: float) -> int:
     """Set r.status for a run that reached n_ok of the output instants t: a run that stopped
-    early fails at the last instant it reached. Returns n_ok."""
+    early fails at the last instant it reached (as it failed: its why and cause; aborted when it
+    had not). Returns n_ok."""
     if n_ok < t.size:
         at = t[max(n_ok - 1, 0)]
-        r.status = results.failed(r.status.why if not r.ok else f"Exudyn stopped before {t_end:g} s", at)
+        r.status = results.failed(r.status.why, at, r.status.cause) if not r.ok else \
+            results.failed(f"Exudyn stopped before {t_end:g} s", at)
     return n_ok
 
 

@@ -439,7 +439,7 @@ def run(case, t_end, settings):
             mujoco.mj_step(m, d, stride)
         keep(k)
         if not np.all(np.isfinite(d.qpos)):
-            status = results.failed("non-finite state", d.time)
+            status = results.diverged(results.STATE_NOT_FINITE, d.time)
             break
     else:
         k = n_out

@@ -330,7 +330,7 @@ def run(case, t_end, settings):
             apply_loads(case, m, d, ne, s)
             mujoco.mj_step(m, d)
         if not np.all(np.isfinite(d.qpos)):
-            status = results.failed("non-finite state", d.time)
+            status = results.diverged(results.STATE_NOT_FINITE, d.time)
             break
         mujoco.mj_fwdPosition(m, d)                             # kinematics and inertia of the new state
         rows.append(sample(case, m, d, ne, l))

@@ -368,7 +368,7 @@ def integrate(eng: Rigid, y0, t_out, method: str, rtol: float, atol: float):
             Y[k] = dense(t_out[k])
             k += 1
         if not np.all(np.isfinite(sol.y)):
-            return Y[:k], steps, results.failed("non-finite state", sol.t)
+            return Y[:k], steps, results.diverged(results.STATE_NOT_FINITE, sol.t)
     return Y, steps, results.Status()
 
 

@@ -11,11 +11,10 @@ every key a case may hold, once; `cases/README.md` documents the same keys with 
 from __future__ import annotations
 
 import functools
-import hashlib
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from flexmbd import version
 from flexmbd.cases import closure
 from flexmbd.cases.resolve import (Beam, Channel, Integrator, Joint, Link, Load, Material, Modes, Point, PointMass,
                                    Report, Resolved, Rigid, Section, is_fixed_base, resolve, segment_name, segment_of)
@@ -58,16 +57,11 @@ class Case:
         """SHA-256 (hex) of what the case says: every value with its defaults and overrides filled
         in, and the content of the motion tables, mesh files and matrix files it reads. Unlike
         `sha256` (the file's text), a comment or a reordered table leaves it unchanged."""
-        h = hashlib.sha256(json.dumps(self.data, sort_keys=True, default=str).encode())
-        for j in self.joints.values():
-            if j.motion is not None and j.motion["type"] == "table":
-                h.update(Path(j.motion["file"]).read_bytes())
-        for b in self.bodies.values():                  # a solid's mesh and matrix files
-            if b.type == "solid":
-                for f in (b.mesh.file, b.mesh.stiffness, b.mesh.mass):
-                    if f:
-                        h.update(Path(f).read_bytes())
-        return h.hexdigest()
+        tables = [Path(j.motion["file"]).read_bytes() for j in self.joints.values()
+                  if j.motion is not None and j.motion["type"] == "table"]
+        meshes = [Path(f).read_bytes() for b in self.bodies.values() if b.type == "solid"   # a solid's mesh
+                  for f in (b.mesh.file, b.mesh.stiffness, b.mesh.mass) if f]                # and matrix files
+        return version.cache_key(self.data, *tables, *meshes)
 
 
 for _name in TYPED:
@@ -83,7 +77,7 @@ def load(name_or_path: str, overrides: list[str] | tuple = ()) -> Case:
     for item in overrides:
         apply_override(raw, item, path)
     data = validate(raw, str(path))
-    digest = hashlib.sha256((text + "\n".join(overrides)).encode()).hexdigest()[:16]
+    digest = version.cache_key(text, "\n".join(overrides), digits=16)
     case = Case(name=path.stem, path=path, data=data, sha256=digest, overrides=tuple(overrides))
     closed = closure.assemble(case, str(path))
     if not closed:

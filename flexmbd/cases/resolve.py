@@ -34,12 +34,12 @@ from flexmbd.cases.schema import JOINT, JOINT_COORDS, TOLERANCES
 from flexmbd.mbd.spatial import rotation_rpy
 
 
-def frozen(x):
+def read_only(x):
     """A read-only copy of plain case data: tables as mappings, lists as tuples."""
     if isinstance(x, dict):
-        return MappingProxyType({k: frozen(v) for k, v in x.items()})
+        return MappingProxyType({k: read_only(v) for k, v in x.items()})
     if isinstance(x, list):
-        return tuple(frozen(v) for v in x)
+        return tuple(read_only(v) for v in x)
     return x
 
 
@@ -446,7 +446,7 @@ def resolve(data: dict, split: bool = True) -> Resolved:
             child_index=index[j["child"]], point=point, offset=offset, rpy=tuple(j["rpy"]),
             triad=tuple(tuple(float(x) for x in row) for row in rotation_rpy(j["rpy"])),
             axis=tuple(float(a / norm) if norm > 0 else 0.0 for a in j["axis"]),
-            q0=tuple(j["q0"]), qd0=tuple(j["qd0"]), motion=frozen(j["motion"]), nq=jq, nv=jv, **cut)
+            q0=tuple(j["q0"]), qd0=tuple(j["qd0"]), motion=read_only(j["motion"]), nq=jq, nv=jv, **cut)
     tree, nq, nv = [], 0, 0
     for name in order:
         b, j = bodies[name], joints[joint_of[name]]
@@ -461,7 +461,7 @@ def resolve(data: dict, split: bool = True) -> Resolved:
     for ln, ld in data["loads"].items():
         point, offset = _where(bodies, ld["body"], ld["at"])
         loads[ln] = Load(name=ln, type=ld["type"], body=ld["body"], point=point, offset=offset,
-                         force=tuple(ld["force"]), frame=ld["frame"], profile=frozen(ld["profile"]))
+                         force=tuple(ld["force"]), frame=ld["frame"], profile=read_only(ld["profile"]))
     channels = {n: Channel(name=n, kind=c["kind"], body=c["body"], joint=c["joint"], at=c["at"],
                            component=c["component"], fibre=None if c["fibre"] is None else tuple(c["fibre"]),
                            point=_channel_point(bodies[c["body"]], c) if c["kind"] in ("deflection", "stress_vm")
@@ -478,11 +478,11 @@ def resolve(data: dict, split: bool = True) -> Resolved:
         materials=MappingProxyType(materials), bodies=MappingProxyType(bodies), joints=MappingProxyType(joints),
         loads=MappingProxyType(loads), channels=MappingProxyType(channels), integrator=Integrator(**ig),
         report=Report(reference=rep["reference"], solvers=None if rep["solvers"] is None else tuple(rep["solvers"]),
-                      tolerances=frozen(tolerances(rep["tolerances"], data["channels"])),
+                      tolerances=read_only(tolerances(rep["tolerances"], data["channels"])),
                       snapshots=tuple(rep["snapshots"]), shape_points=rep["shape_points"], notes=rep["notes"],
                       defaults=("tolerances",) * (rep["tolerances"] is None),
-                      expected_failures=frozen(rep["expected_failures"])),
-        solvers=frozen(data["solvers"]), tree=tuple(tree), nq=nq, nv=nv,
+                      expected_failures=read_only(rep["expected_failures"])),
+        solvers=read_only(data["solvers"]), tree=tuple(tree), nq=nq, nv=nv,
         segments=MappingProxyType(segments), whole=MappingProxyType(whole),
         split=None if expanded is data else dataclasses.replace(resolve(expanded, split=False),
                                                                 whole=MappingProxyType(whole)),

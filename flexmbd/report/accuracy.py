@@ -8,7 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flexmbd import channels, metrics
-from flexmbd.results import Status
+from flexmbd.results import CAUSES, Status
 
 DEFORMATION = ("deflection", "stress_vm")
 
@@ -127,18 +127,16 @@ class Verdict(NamedTuple):
 
 # one word per meaning: pass / fail (a channel beyond its tolerance), diverged (the run broke the
 # divergence rule or its state went non-finite), aborted (the run stopped for another reason: a
-# step size too small, Newton, a solver's error), not applicable, unavailable, and the reference
-# and runs with nothing to compare; "outside validity" is a flag beside a verdict (Verdict.outside)
-VERDICTS = ("pass", "fail", "diverged", "aborted", "not applicable", "unavailable", "reference", "not compared")
-DIVERGENCE = ("diverged", "non-finite")     # how the divergence rule's whys begin (results, integrate)
+# step size too small, Newton, a solver's error): a failed run's cause (results.CAUSES), not
+# applicable, unavailable, and the reference and runs with nothing to compare; "outside validity"
+# is a flag beside a verdict (Verdict.outside)
+VERDICTS = ("pass", "fail", *CAUSES, "not applicable", "unavailable", "reference", "not compared")
 
 
 def run_word(status) -> str:
-    """The word of a run's Status: ok, diverged or aborted (a failed run, by its why), not
-    applicable, unavailable."""
-    if status.kind != "failed":
-        return status.kind
-    return "diverged" if status.why.startswith(DIVERGENCE) else "aborted"
+    """The word of a run's Status: ok, diverged or aborted (a failed run: its cause,
+    `results.Status.cause`), not applicable, unavailable."""
+    return status.cause if status.kind == "failed" else status.kind
 
 
 def status_text(status) -> str:

@@ -18,7 +18,6 @@ warnings again, instead of drawing it again.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import shutil
@@ -27,7 +26,7 @@ import traceback
 from multiprocessing import get_context
 from pathlib import Path
 
-from flexmbd import files, results, solvers
+from flexmbd import files, results, solvers, version
 from flexmbd.report import accuracy, convergence, loading, pages, spectra, tables
 
 RECORD = "page.json"        # in OUT/CASE/: the page's key and what it gave the index
@@ -217,15 +216,14 @@ def page_key(out: Path, case, names) -> str:
     text and content, the solvers it shows (`names` and those imported), the bytes of their stored
     sidecars and CSVs, its convergence studies' files (`convergence.files`), and flexmbd's source
     (`solvers.source_sha256`)."""
-    h = hashlib.sha256(json.dumps({"case": [case.sha256, case.content_sha256], "flexmbd": solvers.source_sha256(),
-                                   "names": list(names)}).encode())
-    for f in convergence.files(case):                       # the stored convergence studies drawn on it
-        h.update(f"\0{f.name}\0".encode() + hashlib.sha256(f.read_bytes()).digest())
-    for s in loading.page_solvers(out, case, names):
-        for f in (results.folder(out) / case.name / f"{s}.json", results.folder(out) / case.name / f"{s}.csv"):
-            h.update(f"\0{f.name}\0".encode())
-            h.update(hashlib.sha256(f.read_bytes()).digest() if f.is_file() else b"absent")
-    return h.hexdigest()
+    studies = convergence.files(case)                       # the stored convergence studies drawn on it
+    stored = [results.folder(out) / case.name / f"{s}.{ext}" for s in loading.page_solvers(out, case, names)
+              for ext in ("json", "csv")]
+    return version.cache_key({"case": [case.sha256, case.content_sha256], "flexmbd": solvers.source_sha256(),
+                              "names": list(names)},
+                             *(part for f in studies for part in (f"\0{f.name}\0", version.cache_key(f.read_bytes()))),
+                             *(part for f in stored for part in (f"\0{f.name}\0", version.cache_key(f.read_bytes())
+                                                                 if f.is_file() else "absent")))
 
 
 def unchanged(out: Path, case, names) -> bool:
@@ -246,7 +244,7 @@ def _record(out: Path, case, key: str) -> dict | None:
 
 def record(key: str, got: dict, said: list) -> str:
     """The page's record (RECORD): its key, accuracy rows, runs' outcomes and warnings, as JSON."""
-    runs = [{"case": o.case, "solver": o.solver, "status": [o.status.kind, o.status.why, o.status.t],
+    runs = [{"case": o.case, "solver": o.solver, "status": [o.status.kind, o.status.why, o.status.t, o.status.cause],
              "verdict": list(o.verdict), "worst": o.worst, "wall_s": o.wall_s, "channel": o.channel} for o in got["runs"]]
     return files.json_text({"key": key, "accuracy": got["accuracy"], "runs": runs, "warnings": said}) + "\n"
 

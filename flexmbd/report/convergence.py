@@ -17,8 +17,10 @@ in them, and the page says at which flexmbd source they were run.
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import re
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -96,16 +98,31 @@ def within(x, err, tol):
 
 def own_value(case, key: str):
     """The case's own value of a varied key (the first of tied keys; a solver setting with its
-    default), or None when the case does not hold it."""
+    default), or None when the case does not hold it: read from the resolved case
+    (`case.resolved`), each part of the key an entry of one of its tables or a field of one of its
+    parts, as the file gives it (`_as_given`)."""
     parts = key.split("+")[0].split(".")
     if parts[0] == "solvers" and len(parts) == 3 and parts[1] in solvers.NAMES:
         return solvers.settings(case, parts[1]).get(parts[2])
-    at = case.data
+    at = case.resolved
     for p in parts:
-        if not isinstance(at, dict) or p not in at:
+        if isinstance(at, Mapping) and p in at:
+            at = at[p]
+        elif dataclasses.is_dataclass(at) and p in {f.name for f in dataclasses.fields(at)}:
+            at = getattr(at, p)
+        else:
             return None
-        at = at[p]
-    return at
+    return _as_given(at)
+
+
+def _as_given(x):
+    """A value of the resolved case as the case file gives it: a part it names by reference (a
+    body's material) as its name, any other part and a table as a dict, tuples as lists."""
+    if dataclasses.is_dataclass(x):
+        return x.name if hasattr(x, "name") else {f.name: _as_given(getattr(x, f.name)) for f in dataclasses.fields(x)}
+    if isinstance(x, Mapping):
+        return {k: _as_given(v) for k, v in x.items()}
+    return [_as_given(v) for v in x] if isinstance(x, tuple) else x
 
 
 def summary(case, st: study.Study, df: pd.DataFrame) -> list[dict]:

@@ -7,7 +7,6 @@ bodies; the index's work-precision figure of a benchmark run."""
 from __future__ import annotations
 
 import ast
-import hashlib
 import importlib.util
 import re
 import warnings
@@ -22,7 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib import ticker  # noqa: E402
 
-from flexmbd import channels, metrics, solvers  # noqa: E402
+from flexmbd import channels, metrics, solvers, version  # noqa: E402
 from flexmbd.errors import InputError  # noqa: E402
 from flexmbd.files import atomic_write, user_cache  # noqa: E402
 
@@ -85,14 +84,13 @@ def style(solver: str, n: int = 0, among=()) -> dict:
 
 
 def label(solver: str, r=None, reference: str | None = None) -> str:
-    """A solver's name in a legend: '(reference)' after the reference, and after a failed run
-    '(diverged at t = T s)' (the divergence rule's failures: a bound passed, a value not finite)
-    or '(failed at t = T s)'."""
+    """A solver's name in a legend: '(reference)' after the reference, and after a failed run its
+    cause, the word of its verdict (`results.Status.cause`): '(diverged at t = T s)' (the
+    divergence rule's failures: a bound passed, a value not finite) or '(aborted at t = T s)'."""
     marks = ["reference"] if solver == reference else []
     status = getattr(r, "status", None)
     if status is not None and status.kind == "failed":
-        word = "diverged" if status.why.startswith(("diverged", "non-finite")) else "failed"
-        marks.append(word + (f" at t = {status.t:.4g} s" if status.t is not None else ""))
+        marks.append(status.cause + (f" at t = {status.t:.4g} s" if status.t is not None else ""))
     return f"{solver} ({', '.join(marks)})" if marks else solver
 
 
@@ -526,10 +524,8 @@ def kept(path: Path, source: bytes, figure) -> str:
     """save(figure()) at path, or the PNG and SVG drawn before from the same `source` bytes by this
     module's same code and matplotlib version, copied from the user's cache (`files.user_cache`).
     A cache that cannot be read or written is drawn around: the figure is drawn."""
-    h = hashlib.sha256(source)
-    h.update(Path(__file__).read_bytes())
-    h.update(matplotlib.__version__.encode())
-    stored = user_cache("figures", h.hexdigest()[:24] + ".png")
+    key = version.cache_key(source, Path(__file__).read_bytes(), matplotlib.__version__, digits=24)
+    stored = user_cache("figures", key + ".png")
     try:
         png, svg = stored.read_bytes(), stored.with_suffix(".svg").read_bytes()
     except OSError:

@@ -17,13 +17,12 @@ replaces the entries of the runs it judged and keeps the others.
 
 Commits are ordered by git's topology where git knows them, the others by the time they were
 first recorded (`order`). The page is a function of the records alone: it is drawn again only
-when they (or flexmbd's source) changed (`page_key`).
+when they (or flexmbd's source) changed (`history_page_key`).
 """
 
 from __future__ import annotations
 
 import datetime
-import hashlib
 import html
 import json
 import math
@@ -37,7 +36,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 from matplotlib.ticker import FuncFormatter
 
-from flexmbd import files, resources, results, solvers
+from flexmbd import files, resources, results, solvers, version
 from flexmbd.errors import InputError
 from flexmbd.report import accuracy, figures, pages, tables
 from flexmbd.report.pages import seconds
@@ -65,7 +64,7 @@ def machine() -> dict:
     six hex digits of the SHA-256 of the CPU model and core count, stable across reports."""
     cpu = cpu_model()
     host = re.sub(r"[^\w.-]", "-", socket.gethostname() or "host").lstrip(".-_") or "host"
-    digest = hashlib.sha256(f"{cpu}|{os.cpu_count()}".encode()).hexdigest()[:6]
+    digest = version.cache_key(f"{cpu}|{os.cpu_count()}", digits=6)
     try:
         memory = round(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30, 1)
     except (ValueError, OSError, AttributeError):
@@ -453,16 +452,14 @@ def figure(make, d: Path, name: str, shown) -> str:
     (`shown`, as JSON) and of flexmbd's source; copied from the user's cache of drawn figures when
     drawn before (`figures.kept`). Its PNG's name."""
     source = json.dumps([name, shown, solvers.source_sha256()], default=str).encode()
-    return figures.kept(d / f"{name}-{hashlib.sha256(source).hexdigest()[:12]}.png", source, make)
+    return figures.kept(d / f"{name}-{version.cache_key(source, digits=12)}.png", source, make)
 
 
-def page_key(recs: list, labels: list) -> str:
-    """SHA-256 (hex) of what the page is drawn from: every record's file and contents, the order of
-    the commits and flexmbd's source (`solvers.source_sha256`)."""
-    h = hashlib.sha256(json.dumps({"labels": labels, "flexmbd": solvers.source_sha256()}).encode())
-    for rec in recs:
-        h.update(f"\0{rec['file']}\0".encode() + json.dumps(rec, sort_keys=True, default=str).encode())
-    return h.hexdigest()
+def history_page_key(recs: list, labels: list) -> str:
+    """SHA-256 (hex) of what the history page is drawn from: every record's file and contents, the
+    order of the commits and flexmbd's source (`solvers.source_sha256`)."""
+    return version.cache_key({"labels": labels, "flexmbd": solvers.source_sha256()},
+                             *(part for rec in recs for part in (f"\0{rec['file']}\0", rec)))
 
 
 def change(new, old) -> str:
@@ -491,13 +488,13 @@ def latest_rows(series: dict, labels: list) -> list[list]:
 def page(out, warn=None) -> Path:
     """Draw OUT/history.html and history.md (figures in OUT/history-page/) from the records under
     OUT/history and the stored bench runs (`resources.HISTORY`), swapped in together
-    (`files.generation`); kept as it is when drawn from the same records (`page_key`). A record
+    (`files.generation`); kept as it is when drawn from the same records (`history_page_key`). A record
     that cannot be read is an InputError naming it, or with `warn` left out (`warn` is told)."""
     out = Path(out)
     known = topology()
     recs = described(records(out, warn) + stored_bench(resources.HISTORY, warn), known)
     labels = ordered(recs, known)
-    key = page_key(recs, labels)
+    key = history_page_key(recs, labels)
     try:
         if json.loads((out / PAGE / "page.json").read_text()).get("key") == key and (out / "history.html").is_file():
             return out / "history.html"

@@ -124,7 +124,7 @@ def runs_section(case, runs: list) -> tuple[str, str]:
     rows = [[o.solver, o.verdict] for o in runs]
     why_html, why_md = [], []
     for o in runs:
-        if o.verdict.kind not in ("diverged", "aborted"):
+        if o.verdict.kind not in results.CAUSES:
             continue
         said = case.report.expected_failures.get(o.solver, "")
         text = f"**{o.solver}**: {accuracy.status_text(o.status)}."

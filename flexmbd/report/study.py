@@ -17,7 +17,6 @@ grid is the finest, which the `rms_vs_finest` metric measures each solver agains
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import re
@@ -30,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import cases, channels, cost, metrics, results, solvers
+from flexmbd import cases, channels, cost, metrics, results, solvers, version
 from flexmbd.errors import InputError
 from flexmbd.files import atomic_write
 from flexmbd.report import accuracy, loading
@@ -222,7 +221,7 @@ def values(st: Study, overrides) -> dict:
 
 def point_id(overrides) -> str:
     """A point's folder name: a digest of its overrides (12 hex digits)."""
-    return hashlib.sha256("\n".join(overrides).encode()).hexdigest()[:12]
+    return version.cache_key("\n".join(overrides), digits=12)
 
 
 def folder(out: Path, overrides) -> Path:

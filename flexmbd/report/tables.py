@@ -18,7 +18,7 @@ import numpy as np
 from flexmbd.files import atomic_write
 from flexmbd.report import accuracy
 from flexmbd.report.accuracy import Verdict
-from flexmbd.results import Status
+from flexmbd.results import CAUSES, Status
 
 # the accuracy table's columns: (row key, header, what it means, with its unit) -- the legend of accuracy.md
 ACCURACY_COLUMNS = [
@@ -318,7 +318,7 @@ def with_failed(rows_: list[dict], runs: list) -> list[dict]:
     `status` its one line."""
     out = list(rows_)
     for o in runs:
-        if o.verdict.kind not in ("diverged", "aborted"):
+        if o.verdict.kind not in CAUSES:
             continue
         ref = next((p.solver for p in runs if p.case == o.case and p.verdict.kind == "reference"), "")
         row = {**{k: np.nan for k, _, _ in ACCURACY_COLUMNS}, "case": o.case, "solver": o.solver, "reference": ref,

@@ -1,0 +1,122 @@
+"""list, modes and completion: what there is to run (the cases, which solver models what), a
+case's modes (each flexible body's, or the assembled system's) and the shell completion of the
+commands themselves."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from flexmbd import cases, cost, files, solvers
+from flexmbd.cli.shared import _case, _load, warn
+from flexmbd.cli.status import OK
+from flexmbd.errors import InputError
+
+
+def cmd_list(args) -> int:
+    """The cases named (names or paths of case files; default: every shipped case), each loaded
+    and checked before any is printed, or with --solvers which solver models what."""
+    if args.solvers:
+        if args.cases:
+            raise InputError("list: give CASE ... or --solvers, not both (see flexmbd list --help)")
+        return list_solvers(args)
+    rows = []
+    for name in args.cases or cases.available():
+        c = _case(name)
+        rows.append({"case": c.name, "title": c.title, "bodies": list(c.bodies),
+                     "solvers": {s: solvers.status_for(c, s) or "ok" for s in (*solvers.NAMES, *solvers.REFUSED)}})
+    if args.json:
+        print(files.json_text(rows, indent=2))
+        return 0
+    for r in rows:
+        usable = [s for s, st in r["solvers"].items() if st == "ok"]
+        print(f"{r['case']:<18} {r['title']}")
+        print(f"{'':<18} bodies: {', '.join(r['bodies'])}; solvers: {', '.join(usable)}")
+    return 0
+
+
+def list_solvers(args) -> int:
+    """`flexmbd list --solvers`: which solver models what (`capabilities.table`, docs/solvers.md)."""
+    from flexmbd import capabilities
+    tab = capabilities.table()
+    if args.json:
+        print(files.json_text(tab, indent=2))
+    else:
+        print(capabilities.markdown(tab), end="")
+    return 0
+
+
+def cmd_modes(args) -> int:
+    from flexmbd import flexbody
+    case = _load(args)
+    cost.check([(case, None)], allow_large=args.allow_large, about=args.about if args.system else None)
+    if args.system:
+        return system_modes(case, args.about, args.json)
+    if args.save:
+        files.writable_dir(args.save, "--save")
+    bodies = flexbody.for_case(case)
+    out = {"case": case.name, "bodies": {}}
+    for name, fb in bodies.items():
+        out["bodies"][name] = {
+            "boundary": fb.boundary, "nodes": fb.n_nodes,
+            "modes": [{"index": i + 1, "freq_hz": float(f), "label": str(lab)}
+                      for i, (f, lab) in enumerate(zip(fb.freq_hz, fb.labels))]}
+        if args.save:
+            flexbody.save(fb, Path(args.save) / f"{case.name}_{name}.npz")
+    if args.json:
+        print(files.json_text(out, indent=2))
+        return 0
+    for name, b in out["bodies"].items():
+        print(f"{case.name} / {name}: {b['boundary']}, {b['nodes']} nodes")
+        for m in b["modes"]:
+            print(f"  {m['index']:3d}  {m['freq_hz']:12.4f} Hz  {m['label']}")
+    return 0
+
+
+def system_modes(case, about: str, as_json: bool) -> int:
+    """The assembled system's frequencies, damping and labels (linearize.py), with a progress bar
+    past a couple of seconds."""
+    from flexmbd import linearize
+    from flexmbd.mbd.compiled import jit
+    if not jit.is_cached():
+        from flexmbd import solver
+        warn(solver.compiling(", to linearize the case"))
+    with files.signals_exit():                          # may compile the kernel; writes nothing
+        modes = linearize.for_case(case, about, progress=True)
+    rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping, "damping_resolution": m.damping_resolution,
+             "label": m.label, "share": m.share} for k, m in enumerate(modes)]
+    if as_json:
+        print(files.json_text({"case": case.name, "about": about, "modes": rows}, indent=2))
+        return 0
+    print(f"{case.name}: system modes about the {'initial state' if about == 'initial' else 'static equilibrium'}")
+    for r in rows:
+        print(f"  {r['index']:3d}  {r['freq_hz']:12.4f} Hz  damping {r['damping']:.3g} "
+              f"(resolved to {r['damping_resolution']:.1g})  {r['label']} "
+              f"({100 * r['share']:.0f} % of the kinetic energy)")
+    if not rows:
+        print("  none: no coordinate vibrates about this state (rigid bodies, or motion without stiffness)")
+    for note in mode_notes(rows, case):
+        print(f"  note: {note}")
+    return 0
+
+
+def mode_notes(rows: list, case) -> list:
+    """What a reader of `modes --system` needs to read its columns: a negative damping ratio and an
+    energy share above 100 % (docs/formulation.md §10)."""
+    out = []
+    if any(r["damping"] < -r["damping_resolution"] for r in rows):
+        moving = any(j.motion is not None or any(j.qd0) for j in case.joints.values())
+        out.append("a negative damping ratio is growth of the system frozen at this state"
+                   + (" (a moving state: a driven joint or initial rates), not of the run, which moves on"
+                      if moving else "") + "; within its resolution it is 0")
+    if any(r["share"] > 1.0 + 1e-9 for r in rows):
+        out.append("an energy share above 100 % is the leading family's own part of the kinetic energy; the "
+                   "others' cross terms with it (through the coupled mass matrix) are negative and the shares "
+                   "sum to 100 %")
+    return out
+
+
+def cmd_completion(args) -> int:
+    from flexmbd import completion
+    from flexmbd.cli.arguments import parser
+    print(completion.bash(parser(), cases.available(), solvers.NAMES), end="")
+    return OK
