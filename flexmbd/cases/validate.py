@@ -179,89 +179,136 @@ def _number(v, where, key):
 
 
 def _check_value(v, kind, where: str, key: str):
+    """v checked against its schema kind (`cases.schema`): a nested table (dict), one of a tuple of
+    words, or a named kind (KINDS); the value as the case holds it."""
     if isinstance(kind, dict):
         return check_table(v, kind, where, key + ".")
     if isinstance(kind, tuple):
         if v not in kind:
             _fail(where, key, f"expected one of {', '.join(kind)}, got {v!r}{hint(str(v), kind)}")
         return v
-    if kind == "body":
-        return _check_body(v, where, key)
-    if kind in ("float", "float+", "float0+"):
+    if kind not in KINDS:
+        raise AssertionError(f"schema kind {kind!r}")
+    return KINDS[kind](v, where, key)
+
+
+def _real(sign: str):
+    """A number's checker: any finite number, or > 0 ('+'), or >= 0 ('0+')."""
+    def check(v, where, key):
         x = _number(v, where, key)
-        if kind == "float+" and x <= 0:
+        if sign == "+" and x <= 0:
             _fail(where, key, f"must be positive, got {v!r}")
-        if kind == "float0+" and x < 0:
+        if sign == "0+" and x < 0:
             _fail(where, key, f"must not be negative, got {v!r}")
         return x
-    if kind == "poisson":
-        x = _number(v, where, key)
-        if not -1.0 < x < 0.5:
-            _fail(where, key, f"Poisson's ratio must lie in (-1, 0.5), got {v!r}")
-        return x
-    if kind in ("int+", "int0+"):
+    return check
+
+
+def _poisson(v, where, key):
+    x = _number(v, where, key)
+    if not -1.0 < x < 0.5:
+        _fail(where, key, f"Poisson's ratio must lie in (-1, 0.5), got {v!r}")
+    return x
+
+
+def _whole(least: int):
+    """A whole number's checker, at least `least` (1: positive, 0: non-negative)."""
+    def check(v, where, key):
         if isinstance(v, bool) or not isinstance(v, int):
             _fail(where, key, f"expected a whole number, got {v!r}")
         if abs(v) > LARGEST:
             _fail(where, key, f"expected a whole number of magnitude at most {LARGEST:g}, got {v!r}")
-        if v < (1 if kind == "int+" else 0):
-            _fail(where, key, f"must be {'positive' if kind == 'int+' else 'non-negative'}, got {v}")
+        if v < least:
+            _fail(where, key, f"must be {'positive' if least else 'non-negative'}, got {v}")
         return v
-    if kind == "strings":
+    return check
+
+
+def _words(what: str):
+    """A list of strings' checker (`what`: what the message calls it)."""
+    def check(v, where, key):
         if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
-            _fail(where, key, f"expected a list of strings, got {v!r}")
+            _fail(where, key, f"expected a list of {what}, got {v!r}")
         return list(v)
-    if kind in ("str", "line"):
+    return check
+
+
+def _text(line: bool):
+    """A string's checker; with `line`, one non-empty printable line."""
+    def check(v, where, key):
         if not isinstance(v, str):
             _fail(where, key, f"expected a string, got {v!r}")
-        if kind == "line" and (not v.strip() or not v.isprintable()):
+        if line and (not v.strip() or not v.isprintable()):
             _fail(where, key, f"expected one non-empty line of text, got {v!r}")
         return v
-    if kind == "bool":
-        if not isinstance(v, bool):
-            _fail(where, key, f"expected true or false, got {v!r}")
-        return v
-    if kind in ("vec3", "vec", "floats", "inertia"):
+    return check
+
+
+def _bool(v, where, key):
+    if not isinstance(v, bool):
+        _fail(where, key, f"expected true or false, got {v!r}")
+    return v
+
+
+def _numbers(kind: str):
+    """A list of numbers' checker: `vec3` three, `inertia` six with positive principal moments,
+    `vec` any count, `floats` any count or one number alone."""
+    want = {"vec3": 3, "inertia": 6}.get(kind)
+
+    def check(v, where, key):
         items = [v] if kind == "floats" and not isinstance(v, list) else v
         if not isinstance(items, list):
             _fail(where, key, f"expected a list of numbers, got {v!r}")
         xs = [_number(x, where, key) for x in items]
-        want = {"vec3": 3, "inertia": 6}.get(kind)
         if want and len(xs) != want:
             _fail(where, key, f"expected {want} numbers, got {len(xs)}")
         if kind == "inertia" and min(xs[:3]) <= 0:
             _fail(where, key, "principal moments Ixx, Iyy, Izz must be positive")
         return xs
-    if kind == "point":
-        if isinstance(v, list):
-            return _check_value(v, "vec3", where, key)
-        if isinstance(v, str):                      # a solid's interface, checked with the body
-            return v
-        return _check_value(v, "float0+", where, key)
-    if kind == "solver":
-        if not isinstance(v, str):
-            _fail(where, key, f"expected a solver name, got {v!r}")
+    return check
+
+
+def _point(v, where, key):
+    """A position: [x, y, z], a solid's interface name (checked with the body) or a distance >= 0."""
+    if isinstance(v, list):
+        return _check_value(v, "vec3", where, key)
+    if isinstance(v, str):
         return v
-    if kind == "solvers":
-        if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
-            _fail(where, key, f"expected a list of solver names, got {v!r}")
-        return list(v)
-    if kind == "tolerances":
+    return _check_value(v, "float0+", where, key)
+
+
+def _solver(v, where, key):
+    if not isinstance(v, str):
+        _fail(where, key, f"expected a solver name, got {v!r}")
+    return v
+
+
+def _table_of(kind: str, what: str):
+    """A table's checker whose every value is of `kind` (`what`: the message's description)."""
+    def check(v, where, key):
         if not isinstance(v, dict):
-            _fail(where, key, "expected a table channel = relative tolerance")
-        return {ch: _check_value(t, "float+", where, f"{key}.{ch}") for ch, t in v.items()}
-    if kind == "explanations":
-        if not isinstance(v, dict):
-            _fail(where, key, "expected a table solver = explanation")
-        return {s: _check_value(text, "str", where, f"{key}.{s}") for s, text in v.items()}
-    if kind == "solver_settings":
-        if not isinstance(v, dict):
-            _fail(where, key, "expected a table of solver names")
-        for name, settings in v.items():
-            if not isinstance(settings, dict):
-                _fail(where, f"{key}.{name}", "expected a table of settings")
-        return copy.deepcopy(v)
-    raise AssertionError(f"schema kind {kind!r}")
+            _fail(where, key, f"expected a table {what}")
+        return {k: _check_value(x, kind, where, f"{key}.{k}") for k, x in v.items()}
+    return check
+
+
+def _solver_settings(v, where, key):
+    if not isinstance(v, dict):
+        _fail(where, key, "expected a table of solver names")
+    for name, settings in v.items():
+        if not isinstance(settings, dict):
+            _fail(where, f"{key}.{name}", "expected a table of settings")
+    return copy.deepcopy(v)
+
+
+# the named kinds of cases/schema.py, each checked by one small function
+KINDS = {"body": lambda v, where, key: _check_body(v, where, key),
+         "float": _real(""), "float+": _real("+"), "float0+": _real("0+"), "poisson": _poisson,
+         "int+": _whole(1), "int0+": _whole(0), "strings": _words("strings"), "str": _text(False),
+         "line": _text(True), "bool": _bool, **{k: _numbers(k) for k in ("vec3", "vec", "floats", "inertia")},
+         "point": _point, "solver": _solver, "solvers": _words("solver names"),
+         "tolerances": _table_of("float+", "channel = relative tolerance"),
+         "explanations": _table_of("str", "solver = explanation"), "solver_settings": _solver_settings}
 
 
 def _check_body(v, where, key):
@@ -283,7 +330,7 @@ def _check_references(d: dict, where: str) -> None:
     bodies, joints = d["bodies"], d["joints"]
     for key in ("bodies", "channels"):
         if not d[key]:
-            _fail(where, key, f"expected at least one entry, the table is empty")
+            _fail(where, key, "expected at least one entry, the table is empty")
     _check_integrator(d, where)
     for name, b in bodies.items():
         k = f"bodies.{name}"
@@ -640,17 +687,33 @@ def _check_solid(b, d, where, k):
     interfaces on node sets of the mesh (a solid's: at least 3 nodes not on one line, `fits_rigid`;
     a frame's: one node), the frame's interface rigid and every other averaging,
     and no more modes than the held mesh has free DOFs."""
-    m = b["mesh"]
+    mesh = _solid_mesh(b["mesh"], where, k)
+    if b["material"] is None:
+        if len(mesh.materials) != 1:
+            found = f"defines {len(mesh.materials)} materials" if mesh.materials else "defines no material"
+            _fail(where, f"{k}.material", f"missing, and the mesh file {found}: name one of the case's materials")
+    elif b["material"] not in d["materials"]:
+        _fail(where, f"{k}.material", f"no material {b['material']!r}{hint(b['material'], d['materials'])}")
+    if b["frame"] not in b["interfaces"]:
+        _fail(where, f"{k}.frame", f"no interface {b['frame']!r}{hint(b['frame'], b['interfaces'])}")
+    taken = {}
+    for name, i in b["interfaces"].items():
+        _check_interface(mesh, b, name, i, taken, where, f"{k}.interfaces.{name}")
+    _check_solid_modes(mesh, b, where, k)
+
+
+def _solid_mesh(m, where, k):
+    """The mesh of a solid's `mesh` table (a box, or a file with its matrix files, found beside the
+    case file), read and checked once (`flexbody.solid_mesh`: a file's error names its line)."""
     if (m["file"] is None) == (m["box"] is None):
         _fail(where, f"{k}.mesh", "give either file (a mesh file) or box ([L, h, b] in m), not both or neither")
     if m["box"] is not None:
         for key in ("stiffness", "mass"):
             if m[key] is not None:
                 _fail(where, f"{k}.mesh.{key}", "a matrix file belongs to a mesh file (`file`), not to a box")
-        for key in ("divisions",):
-            v = m[key]
-            if v is None or any(x != int(x) or x < 1 for x in v):
-                _fail(where, f"{k}.mesh.divisions", f"a box needs divisions = [nx, ny, nz], whole numbers >= 1, got {v}")
+        v = m["divisions"]
+        if v is None or any(x != int(x) or x < 1 for x in v):
+            _fail(where, f"{k}.mesh.divisions", f"a box needs divisions = [nx, ny, nz], whole numbers >= 1, got {v}")
         if any(x <= 0 for x in m["box"]):
             _fail(where, f"{k}.mesh.box", f"expected positive sizes [L, h, b] in m, got {m['box']}")
         m["divisions"] = [int(x) for x in m["divisions"]]
@@ -670,56 +733,59 @@ def _check_solid(b, d, where, k):
                   "its cards, not from matrix files")
         if m[key] is not None:
             flexbody.matrix_file(m[key], m["units"], tuple(mesh.node_ids), key)
-    if b["material"] is None:
-        if len(mesh.materials) != 1:
-            found = f"defines {len(mesh.materials)} materials" if mesh.materials else "defines no material"
-            _fail(where, f"{k}.material", f"missing, and the mesh file {found}: name one of the case's materials")
-    elif b["material"] not in d["materials"]:
-        _fail(where, f"{k}.material", f"no material {b['material']!r}{hint(b['material'], d['materials'])}")
-    if b["frame"] not in b["interfaces"]:
-        _fail(where, f"{k}.frame", f"no interface {b['frame']!r}{hint(b['frame'], b['interfaces'])}")
-    boundary, taken = b["modes"]["boundary"], {}
-    for name, i in b["interfaces"].items():
-        key = f"{k}.interfaces.{name}"
-        if i["set"] not in mesh.node_sets:
-            _fail(where, f"{key}.set", f"no node set {i['set']!r} in {mesh.source} (it has: "
-                  f"{', '.join(sorted(mesh.node_sets)) or 'none'})")
-        if not len(mesh.node_sets[i["set"]]):
-            _fail(where, f"{key}.set", f"node set {i['set']!r} has no node on an element (an RBE's reference grid "
-                  "or an orientation grid alone): name the set of the nodes it ties, and its point")
-        if not mesh.is_frame and not fits_rigid(mesh.nodes[mesh.node_sets[i["set"]]]):
-            n_ = len(mesh.node_sets[i["set"]])
-            _fail(where, f"{key}.set", f"node set {i['set']!r} has {n_} node{'s' * (n_ > 1)}"
-                  f"{' on one line' * (n_ > 2)}: a solid's interface needs at least 3 nodes not on one line (its nodes "
-                  "carry no rotation: a rotation about their line is neither held by a rigid interface nor fitted by "
-                  "an averaging one)")
-        if mesh.is_frame:                           # a frame's interface is a node: its six DOFs
-            if len(mesh.node_sets[i["set"]]) != 1:
-                _fail(where, f"{key}.set", f"a frame's interface is one node (its rotations are the interface's); "
-                      f"set {i['set']!r} has {len(mesh.node_sets[i['set']])}")
-            if i["kind"] != "rigid" or i["point"] is not None:
-                _fail(where, f"{key}.kind" if i["kind"] != "rigid" else f"{key}.point",
-                      "a frame's interface moves with its one node: kind = \"rigid\" and no point")
-        elif name == b["frame"] and boundary != "free-free" and i["kind"] != "rigid":
-            _fail(where, f"{key}.kind", f"{boundary} modes hold the frame's interface, so it moves rigidly: "
-                  "kind = \"rigid\"")
-        elif name == b["frame"] and boundary == "free-free" and i["kind"] != "averaging":
-            _fail(where, f"{key}.kind", "free-free modes leave the frame's interface free: its reference point is "
-                  "their rigid fit, kind = \"averaging\" (a rigid frame interface makes them clamped-interface modes)")
-        if i["kind"] == "rigid":                    # a rigid set's nodes are its reference point's: no other's
-            for n_ in mesh.node_sets[i["set"]]:
-                if n_ in taken:
-                    _fail(where, f"{key}.set", f"node {int(mesh.node_ids[n_])} of set {i['set']!r} is also in "
-                          f"interface {taken[n_]!r}: a rigid interface's nodes belong to it alone")
-                taken[int(n_)] = name
-    if boundary == "craig-bampton" and b["modes"]["count"] < 6 * (len(b["interfaces"]) - 1):
+    return mesh
+
+
+def _check_interface(mesh, b, name, i, taken: dict, where, key):
+    """Interface `name` (its table i) of a solid on `mesh`: its set there and on elements, able to
+    carry a rigid motion (a solid's) or one node (a frame's), its kind as the modes hold the frame,
+    and a rigid set's nodes its own (`taken`: node -> interface, filled)."""
+    boundary, nodes = b["modes"]["boundary"], mesh.node_sets.get(i["set"])
+    if nodes is None:
+        _fail(where, f"{key}.set", f"no node set {i['set']!r} in {mesh.source} (it has: "
+              f"{', '.join(sorted(mesh.node_sets)) or 'none'})")
+    if not len(nodes):
+        _fail(where, f"{key}.set", f"node set {i['set']!r} has no node on an element (an RBE's reference grid "
+              "or an orientation grid alone): name the set of the nodes it ties, and its point")
+    if not mesh.is_frame and not fits_rigid(mesh.nodes[nodes]):
+        n_ = len(nodes)
+        _fail(where, f"{key}.set", f"node set {i['set']!r} has {n_} node{'s' * (n_ > 1)}"
+              f"{' on one line' * (n_ > 2)}: a solid's interface needs at least 3 nodes not on one line (its nodes "
+              "carry no rotation: a rotation about their line is neither held by a rigid interface nor fitted by "
+              "an averaging one)")
+    if mesh.is_frame:                               # a frame's interface is a node: its six DOFs
+        if len(nodes) != 1:
+            _fail(where, f"{key}.set", f"a frame's interface is one node (its rotations are the interface's); "
+                  f"set {i['set']!r} has {len(nodes)}")
+        if i["kind"] != "rigid" or i["point"] is not None:
+            _fail(where, f"{key}.kind" if i["kind"] != "rigid" else f"{key}.point",
+                  "a frame's interface moves with its one node: kind = \"rigid\" and no point")
+    elif name == b["frame"] and boundary != "free-free" and i["kind"] != "rigid":
+        _fail(where, f"{key}.kind", f"{boundary} modes hold the frame's interface, so it moves rigidly: "
+              "kind = \"rigid\"")
+    elif name == b["frame"] and boundary == "free-free" and i["kind"] != "averaging":
+        _fail(where, f"{key}.kind", "free-free modes leave the frame's interface free: its reference point is "
+              "their rigid fit, kind = \"averaging\" (a rigid frame interface makes them clamped-interface modes)")
+    if i["kind"] == "rigid":                        # a rigid set's nodes are its reference point's: no other's
+        for n_ in nodes:
+            if n_ in taken:
+                _fail(where, f"{key}.set", f"node {int(mesh.node_ids[n_])} of set {i['set']!r} is also in "
+                      f"interface {taken[n_]!r}: a rigid interface's nodes belong to it alone")
+            taken[int(n_)] = name
+
+
+def _check_solid_modes(mesh, b, where, k):
+    """A solid's mode count: six a Craig-Bampton interface besides the frame's, and no more than
+    the held mesh's free DOFs."""
+    boundary, count = b["modes"]["boundary"], b["modes"]["count"]
+    if boundary == "craig-bampton" and count < 6 * (len(b["interfaces"]) - 1):
         _fail(where, f"{k}.modes.count", f"craig-bampton modes hold six per interface besides the frame's: at least "
-              f"{6 * (len(b['interfaces']) - 1)}, got {b['modes']['count']}")
+              f"{6 * (len(b['interfaces']) - 1)}, got {count}")
     held = len(mesh.node_sets[b["interfaces"][b["frame"]]["set"]]) if boundary != "free-free" else 0
     dofs = 6 if mesh.is_frame else 3
     free = dofs * (mesh.n_nodes - held) - (6 if boundary == "free-free" else 0)
-    if b["modes"]["count"] > free:
-        _fail(where, f"{k}.modes.count", f"{b['modes']['count']} modes requested but the mesh has {free} free DOFs")
+    if count > free:
+        _fail(where, f"{k}.modes.count", f"{count} modes requested but the mesh has {free} free DOFs")
 
 
 def _check_solid_channel(c, body, where, k):
