@@ -322,13 +322,7 @@ def channel_figure(case, name: str, results: dict, reference: str):
         for ax in (top, bottom) if bottom else (top,):
             if status.t is not None:
                 ax.axvline(status.t, color=looks_of(s, 0)["color"], ls=":", lw=1.0)
-    if kind == "energy":
-        ylabel = "energy change from t = 0 [J]"
-        title = f"{case.name}: {name}, change of the total energy (kinetic + gravity + strain) from t = 0"
-        over = f"{reference}'s largest kinetic energy" if kinetic else "the case's gravity energy scale |g| sum m l"
-        title += f"\naccuracy table: differences over {over}, {channels.physical_scale(case, name, kinetic):.3g} J"
-    else:
-        ylabel, title = f"{name} [{unit}]", where(case, name)
+    ylabel, title = overview_titles(case, name, unit, reference, kinetic)
     top.set_title(title, fontsize=10)
     top.set_ylabel(ylabel)
     legend(top, fontsize=8, ncol=3)
@@ -342,8 +336,26 @@ def channel_figure(case, name: str, results: dict, reference: str):
     else:
         top.set_xlabel("t [s]")
 
-    # zoom windows: the first and the last periods, shaded on the overview
-    zoom = outer[1].subgridspec(1, 2) if windows else None
+    if windows:
+        zoomed(fig, outer[1], windows, curves, line, [top, bottom] if bottom else [top], f, noise, ylabel)
+    return fig
+
+
+def overview_titles(case, name: str, unit: str, reference: str, kinetic) -> tuple[str, str]:
+    """(y label, title) of a channel's overview: an energy as its change from t = 0, with the scale
+    the accuracy table divides its differences by; any other channel with its unit and place."""
+    if case.channels[name].kind != "energy":
+        return f"{name} [{unit}]", where(case, name)
+    over = f"{reference}'s largest kinetic energy" if kinetic else "the case's gravity energy scale |g| sum m l"
+    return ("energy change from t = 0 [J]",
+            f"{case.name}: {name}, change of the total energy (kinetic + gravity + strain) from t = 0"
+            f"\naccuracy table: differences over {over}, {channels.physical_scale(case, name, kinetic):.3g} J")
+
+
+def zoomed(fig, cell, windows: list, curves: dict, line, shaded: list, f: float, noise: float, ylabel: str) -> None:
+    """The zoom row in `cell` of `fig`: the curves over the first and the last windows (s), each
+    shaded on the axes `shaded`; f: the zoomed vibration's frequency (Hz), for the titles."""
+    zoom = cell.subgridspec(1, 2)
     for i, ((t0, t1), which) in enumerate(zip(windows, ("first", "last"))):
         ax = fig.add_subplot(zoom[i])
         margin = 0.02 * (t1 - t0)
@@ -351,7 +363,7 @@ def channel_figure(case, name: str, results: dict, reference: str):
             inside = (t >= t0 - margin) & (t <= t1 + margin)
             ax.plot(t[inside], y[inside], **line(s, int(inside.sum())))
         ax.set_xlim(t0, t1)
-        for a in (top, bottom) if bottom else (top,):
+        for a in shaded:
             a.axvspan(t0, t1, color="0.5", alpha=0.15, lw=0)
         ax.set_title(f"{which} {ZOOM_PERIODS} periods of {f:.3g} Hz (shaded above)", fontsize=9)
         ax.set_xlabel("t [s]")
@@ -359,7 +371,6 @@ def channel_figure(case, name: str, results: dict, reference: str):
         least_span(ax, np.concatenate([y[(t >= t0) & (t <= t1)] for t, y in curves.values()]), noise)
         if i == 0:
             ax.set_ylabel(ylabel)
-    return fig
 
 
 MODE_TOL = 0.02     # a system mode is drawn on a spectrum when within 2 % of an identified peak
