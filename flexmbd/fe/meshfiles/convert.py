@@ -85,16 +85,20 @@ def mesh(parsed: Parsed, units) -> Mesh:
 
 def _node_sets(source, sets, rows_of) -> dict:
     """{name: sorted unique node rows} of the file's node sets, every member defined."""
-    node_sets = {}
-    for name, (numbers, lines) in sets.items():
-        numbers = np.asarray(numbers, dtype=np.int64)
-        rows = rows_of(numbers)
-        bad = np.flatnonzero(rows < 0)
-        if bad.size:
-            raise InputError(f"{place(source, lines[bad[0]])}: node set {name!r} lists node {numbers[bad[0]]}, "
-                             "which is not defined")
-        node_sets[name] = np.unique(rows)
-    return node_sets
+    return {name: np.unique(_members(source, f"node set {name!r} lists node", numbers, lines, rows_of,
+                                     "which is not defined"))
+            for name, (numbers, lines) in sets.items()}
+
+
+def _members(source, says: str, numbers, lines, rows_of, what: str) -> np.ndarray:
+    """The rows (`rows_of`) of a set's member numbers; InputError at the first undefined member's
+    line: 'SOURCE:LINE: {says} N, {what}'."""
+    numbers = np.asarray(numbers, dtype=np.int64)
+    rows = rows_of(numbers)
+    bad = np.flatnonzero(rows < 0)
+    if bad.size:
+        raise InputError(f"{place(source, lines[bad[0]])}: {says} {numbers[bad[0]]}, {what}")
+    return rows
 
 
 def _elem_sets(source, sets, cells: Cells) -> dict:
@@ -105,12 +109,8 @@ def _elem_sets(source, sets, cells: Cells) -> dict:
     where = lookup(cells.all_ids)
     elem_sets = {}
     for name, (numbers, lines) in sets.items():
-        numbers = np.asarray(numbers, dtype=np.int64)
-        at = where(numbers)
-        bad = np.flatnonzero(at < 0)
-        if bad.size:
-            raise InputError(f"{place(source, lines[bad[0]])}: element set {name!r} lists element "
-                             f"{numbers[bad[0]]}, which is not a defined solid element")
+        at = _members(source, f"element set {name!r} lists element", numbers, lines, where,
+                      "which is not a defined solid element")
         elem_sets[name] = {k: np.unique(row_of[at][kind_of[at] == i]) for i, k in enumerate(kinds)
                            if (kind_of[at] == i).any()}
     return elem_sets
