@@ -273,15 +273,12 @@ def run(case, name: str, t_end: float | None = None) -> Result:
     if case.assembly:                                   # the loops' assembly it started from
         r.extra["assembly"] = {n: x for n, _, x in case.assembly}
     if traj is not None:                                # the kept samples' deformed shapes, once for every solver
-        shapes = channels.shapes(case, dataclasses.replace(traj, t=r.t), case.report.snapshots)
-        if shapes:
-            r.extra["shapes"] = shapes
-        fields = channels.fields(case, dataclasses.replace(traj, t=r.t), case.report.snapshots)
-        if fields:
-            r.extra["fields"] = fields
-        poses = channels.poses(case, dataclasses.replace(traj, t=r.t), case.report.snapshots)
-        if poses:                                       # the other bodies' places at the same samples
-            r.extra["poses"] = poses
+        kept = dataclasses.replace(traj, t=r.t)
+        for part, snapshots in (("shapes", channels.shapes), ("fields", channels.fields),
+                               ("poses", channels.poses)):    # poses: the other bodies' places there
+            got = snapshots(case, kept, case.report.snapshots)
+            if got:
+                r.extra[part] = got
     return r
 
 
