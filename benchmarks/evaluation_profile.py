@@ -30,8 +30,8 @@ import time
 import numpy as np
 
 from flexmbd import cases
-from flexmbd.bench import chain_case, evaluation, median_us
-from flexmbd.build import from_case
+from flexmbd.report.bench import chain_case, evaluation, median_us
+from flexmbd.solvers.build import from_case
 from flexmbd.mbd.dynamics import (accelerations, articulated_inertias, body_forces, external_forces,
                                   forward_kinematics, prescribed)
 from flexmbd.mbd.compiled.jit import njit

@@ -1,6 +1,6 @@
 """The executor's scheduling overhead: 200 points of a cheap grid (the continuous-beam closed form,
 `analytic`, on `cantilever_step`'s 2 s, with 300 ... 499 modes summed: a few tenths of a second
-each), run once one after another in this process, timing each run (`solvers.run`: the runs' own
+each), run once one after another in this process, timing each run (`registry.run`: the runs' own
 times), then on the local pool of `workers` processes, and on a Dask LocalCluster of as many
 workers. Run from the repository root, on an otherwise idle machine, several times (the figures
 move by a few percent from run to run on a shared machine):
@@ -10,7 +10,7 @@ move by a few percent from run to run on a shared machine):
 For each executor it prints its wall time and two overheads, each wall x workers / (a sum of the
 runs' own times) - 1:
 
-- `scheduling`: against the runs' own times where each ran (`solvers.run` timed in its worker,
+- `scheduling`: against the runs' own times where each ran (`registry.run` timed in its worker,
   `executor.execute`'s `own`). It counts what keeps a worker from running a job: starting the
   workers (forked on Linux: at once; spawned or on Dask: the interpreter and flexmbd's imports,
   about a second each), the estimates and the
@@ -30,7 +30,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from flexmbd import cases, executor, results, solvers
+from flexmbd import cases
+from flexmbd.harness import executor, results, registry
 
 
 def grid(points: int) -> list:
@@ -42,7 +43,7 @@ def own_times(jobs: list) -> float:
     total = 0.0
     for case, solver in jobs:
         t0 = time.perf_counter()
-        solvers.run(case, solver)
+        registry.run(case, solver)
         total += time.perf_counter() - t0
     return total
 
@@ -59,7 +60,7 @@ def wall(jobs: list, where: executor.Where) -> tuple[float, float]:
 
 def main(workers: int = 2, points: int = 200) -> None:
     jobs = grid(points)
-    solvers.run(*jobs[0])                               # imports and caches warm, as in a long study
+    registry.run(*jobs[0])                               # imports and caches warm, as in a long study
     here = own_times(jobs)
     print(f"{points} runs of {jobs[0][1]}: sum of their own times {here:.2f} s ({here / points * 1e3:.1f} ms each)")
     for name, where in (("local pool", executor.Where(workers=workers)),

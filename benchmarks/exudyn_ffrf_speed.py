@@ -17,14 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, solvers
+from flexmbd import cases
+from flexmbd.harness import registry
 
 CASES = "cantilever_step,pendulum,double_pendulum,slewing_beam,spinup_beam"
 
 
 def timed(name: str, repeats: int):
     """(smallest wall_s, the last Result) of `repeats` runs of exudyn-ffrf on case `name`."""
-    runs = [solvers.run(cases.load(name), "exudyn-ffrf") for _ in range(repeats)]
+    runs = [registry.run(cases.load(name), "exudyn-ffrf") for _ in range(repeats)]
     return min(r.wall_s for r in runs), runs[-1]
 
 

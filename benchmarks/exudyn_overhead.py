@@ -18,15 +18,17 @@ import time
 
 import numpy as np
 
-from flexmbd import cases, flexbody, solvers
-from flexmbd.adapters import exudyn_beam as xb
-from flexmbd.adapters import exudyn_common as xc
-from flexmbd.adapters import exudyn_ffrf as xf
+from flexmbd import cases
+from flexmbd.fe import flexbody
+from flexmbd.harness import registry
+from flexmbd.solvers import exudyn_beam as xb
+from flexmbd.solvers import exudyn_common as xc
+from flexmbd.solvers import exudyn_ffrf as xf
 
 
 def ffrf(case, t_end: float, variant: str):
     """(mbs, settings, solver) of an exudyn-ffrf solve in one of the variants."""
-    opt = xf.options(solvers.settings(case, "exudyn-ffrf"))
+    opt = xf.options(registry.settings(case, "exudyn-ffrf"))
     dt, out_dt = xf.step_size(case, opt), case.integrator.output_dt
     sim = xc.simulation_settings(case, t_end, dt, opt)
     with xc.quiet(), python_motion(variant == "python motion"):
@@ -68,7 +70,7 @@ def post_step_record(sensors: list, dt: float, out_dt: float):
 def beam(case, t_end: float, variant: str):
     """(mbs, settings, solver) of an exudyn-beam solve: as the adapter runs it, with a pre-step
     function, or with the prescribed motion as a Python function."""
-    opt = {k: d for k, (_, d) in xb.SETTINGS.items()} | solvers.settings(case, "exudyn-beam")
+    opt = {k: d for k, (_, d) in xb.SETTINGS.items()} | registry.settings(case, "exudyn-beam")
     out_dt = case.integrator.output_dt
     dt = out_dt / max(int(round(out_dt / opt["dt"])), 1) if opt["dt"] <= out_dt else opt["dt"]
     with xc.quiet(), python_motion(variant == "python motion"):
@@ -95,7 +97,7 @@ def main(name: str = "pendulum", t_end: float = 0.25, repeats: int = 5) -> None:
     runs = {"exudyn-ffrf": (ffrf, ["adapter", "no step means", "pre-step", "post-step"] + driven),
             "exudyn-beam": (beam, ["adapter", "pre-step"] + driven)}
     for solver, (build, variants) in runs.items():
-        if solvers.status_for(case, solver):              # not applicable or unavailable
+        if registry.status_for(case, solver):              # not applicable or unavailable
             continue
         got = {v: [] for v in variants}
         for _ in range(repeats):

@@ -29,9 +29,9 @@ from numba import njit
 def main(ns) -> None:
     import pinocchio as pin
 
-    from flexmbd import bench
-    from flexmbd.adapters import pinocchio_model
-    from flexmbd.build import from_case
+    from flexmbd.report import bench
+    from flexmbd.solvers import pinocchio_model
+    from flexmbd.solvers.build import from_case
     from flexmbd.mbd.compiled.bound import call_entry
     from flexmbd.mbd.compiled.entry import ACCELERATIONS, _bound_of, forward
     from flexmbd.mbd.model import make_data

@@ -11,10 +11,11 @@ __all__ = ["load_case", "run", "compare", "verdicts", "system_modes", "units", "
 
 def load_case(name_or_path, overrides=()):
     """A validated case (cases.Case) from a name in cases/ or a TOML path, with `dotted.key=VALUE`
-    overrides as `--set` takes them. Bad input raises flexmbd.errors.InputError naming the key. A
-    case that names no reference solver gets its default (`solvers.graded`, cases/README.md)."""
-    from flexmbd import cases, solvers
-    return solvers.graded(cases.load(str(name_or_path), list(overrides)))
+    overrides as `--set` takes them. Bad input raises flexmbd.core.errors.InputError naming the key. A
+    case that names no reference solver gets its default (`registry.graded`, cases/README.md)."""
+    from flexmbd import cases
+    from flexmbd.harness import registry
+    return registry.graded(cases.load(str(name_or_path), list(overrides)))
 
 
 def _case(case):
@@ -36,7 +37,7 @@ def units(of) -> dict | str:
                 raise ValueError(f"no unit for {of.name!r}: units are known for {', '.join(map(str, known))}")
             return known[of.name]
         return {k: known[k] for k in [of.index.name, *of.columns] if k in known}
-    from flexmbd import channels
+    from flexmbd.harness import channels
     case = _case(of)
     return {"t": "s", **{name: channels.unit(case, name) for name in case.channels}}
 
@@ -49,10 +50,10 @@ def run(case, solver: str = "flexmbd", t_end: float | None = None, shapes: bool 
     `shape_frame`)."""
     import pandas as pd
 
-    from flexmbd import solvers
+    from flexmbd.harness import registry
     case = _case(case)
-    solvers.check_name(solver, "solver")
-    r = solvers.run(case, solver, t_end)
+    registry.check_name(solver, "solver")
+    r = registry.run(case, solver, t_end)
     df = pd.DataFrame({k: r.channels[k] for k in r.channels}, index=pd.Index(r.t, name="t"))
     df.attrs.update({"case": case.name, "solver": solver, "solver_version": r.solver_version,
                      "status": str(r.status), "ok": r.ok, "wall_s": r.wall_s, "setup_s": r.setup_s,
@@ -92,7 +93,7 @@ def compare(case, solvers=None, t_end: float | None = None):
     import numpy as np
     import pandas as pd
 
-    from flexmbd import solvers as registry
+    from flexmbd.harness import registry
     from flexmbd.report import accuracy, loading, spectra, tables
     case = _case(case)
     names = loading.with_reference(case, list(solvers or case.report.solvers or registry.NAMES))
@@ -137,7 +138,7 @@ def system_modes(case, about: str = "initial"):
     eigenvalue, by its condition number, over |lambda|) is round-off and shows as 0."""
     import pandas as pd
 
-    from flexmbd import linearize
+    from flexmbd.solvers import linearize
     modes = linearize.for_case(_case(case), about)
     df = pd.DataFrame(modes, columns=list(linearize.SystemMode._fields))
     df = df[["freq_hz", "damping", "damping_resolution", "label", "share"]]

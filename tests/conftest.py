@@ -88,17 +88,19 @@ def compiled_kernel(shared_dir) -> None:
     first compiles them (about 40 s of one core), the others load them from the cache. A
     session fixture that needs them asks for this one (pytest sets up session fixtures before
     module ones)."""
-    from flexmbd import cases, flexbody, solvers
+    from flexmbd import cases
+    from flexmbd.fe import flexbody
+    from flexmbd.harness import registry
     from flexmbd.mbd import integrate
     from flexmbd.mbd.compiled import jit
-    from flexmbd.build import from_case
+    from flexmbd.solvers.build import from_case
     if jit.PURE_PYTHON:                                 # NUMBA_DISABLE_JIT=1: nothing to compile
         return
     with locked(shared_dir / "kernel.lock"):
         case = cases.load("pendulum")
         integrate.warm_up(from_case(case.modelled, flexbody.for_case(case.modelled)))
         for case in (case, cases.load("four_bar")):
-            assert solvers.run(case, "flexmbd", 0.01).ok
+            assert registry.run(case, "flexmbd", 0.01).ok
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -136,14 +138,15 @@ def cantilever_report(shared_dir, compiled_kernel) -> Path:
 
 @pytest.fixture(scope="session")
 def cantilever_run(shared_dir):
-    """cantilever_run(solver): a fresh copy of the Result of `solvers.run` of `solver` on the shipped
+    """cantilever_run(solver): a fresh copy of the Result of `registry.run` of `solver` on the shipped
     cantilever_step (its whole duration), run once per session. flexmbd's run needs the kernel
     (compiled before any module outside KERNEL_FREE)."""
-    from flexmbd import cases, solvers
+    from flexmbd import cases
+    from flexmbd.harness import registry
 
     def build(folder: Path, solver: str) -> None:
         folder.mkdir()
-        (folder / "result.pickle").write_bytes(pickle.dumps(solvers.run(cases.load("cantilever_step"), solver)))
+        (folder / "result.pickle").write_bytes(pickle.dumps(registry.run(cases.load("cantilever_step"), solver)))
 
     def get(solver: str):
         folder = once(shared_dir, f"cantilever_step.{solver}", lambda f: build(f, solver))

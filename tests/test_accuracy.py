@@ -8,7 +8,7 @@ import pytest
 
 from flexmbd import cases
 from flexmbd.report import accuracy
-from flexmbd.results import Result
+from flexmbd.harness.results import Result
 
 CASE = cases.load("pendulum")
 

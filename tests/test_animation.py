@@ -14,12 +14,13 @@ import numpy as np
 import pytest
 from PIL import Image, ImageChops
 
-from flexmbd import cases, channels, results, solvers
+from flexmbd import cases
+from flexmbd.harness import channels, results, registry
 from flexmbd.cases.schema import MAX_SNAPSHOTS
 from flexmbd.cli import main
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.report import animation
-from flexmbd.results import Result
+from flexmbd.harness.results import Result
 
 T_END, FRAMES = 0.02, 5             # s, instants: the pendulum's runs kept short (0, 5, ..., 20 ms)
 
@@ -194,7 +195,7 @@ def test_a_rigid_pendulums_tip_is_where_its_joint_angle_puts_it():
     case = cases.load("pendulum", ["bodies.beam.rigid=true"])
     fr = animation.framed(case, animation.instants(case, 0.3, 7))
     for name in ("flexmbd", "pinocchio", "mujoco"):
-        r = solvers.run(fr, name, 0.3)
+        r = registry.run(fr, name, 0.3)
         t, pts, stress = animation.mechanism(case, r, 1.0)["beam"]
         assert len(t) == 7 and stress is None and "shapes" not in r.extra
         q = r.channels["joint_angle"][[int(np.argmin(np.abs(r.t - ti))) for ti in t]]
@@ -237,7 +238,7 @@ def test_export_four_bar_stress_is_the_stress_channel(tmp_path):
     seen here (measured 1.2e-5 m up to 0.05 s; 6e-15 m with stiffening = false)."""
     case = cases.load("four_bar")
     fr = animation.framed(case, animation.instants(case, 0.05, 6))
-    r = solvers.run(fr, "flexmbd", 0.05)
+    r = registry.run(fr, "flexmbd", 0.05)
     animation.vtk(case, r, tmp_path)
     shape = r.extra["shapes"]["coupler"]
     at = channels.shape_positions(fr, "coupler").index(0.225)
@@ -264,7 +265,7 @@ def test_the_drawing_plane_is_the_one_the_motion_lies_in():
 
 
 def test_a_run_with_global_shapes_and_poses_reads_back(tmp_path):
-    """What `solvers.run` stores: shapes with r and stress, poses; a broken pose refused naming it."""
+    """What `registry.run` stores: shapes with r and stress, poses; a broken pose refused naming it."""
     r = shaped("flexmbd", [0.0, 0.01], lambda t: 0.1 * t, placed=True)
     r.extra["shapes"]["beam"]["stress"] = [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
     r.extra["poses"] = {"crank": {"t": [0.0, 0.01], "R": [np.eye(3).tolist()] * 2, "p": [[0.0, 0.0, 0.0]] * 2}}
@@ -362,7 +363,7 @@ def test_animate_with_nothing_to_draw(tmp_path):
 
 
 def test_animate_and_export_refuse_absurd_frame_counts_before_any_run(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(solvers, "run", lambda *a, **k: pytest.fail("a solver ran"))
+    monkeypatch.setattr(registry, "run", lambda *a, **k: pytest.fail("a solver ran"))
     refused(main(["animate", "pendulum", "--solvers", "flexmbd", "--frames", "1000000000",
                   "--out", str(tmp_path / "a.gif")]), capsys, "--frames 1000000000", "at most 4001")
     refused(main(["export", "pendulum", "--solver", "flexmbd", "--frames", "42", "--t-end", "0.01",

@@ -14,9 +14,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from flexmbd import cases, cost, solvers
+from flexmbd import cases
+from flexmbd.harness import cost, registry
 from flexmbd.cli import main, parser
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 CANTILEVER = (cases.CASES_DIR / "cantilever_step.toml").read_text()
 PENDULUM = (cases.CASES_DIR / "pendulum.toml").read_text()
@@ -249,11 +250,11 @@ def test_a_declared_loop_loads_and_every_solver_without_loops_says_so(tmp_path):
     assert back.loop and back.offset == (1.5, 1.0, 0.0) and back.child_offset == (0.0, 1.0, 0.0)
     assert (back.nq, back.nv, back.q0) == (0, 0, ())
     assert case.nv == cases.load("pendulum").nv + 1                  # the link's pin only
-    assert solvers.status_for(case, "flexmbd") == ""
-    for name in solvers.BUILT_IN:
-        mod, why = solvers.load(name)
+    assert registry.status_for(case, "flexmbd") == ""
+    for name in registry.BUILT_IN:
+        mod, why = registry.load(name)
         if not why and not getattr(mod, "LOOPS", False):
-            assert solvers.status_for(case, name) == \
+            assert registry.status_for(case, name) == \
                 "not applicable: closed kinematic loops are not modelled (joint 'back' closes one)", name
 
 
@@ -307,7 +308,7 @@ COSTLY = [
 
 @pytest.mark.parametrize("case,solver,sets,extra,words", [c[1:] for c in COSTLY], ids=[c[0] for c in COSTLY])
 def test_costly_run_is_refused_before_the_work(tmp_path, capsys, case, solver, sets, extra, words):
-    if solvers.status_for(cases.load(case, sets), solver).startswith("unavailable"):
+    if registry.status_for(cases.load(case, sets), solver).startswith("unavailable"):
         pytest.skip(f"{solver} is not installed here")
     argv = ["run", case, "--solver", solver] + [x for s in sets for x in ("--set", s)] + extra
     _refused(*_in_process(tmp_path, capsys, argv), words + ["--allow-large"])
@@ -325,7 +326,7 @@ def test_compare_and_modes_refuse_too(tmp_path, capsys):
 
 def test_every_shipped_case_is_within_the_limits():
     for name in cases.available():
-        cost.check([(cases.load(name), s) for s in solvers.NAMES])
+        cost.check([(cases.load(name), s) for s in registry.NAMES])
 
 
 def test_allow_large_lifts_the_refusal_and_is_accepted_by_every_command(capsys):
@@ -362,7 +363,7 @@ def test_zero_modes_is_the_rigid_limit(tmp_path, capsys):
     rest = pd.read_csv(out / "results" / "cantilever_step" / "flexmbd.csv")
     assert len(rest) == 101 and (rest["tip_deflection"] == 0).all()
     c = cases.load("pendulum", ["bodies.beam.modes.count=0"])
-    why = solvers.status_for(c, "exudyn-ffrf")
+    why = registry.status_for(c, "exudyn-ffrf")
     assert why.startswith(("not applicable: body 'beam' retains no modes", "unavailable")), why
     capsys.readouterr()
 
@@ -414,8 +415,8 @@ def test_process_ten_million_elements_refused_promptly_and_small(tmp_path):
 def _load_or_input_error(path, overrides=()):
     try:
         c = cases.load(str(path), list(overrides))
-        solvers.check(c)
-        cost.check([(c, s) for s in solvers.NAMES])
+        registry.check(c)
+        cost.check([(c, s) for s in registry.NAMES])
     except InputError as e:
         msg = str(e)
         assert msg and msg.isprintable(), msg

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from flexmbd import bench
-from flexmbd.build import from_case
+from flexmbd.report import bench
+from flexmbd.solvers.build import from_case
 
 
 def test_chains_are_valid_trees():

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from flexmbd import capabilities, cli, solvers
+from flexmbd.harness import capabilities, registry
+from flexmbd import cli
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "solvers.md"
 
@@ -18,10 +19,10 @@ def doc_table() -> str:
 
 
 def test_docs_table_is_the_generated_one():
-    missing = [s for s in solvers.BUILT_IN if solvers.unavailable_reason(s)]
+    missing = [s for s in registry.BUILT_IN if registry.unavailable_reason(s)]
     if missing:
         pytest.skip(f"not installed here: {', '.join(missing)}")
-    assert doc_table() == capabilities.markdown(capabilities.table(solvers.BUILT_IN))
+    assert doc_table() == capabilities.markdown(capabilities.table(registry.BUILT_IN))
 
 
 def test_table_follows_applies():
@@ -44,7 +45,7 @@ def test_probes_are_valid_cases():
 def test_list_solvers(capsys):
     assert cli.main(["list", "--solvers", "--json"]) == 0
     tab = json.loads(capsys.readouterr().out)
-    assert set(tab) == set(solvers.NAMES)
+    assert set(tab) == set(registry.NAMES)
     assert all(set(row) == set(capabilities.FEATURES) for row in tab.values())
     assert cli.main(["list", "--solvers"]) == 0
     out = capsys.readouterr().out

@@ -11,7 +11,7 @@ import pytest
 
 from flexmbd import cases
 from flexmbd.cli import main
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 PAPER = ["cantilever_step", "pendulum", "double_pendulum"]
 
@@ -158,7 +158,7 @@ def test_motion_table_file_is_checked(tmp_path):
 def test_the_resolved_case_of_the_double_pendulum():
     """Tree order, kinds, parents, the joint on beam1's snapped tip node, the stress channels'
     snapped points, and nq / nv equal to the Model's (built separately)."""
-    from flexmbd.build import from_case
+    from flexmbd.solvers.build import from_case
     case = cases.load("double_pendulum", ["bodies.beam1.elements=10", "joints.pivot2.at=1.46"])
     assert isinstance(case.resolved, cases.Resolved)
     assert case.order == ["beam1", "beam2"]
@@ -204,7 +204,7 @@ BENCHMARKS = {   # case: (EA N, EI N m^2 in the x-y plane, rho A kg/m, length m)
 def test_benchmark_cases_load_with_their_parameters_and_provenance(name):
     """The benchmark beams reproduce the quoted EA, EI (bending plane x-y) and rho A; the file
     header names its source and separates derived values from what is read in a paper."""
-    from flexmbd import flexbody
+    from flexmbd.fe import flexbody
     c = cases.load(name)
     (body,) = c.bodies.values()
     mat = c.materials[body.material.name]
@@ -250,7 +250,7 @@ def test_no_case_is_indexed_as_a_dict_outside_the_cases_package():
 
 
 def test_the_flexible_pendulums_twenty_segments_are_reduced_once():
-    from flexmbd import flexbody
+    from flexmbd.fe import flexbody
     flexbody._named.cache_clear()                   # both caches: a test run before in this process
     flexbody._reduced.cache_clear()                 # may have reduced the segments under their names
     bodies = cases.load("flexible_pendulum").split.flexible()

@@ -10,8 +10,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import flexmbd
-from flexmbd import cases, channels, flexbody, solver
-from flexmbd.build import from_case
+from flexmbd import cases
+from flexmbd.harness import channels
+from flexmbd.fe import flexbody
+from flexmbd.solvers import inhouse
+from flexmbd.solvers.build import from_case
 from flexmbd.mbd.compiled.entry import forward_dynamics
 from flexmbd.mbd.model import make_data
 
@@ -129,7 +132,7 @@ def test_clamp_reactions_are_the_rate_of_momentum_less_the_applied_loads():
     rng = np.random.default_rng(5)
     t = np.array([0.0, 0.3, 1.1])
     Q, V = rng.normal(size=(3, m.nq)) * 1e-3, rng.normal(size=(3, m.nv)) * 1e-2
-    f = solver.reactions(m, t, Q, V)
+    f = inhouse.reactions(m, t, Q, V)
     g, F = np.array(case.gravity), np.array([0.0, -12.0, 0.0]) * (t >= 0.5)[:, None]
     for k in range(3):
         eta_dd = forward_dynamics(m, make_data(m), Q[k], V[k], t=t[k])[a:a + n]
@@ -177,7 +180,7 @@ def root_stress(overrides, t, angle, rate):
     m = from_case(case)
     q, v = np.zeros(m.nq), np.zeros(m.nv)
     q[0], v[0] = angle, rate
-    out = channels.channels(case, solver.trajectory(case, m, np.array([t]), q[None], v[None]))
+    out = channels.channels(case, inhouse.trajectory(case, m, np.array([t]), q[None], v[None]))
     return float(out["stress_vm"][0])
 
 
@@ -305,10 +308,10 @@ def test_cantilever_shapes_of_flexmbd_and_fe_linear_agree(cantilever_runs):
 
 
 def test_rigid_solvers_store_no_shapes_and_a_short_run_those_it_reached():
-    from flexmbd import solvers
+    from flexmbd.harness import registry
     case = cases.load("pendulum", ["report.snapshots=[0.0, 0.02, 1.0]"])
-    assert "shapes" not in solvers.run(case, "pinocchio", 0.02).extra
-    s = solvers.run(case, "flexmbd", 0.02).extra["shapes"]["beam"]
+    assert "shapes" not in registry.run(case, "pinocchio", 0.02).extra
+    s = registry.run(case, "flexmbd", 0.02).extra["shapes"]["beam"]
     assert s["t"] == [0.0, 0.02] and len(s["x"]) == 11 and np.abs(s["u"][0]).max() == 0.0 < np.abs(s["u"][1]).max()
 
 

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from flexmbd.adapters import analytic
+from flexmbd.solvers import analytic
 from flexmbd.cli import main
 
 E, RHO, B, H, L = 2.06e11, 7820.0, 0.01, 0.015, 1.5
@@ -39,7 +39,7 @@ def test_modes_double_pendulum_hinged_hinged_in_plane(capsys):
 
 
 def test_modes_save_roundtrip(tmp_path, capsys):
-    from flexmbd import flexbody
+    from flexmbd.fe import flexbody
     assert main(["modes", "pendulum", "--save", str(tmp_path)]) == 0
     fb = flexbody.load(tmp_path / "pendulum_beam.npz")
     assert fb.n_modes == 12 and fb.n_nodes == 101 and fb.boundary == "clamped-free"
@@ -102,14 +102,15 @@ def test_version_and_help_text_for_every_option(capsys):
 
 
 def test_a_stored_result_with_the_runs_key_is_kept_and_any_change_runs_again(tmp_path, monkeypatch):
-    from flexmbd import cases, cli, results, solvers
-    out, ran, real = tmp_path / "rep", [], solvers.run
-    monkeypatch.setattr(solvers, "run", lambda c, s, t_end=None: ran.append((c.name, s)) or real(c, s, t_end))
+    from flexmbd import cases, cli
+    from flexmbd.harness import results, registry
+    out, ran, real = tmp_path / "rep", [], registry.run
+    monkeypatch.setattr(registry, "run", lambda c, s, t_end=None: ran.append((c.name, s)) or real(c, s, t_end))
     case = cases.load("cantilever_step")
     stored = results.folder(out) / case.name / "analytic.json"
     cli.run_checked([(case, "analytic")], out, keep=True)
     key = json.loads(stored.read_text())["key"]
-    assert len(ran) == 1 and key == solvers.content_key(case, "analytic") and len(key) == 64
+    assert len(ran) == 1 and key == registry.content_key(case, "analytic") and len(key) == 64
     before = (stored.stat().st_ino, stored.read_bytes())
     cli.run_checked([(cases.load("cantilever_step"), "analytic")], out, keep=True)    # unchanged: kept
     assert len(ran) == 1 and (stored.stat().st_ino, stored.read_bytes()) == before
@@ -124,7 +125,7 @@ def test_a_stored_result_with_the_runs_key_is_kept_and_any_change_runs_again(tmp
     cli.run_checked([(cases.load("cantilever_step", ["solvers.analytic.modes=8"]), "analytic")], out, keep=True)
     assert len(ran) == 5
     cli.run_checked([(case, "mujoco")], out, keep=True)          # not applicable: no key, kept by its status
-    assert len(ran) == 6 and solvers.content_key(case, "mujoco") is None
+    assert len(ran) == 6 and registry.content_key(case, "mujoco") is None
     na = results.folder(out) / case.name / "mujoco.json"
     before = (na.stat().st_ino, na.read_bytes())
     cli.run_checked([(case, "mujoco")], out, keep=True)
@@ -133,11 +134,12 @@ def test_a_stored_result_with_the_runs_key_is_kept_and_any_change_runs_again(tmp
 
 def test_a_short_run_is_not_kept_as_the_whole_case_and_report_runs_it_again(tmp_path, capsys):
     """The run key holds the end time: a `run --t-end` result is another run than the case's."""
-    from flexmbd import cases, results, solvers
+    from flexmbd import cases
+    from flexmbd.harness import results, registry
     out = tmp_path / "rep"
     case = cases.load("cantilever_step")
-    assert solvers.content_key(case, "analytic", 0.5) != solvers.content_key(case, "analytic")
-    assert solvers.content_key(case, "analytic", case.duration) == solvers.content_key(case, "analytic")
+    assert registry.content_key(case, "analytic", 0.5) != registry.content_key(case, "analytic")
+    assert registry.content_key(case, "analytic", case.duration) == registry.content_key(case, "analytic")
     assert main(["run", "cantilever_step", "--solver", "analytic", "--t-end", "0.5", "--out", str(out)]) == 0
     assert results.read(results.folder(out), case.name, "analytic").t[-1] == pytest.approx(0.5)
     capsys.readouterr()

@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbd import cases, results, version
+from flexmbd import cases, version
+from flexmbd.harness import results
 from flexmbd.cli import EXIT, main, parser
 from flexmbd.report import accuracy, tables
 from flexmbd.report.accuracy import Outcome

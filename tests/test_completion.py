@@ -7,7 +7,9 @@ import subprocess
 
 import pytest
 
-from flexmbd import cases, completion, solvers
+from flexmbd import cases
+from flexmbd.cli import completion
+from flexmbd.harness import registry
 from flexmbd.cli import parser
 
 pytestmark = pytest.mark.skipif(shutil.which("bash") is None, reason="no bash")
@@ -16,7 +18,7 @@ pytestmark = pytest.mark.skipif(shutil.which("bash") is None, reason="no bash")
 def complete(tmp_path, *words) -> list[str]:
     """COMPREPLY of the script for the command line `words` (the last one being completed)."""
     script = tmp_path / "flexmbd.bash"
-    script.write_text(completion.bash(parser(), cases.available(), solvers.NAMES))
+    script.write_text(completion.bash(parser(), cases.available(), registry.NAMES))
     line = " ".join(f"'{w}'" for w in words)
     run = (f"source {script}; COMP_WORDS=({line}); COMP_CWORD={len(words) - 1}; _flexmbd; "
            "printf '%s\\n' \"${COMPREPLY[@]}\"")

@@ -8,10 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbd import build, cases, flexbody, solver
+from flexmbd.solvers import build, inhouse
+from flexmbd import cases
+from flexmbd.fe import flexbody
 from flexmbd.mbd import dynamics, integrate
-from flexmbd.adapters.common import beam_inertia
-from flexmbd.build import from_case
+from flexmbd.solvers.common import beam_inertia
+from flexmbd.solvers.build import from_case
 from flexmbd.mbd.constraints import axis_basis
 from flexmbd.mbd.model import make_data
 from flexmbd.mbd.compiled import entry
@@ -137,8 +139,8 @@ def test_cut_reaction_balances_the_rocker(four_bar_rigid):
     case, model, loops, sim = four_bar_rigid
     k = np.arange(0, sim.t.size, 50)
     t, Q, V = sim.t[k], sim.q[k], sim.v[k]
-    cuts = solver.cut_forces(loops, t, Q, V)
-    ev = solver.evaluate(model, t, Q, V, loops, cuts)
+    cuts = inhouse.cut_forces(loops, t, Q, V)
+    ev = inhouse.evaluate(model, t, Q, V, loops, cuts)
     i = model.index("rocker")
     m = beam_inertia(case.bodies["rocker"], "lumped")[0]
     for n in range(len(t)):

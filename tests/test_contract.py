@@ -29,11 +29,14 @@ import pandas as pd
 import pytest
 
 import flexmbd
-from flexmbd import cases, cost, files, linearize, results, solver, solvers
+from flexmbd import cases
+from flexmbd.harness import cost, results, registry
+from flexmbd.core import files
+from flexmbd.solvers import linearize, inhouse
 from flexmbd.mbd import integrate
 from flexmbd.cli import main
-from flexmbd.errors import InputError
-from flexmbd.progress import Progress
+from flexmbd.core.errors import InputError
+from flexmbd.harness.progress import Progress
 from flexmbd.report import spectra
 from tests.test_faults import BASE, CASE, ENV, ONE, SOLVER, check, cli, edit_result, no_leftovers
 from tests.test_faults import base  # noqa: F401 - the fixture: a copy of the shipped analytic baseline
@@ -301,7 +304,7 @@ def test_compare_without_a_reference_that_applies(unreported, tmp_path):
 
 def test_api_compare_without_a_report_table(unreported):
     df = flexmbd.compare(unreported, solvers=[SOLVER], t_end=0.1)
-    ref = solvers.default_reference(cases.load(str(unreported)))
+    ref = registry.default_reference(cases.load(str(unreported)))
     assert df.attrs["not_graded"] == "" and df.attrs["status"][SOLVER] == "ok"
     assert set(df["reference"]) == {ref} and set(df["tolerance"]) <= set(cases.TOLERANCES.values())
 
@@ -315,13 +318,13 @@ def plant(monkeypatch, tmp_path, name: str, source: str | None = None) -> str:
     as `importlib.metadata` would list it; the registry rebuilt from it. Its module's name."""
     module = f"planted_{uuid.uuid4().hex}"
     (tmp_path / f"{module}.py").write_text(source if source is not None else
-                                           "from flexmbd.adapters.analytic import *\n")
+                                           "from flexmbd.solvers.analytic import *\n")
     monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setattr(solvers, "entry_points", lambda group: [EntryPoint(name, module, group)])
-    modules, refused = solvers.registry()
-    monkeypatch.setattr(solvers, "MODULES", modules)
-    monkeypatch.setattr(solvers, "REFUSED", refused)
-    monkeypatch.setattr(solvers, "NAMES", tuple(modules))
+    monkeypatch.setattr(registry, "entry_points", lambda group: [EntryPoint(name, module, group)])
+    modules, refused = registry.registry()
+    monkeypatch.setattr(registry, "MODULES", modules)
+    monkeypatch.setattr(registry, "REFUSED", refused)
+    monkeypatch.setattr(registry, "NAMES", tuple(modules))
     return module
 
 
@@ -345,7 +348,7 @@ def test_a_plugin_that_fails_to_load_is_unavailable_in_list(monkeypatch, tmp_pat
 
 
 def test_a_plugin_whose_applies_raises_is_unavailable_in_list(monkeypatch, tmp_path, capsys):
-    plant(monkeypatch, tmp_path, "boom", "from flexmbd.adapters.analytic import *\n"
+    plant(monkeypatch, tmp_path, "boom", "from flexmbd.solvers.analytic import *\n"
                                          "def applies(case): raise ValueError('planted')\n")
     assert listed(capsys)["boom"] == "unavailable: plug-in boom failed: its applies(case) raised ValueError: planted"
 
@@ -369,7 +372,7 @@ def test_a_working_plugin_is_listed_and_runs(monkeypatch, tmp_path, capsys):
 @pytest.mark.parametrize("name", ["../evil", "a/b", ".hidden", "two words", "bell\x07", "-dash", "x" * 65, ""])
 def test_a_plugin_with_a_bad_name_is_unavailable_and_writes_nothing(monkeypatch, tmp_path, capsys, name):
     plant(monkeypatch, tmp_path, name)
-    assert name not in solvers.NAMES
+    assert name not in registry.NAMES
     assert listed(capsys)[name].startswith(f"unavailable: plug-in name {name!r} cannot name a result file")
     work = tmp_path / "work"
     work.mkdir()
@@ -388,7 +391,7 @@ def test_import_under_a_bad_name(stored, tmp_path, name):
 
 
 def test_every_registered_name_can_name_a_result_file():
-    assert [n for n in solvers.BUILT_IN if results.bad_name(n)] == []
+    assert [n for n in registry.BUILT_IN if results.bad_name(n)] == []
 
 
 # =============================================================================================
@@ -513,12 +516,12 @@ def test_soft_pendulum_adams_run_is_estimated_with_progress():
     """Its estimate is small (the estimate cannot know that the step size collapses), and every
     in-house method but scipy's rk45 and dop853 is counted as showing progress."""
     case = cases.load("pendulum", ["materials.steel.E=1e3"])
-    (st,) = solver.integration(case, case.duration)
+    (st,) = inhouse.integration(case, case.duration)
     assert st.progress and st.seconds < cost.SILENT_LIMIT
     for method, shown in (("adams", True), ("dopri5", True), ("rk4", True), ("fox-goodwin", True), ("rk45", False),
                           ("dop853", False)):
         c = cases.load("pendulum", [f"integrator.method='{method}'"])
-        assert solver.integration(c, 0.1)[0].progress is shown, method
+        assert inhouse.integration(c, 0.1)[0].progress is shown, method
 
 
 def test_soft_pendulum_bar_is_due_two_seconds_in_even_off_a_terminal(monkeypatch):
@@ -654,5 +657,5 @@ def test_a_figure_whose_drawing_warns_prints_no_warning(tmp_path):
 def test_every_shipped_case_and_its_system_modes_are_within_the_limits():
     for name in cases.available():
         case = cases.load(name)
-        cost.check([(case, s) for s in solvers.NAMES])
+        cost.check([(case, s) for s in registry.NAMES])
         cost.check([(case, None)], about="initial")

@@ -8,7 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flexmbd import cases, solvers
+from flexmbd import cases
+from flexmbd.harness import registry
 from flexmbd.report import study
 from flexmbd.cases.validate import CASES_DIR
 from flexmbd.report import convergence, tables
@@ -34,7 +35,7 @@ def test_the_case_s_own_value_is_read_from_the_resolved_case():
     assert convergence.own_value(typed, "integrator.method") == case.integrator.method
     for key in ("nope", "bodies.nope.elements", "bodies.beam.nope", "bodies.beam.elements.x"):
         assert convergence.own_value(typed, key) is None, key
-    assert convergence.own_value(case, "solvers.exudyn-beam.dt") == solvers.settings(case, "exudyn-beam")["dt"]
+    assert convergence.own_value(case, "solvers.exudyn-beam.dt") == registry.settings(case, "exudyn-beam")["dt"]
 
 
 def test_the_rate_is_the_exponent_of_a_power_law_and_ignores_points_without_an_error():
@@ -95,7 +96,7 @@ def test_a_stored_point_is_what_the_current_code_computes(name, solver, override
     code: run `make convergence` (docs/studies.md)."""
     key, value = override.split("=")
     case = cases.load(name.split(".")[0], [override])
-    r = solvers.run(case, solver)
+    r = registry.run(case, solver)
     assert r.ok, r.status
     rows = _stored(name, solver, key, int(value))
     for _, row in rows[rows.metric.isin(["max_abs", "mean", "final"])].iterrows():

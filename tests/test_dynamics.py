@@ -5,11 +5,11 @@ import pinocchio as pin
 import pytest
 
 from flexmbd.mbd import joints, spatial
-from flexmbd.build import from_case
+from flexmbd.solvers.build import from_case
 from flexmbd.mbd.compiled import entry
 from flexmbd.mbd.compiled.entry import forward_dynamics
 from flexmbd.mbd.model import make_data
-from flexmbd.adapters import pinocchio_model
+from flexmbd.solvers import pinocchio_model
 from trees import random_case, random_state
 
 ALL_JOINTS = ["revolute", "prismatic", "fixed", "spherical", "free"]

@@ -18,9 +18,10 @@ import pandas as pd
 import pytest
 
 import flexmbd
-from flexmbd import cases, executor, results
+from flexmbd import cases
+from flexmbd.harness import executor, results
 from flexmbd.cli import main
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 ROOT = Path(flexmbd.__file__).resolve().parent.parent
 ENV = dict(os.environ, PYTHONPATH=str(ROOT), OPENBLAS_NUM_THREADS="1")
@@ -46,7 +47,7 @@ def test_the_pool_gives_the_results_of_a_run_in_this_process_bitwise(tmp_path):
 
 def test_a_run_that_leans_on_blas_gives_the_same_bytes_in_this_process_and_on_the_pool(tmp_path):
     """The full-order FE transient (600 DOFs: eigenvectors, dense products) moves by 7e-6 of its
-    largest value between one and two OpenBLAS threads; every run uses one (solvers.run)."""
+    largest value between one and two OpenBLAS threads; every run uses one (registry.run)."""
     js = [(cases.load("cantilever_step", [f"duration={d}"]), "fe-linear") for d in (0.2, 0.3)]
     got = {}
     for name, where in (("here", executor.Where(workers=1)), ("pool", executor.Where(workers=2))):
@@ -115,7 +116,7 @@ def test_a_dask_cluster_of_another_flexmbd_is_refused_before_any_job(monkeypatch
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         executor.same_flexmbd(client, "--dask-local")   # the same source: accepted
         with monkeypatch.context() as m:
-            m.setattr(executor.solvers, "source_sha256", lambda: "f" * 64)      # this side edited
+            m.setattr(executor.registry, "source_sha256", lambda: "f" * 64)      # this side edited
             with pytest.raises(InputError, match=r"^--dask-local: the Dask worker at tcp://127.0.0.1:\d+ has "
                                                  r"flexmbd \S+ with source \w{12}, this command .* with source ffffffffffff"):
                 executor.same_flexmbd(client, "--dask-local")
@@ -137,11 +138,11 @@ def test_a_dask_cluster_of_another_flexmbd_is_refused_before_any_job(monkeypatch
 def test_a_stored_result_is_up_to_date_when_it_has_the_key_of_the_run(tmp_path):
     """`executor.up_to_date` (one name per meaning: `report.figures.kept` is a figure drawn once):
     no stored result, a result of another key or another status, and one with the run's key."""
-    from flexmbd import solvers
+    from flexmbd.harness import registry
     case = cases.load("cantilever_step")
     assert not hasattr(executor, "kept") and not executor.up_to_date(tmp_path, case, "analytic")
     r = results.Result(solver="analytic", case=case.name, case_sha256=case.sha256,
-                       extra={"key": solvers.content_key(case, "analytic")})
+                       extra={"key": registry.content_key(case, "analytic")})
     results.write(r, tmp_path)
     assert executor.up_to_date(tmp_path, case, "analytic")
     r.extra["key"] = "0" * 64

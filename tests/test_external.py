@@ -10,9 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flexmbd import cases, external, results
+from flexmbd import cases
+from flexmbd.harness import external, results
 from flexmbd.cli import main
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 CASE = "cantilever_step"
 SHORT = Path(__file__).resolve().parent.parent / "cases" / f"{CASE}.toml"

@@ -10,9 +10,11 @@ import pytest
 
 pytest.importorskip("exudyn")
 
-from flexmbd import cases, channels, flexbody, solvers
+from flexmbd import cases
+from flexmbd.harness import channels, registry
+from flexmbd.fe import flexbody
 from flexmbd.mbd import invariants, profiles  # noqa: E402
-from flexmbd.adapters import exudyn_beam, exudyn_common, exudyn_ffrf  # noqa: E402
+from flexmbd.solvers import exudyn_beam, exudyn_common, exudyn_ffrf  # noqa: E402
 
 
 def rel_rms(a, b):
@@ -41,8 +43,8 @@ def test_ffrf_data_is_the_reduced_body():
 def test_ffrf_cantilever_follows_flexmbd_short():
     """0.3 s of the step load: tip deflection within 0.5 %, stress within 3 % (high modes)."""
     case = cases.load("cantilever_step")
-    ref = solvers.run(case, "flexmbd", 0.3)
-    r = solvers.run(case, "exudyn-ffrf", 0.3)
+    ref = registry.run(case, "flexmbd", 0.3)
+    r = registry.run(case, "exudyn-ffrf", 0.3)
     assert r.ok, r.status
     np.testing.assert_allclose(r.t, ref.t)
     assert rel_rms(ref.channels["tip_deflection"], r.channels["tip_deflection"]) < 0.005
@@ -56,19 +58,19 @@ def test_ffrf_refuses_an_index_2_scheme_on_a_driven_joint():
     slewing hub still (measured: hub angle off by 38 % of its range, the run 'ok'). A failed run
     at t = 0 says so in one line; the default scheme runs."""
     case = cases.load("slewing_beam", ['solvers.exudyn-ffrf.solver="fox-goodwin"'])
-    r = solvers.run(case, "exudyn-ffrf", 0.05)
+    r = registry.run(case, "exudyn-ffrf", 0.05)
     assert str(r.status) == ("failed: fox-goodwin holds its constraints at velocity level, where Exudyn's generic "
                              "joint takes no prescribed rate (its offsetUserFunction_t is not implemented there): "
                              "joint 'hub' would stand still; use generalized-alpha at t = 0 s"), str(r.status)
     assert len(r.t) == 0
-    assert solvers.run(cases.load("slewing_beam"), "exudyn-ffrf", 0.05).ok
+    assert registry.run(cases.load("slewing_beam"), "exudyn-ffrf", 0.05).ok
 
 
 def test_ffrf_printed_modulus_pendulum_is_outside_linear_validity():
     """The paper's printed E = 2.06e9 Pa: Exudyn's linear FFRF body swings past a node rotation of
     0.1 rad within 0.4 s and says so, as flexmbd does (tests/test_cli.py)."""
     case = cases.load("pendulum", ["materials.steel.E=2.06e9"])
-    r = solvers.run(case, "exudyn-ffrf", 0.4)
+    r = registry.run(case, "exudyn-ffrf", 0.4)
     assert r.status.outside and str(r.status).startswith("ok, outside linear validity (node rotation"), r.status
 
 
@@ -79,7 +81,7 @@ def test_ffrf_printed_modulus_pendulum_is_outside_linear_validity():
 def test_ffrf_axial_stress_of_hanging_beams(name, over, expected):
     """Beams hanging at rest (no axial mode retained): the stress at 0.03 m is the quasi-static
     axial N / A = rho g (L - 0.03), plus the weight of the beam hanging below (child joint force)."""
-    r = solvers.run(cases.load(name, over), "exudyn-ffrf", 0.05)
+    r = registry.run(cases.load(name, over), "exudyn-ffrf", 0.05)
     assert r.ok, r.status
     # The joint forces are Newton's multipliers, converged to its relative tolerance newton_rtol
     # (1e-8): the stress is as accurate as that, not to the last digit of one machine's BLAS (two
@@ -96,10 +98,10 @@ def test_ffrf_axial_stress_of_point_loads():
     ramp = cases.load("cantilever_step", ["loads.tip_force.force=[12.0, 0.0, 0.0]", 'loads.tip_force.frame="global"',
                                           'loads.tip_force.profile={type="ramp", t1=0.02}'])
     sigma = 12.0 / (0.01 * 0.015)
-    r = solvers.run(body, "exudyn-ffrf", 0.01)
+    r = registry.run(body, "exudyn-ffrf", 0.01)
     rtol = r.settings["newton_rtol"]            # Newton's multipliers, as in the hanging beams above
     np.testing.assert_allclose(r.channels["stress_vm"], sigma, rtol=rtol)
-    r = solvers.run(ramp, "exudyn-ffrf", 0.04)
+    r = registry.run(ramp, "exudyn-ffrf", 0.04)
     np.testing.assert_allclose(r.channels["stress_vm"], sigma * np.minimum(r.t / 0.02, 1.0), rtol=rtol, atol=1e-6)
 
 
@@ -113,12 +115,12 @@ def test_ffrf_axial_stress_step_means(monkeypatch):
     against 0.30 and 0.93 %, while the step means agree to six digits, 0.10 and 0.82 %), so the
     raw run is held to no bound of its own."""
     case = cases.load("double_pendulum", ['solvers.exudyn-ffrf.solver="generalized-alpha"', "solvers.exudyn-ffrf.dt=2.5e-5"])
-    ref = solvers.run(linear("double_pendulum"), "flexmbd", 0.2)
+    ref = registry.run(linear("double_pendulum"), "flexmbd", 0.2)
     err = {}
     for means in (True, False):
         if not means:
             monkeypatch.setattr(exudyn_ffrf, "write_around_outputs", lambda *a: False)
-        r = solvers.run(case, "exudyn-ffrf", 0.2)
+        r = registry.run(case, "exudyn-ffrf", 0.2)
         err[means] = [rel_rms(ref.channels[ch], r.channels[ch]) for ch in ("stress_vm_1", "stress_vm_2")]
     assert err[True][0] < 0.005 and err[True][1] < 0.015, err
     assert err[False][0] > err[True][0] and err[False][1] > err[True][1], err
@@ -191,9 +193,9 @@ def test_a_diverging_run_stops_at_its_first_sample_beyond_the_rule(name, monkeyp
     """The watch (`exudyn_common.watch`) stops the solve at the first output sample the rule fails:
     the status is the full run's cut, at that sample, and the kept samples are the full run's."""
     case = cases.load(*DIVERGING[name])
-    r = solvers.run(case, name)
+    r = registry.run(case, name)
     monkeypatch.setattr(exudyn_common, "watch", lambda *a: {})      # the same run, integrated to its end
-    full = solvers.run(case, name)
+    full = registry.run(case, name)
     assert r.status.kind == "failed" and "diverged" in r.status.why, r.status
     assert full.status == r.status                                  # the rule after the run cuts there too
     k = len(full.t)                                                 # full.t[k]: the first sample beyond the rule
@@ -237,8 +239,8 @@ def test_ffrf_matches_flexmbd(name):
     1e-3 rad over the whole run, default settings; flexmbd without stiffening, the model Exudyn's
     FFRF body has."""
     case = cases.load(name)
-    ref = solvers.run(linear(name), "flexmbd")
-    r = solvers.run(case, "exudyn-ffrf")
+    ref = registry.run(linear(name), "flexmbd")
+    r = registry.run(case, "exudyn-ffrf")
     assert r.ok, r.status
     for ch, c in case.channels.items():
         a, b = ref.channels[ch], r.channels[ch]
@@ -255,7 +257,7 @@ def test_ffrf_energy_of_a_beam_declared_rigid():
     the energy the system trades (its gravity scale `channels.gravity_energy`, 78 J: 1e-6 of it
     leaves a margin of 1e4 on the drift)."""
     case = cases.load("double_pendulum", ["bodies.beam1.rigid=true"])
-    r = solvers.run(case, "exudyn-ffrf", 0.2)
+    r = registry.run(case, "exudyn-ffrf", 0.2)
     assert r.ok, r.status
     scale = channels.gravity_energy(case)
     assert scale > 10.0 and np.abs(r.channels["energy"]).max() < 1e-6 * scale
@@ -268,7 +270,7 @@ def test_ffrf_gravity_nodal_vs_mass_proportional():
     drift = {}
     for mode in ("nodal", "mass-proportional"):
         c = cases.load("pendulum", [f'solvers.exudyn-ffrf.gravity="{mode}"', "solvers.exudyn-ffrf.dt=1e-4"])
-        r = solvers.run(c, "exudyn-ffrf", 0.5)
+        r = registry.run(c, "exudyn-ffrf", 0.5)
         assert r.ok, r.status
         drift[mode] = np.abs(r.channels["energy"]).max()
     assert drift["nodal"] < 2e-6 < 1e-3 < drift["mass-proportional"]
@@ -277,29 +279,29 @@ def test_ffrf_gravity_nodal_vs_mass_proportional():
 
 def test_broken_run_is_a_failed_result_and_others_untouched(tmp_path):
     """A step far too large ends as `failed: Exudyn: ...`; a solver run beside it is unchanged."""
-    from flexmbd import results
+    from flexmbd.harness import results
     good = cases.load("cantilever_step")
-    before = solvers.run(good, "analytic", 0.1)
+    before = registry.run(good, "analytic", 0.1)
     bad = cases.load("pendulum", ["solvers.exudyn-ffrf.dt=0.2", 'solvers.exudyn-ffrf.solver="generalized-alpha"'])
-    r = solvers.run(bad, "exudyn-ffrf", 1.0)
+    r = registry.run(bad, "exudyn-ffrf", 1.0)
     assert str(r.status).startswith("failed: Exudyn"), r.status
     assert r.status.t is not None and r.status.t < 1.0 and r.wall_s > 0
     assert len(r.t) and r.t[-1] == r.status.t and np.all(np.isfinite(r.channels["tip_deflection"]))
     csv, js = results.write(r, tmp_path)
     assert json.loads(js.read_text())["status"] == str(r.status)
-    after = solvers.run(good, "analytic", 0.1)
+    after = registry.run(good, "analytic", 0.1)
     assert after.ok
     np.testing.assert_array_equal(before.channels["tip_deflection"], after.channels["tip_deflection"])
-    rb = solvers.run(cases.load("pendulum", ["solvers.exudyn-beam.dt=0.2"]), "exudyn-beam", 1.0)
+    rb = registry.run(cases.load("pendulum", ["solvers.exudyn-beam.dt=0.2"]), "exudyn-beam", 1.0)
     assert str(rb.status).startswith("failed: Exudyn"), rb.status
 
 
 def test_missing_exudyn_is_unavailable():
     code = ("import sys; sys.modules['exudyn'] = None\n"
-            "from flexmbd import cases, solvers\n"
+            "from flexmbd import cases\nfrom flexmbd.harness import registry\n"
             "c = cases.load('pendulum')\n"
-            "print(solvers.status_for(c, 'exudyn-ffrf')); print(solvers.status_for(c, 'exudyn-beam'))\n"
-            "print(solvers.run(c, 'exudyn-beam').status)")
+            "print(registry.status_for(c, 'exudyn-ffrf')); print(registry.status_for(c, 'exudyn-beam'))\n"
+            "print(registry.run(c, 'exudyn-beam').status)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     lines = out.stdout.strip().splitlines()
     assert len(lines) == 3 and all(s.startswith("unavailable") for s in lines), out.stdout + out.stderr
@@ -330,7 +332,7 @@ def test_beam_mesh_convergence():
     its maximum magnitude, at every instant of the 2 s run."""
     tip = {}
     for n in (32, 64, 128):
-        r = solvers.run(cases.load("cantilever_step", [f"solvers.exudyn-beam.elements={n}"]), "exudyn-beam")
+        r = registry.run(cases.load("cantilever_step", [f"solvers.exudyn-beam.elements={n}"]), "exudyn-beam")
         assert r.ok, r.status
         tip[n] = r.channels["tip_deflection"]
     scale = np.abs(tip[128]).max()
@@ -342,8 +344,8 @@ def test_beam_mesh_convergence():
 def test_beam_cantilever_against_flexmbd():
     """Acceptance: tip deflection RMS difference < 5 % of its maximum on cantilever_step."""
     case = cases.load("cantilever_step")
-    ref = solvers.run(case, "flexmbd")
-    r = solvers.run(case, "exudyn-beam")
+    ref = registry.run(case, "flexmbd")
+    r = registry.run(case, "exudyn-beam")
     assert r.ok, r.status
     assert rel_rms(ref.channels["tip_deflection"], r.channels["tip_deflection"]) < 0.05
     # the quasi-static part: mean tip deflection over the run near the static value P L^3 / 3 E I
@@ -353,8 +355,8 @@ def test_beam_cantilever_against_flexmbd():
 def test_beam_pendulum_channels_short():
     """0.3 s of the pendulum: the swing agrees with flexmbd; energy starts at zero and stays small."""
     case = cases.load("pendulum")
-    ref = solvers.run(case, "flexmbd", 0.3)
-    r = solvers.run(case, "exudyn-beam", 0.3)
+    ref = registry.run(case, "flexmbd", 0.3)
+    r = registry.run(case, "exudyn-beam", 0.3)
     assert r.ok, r.status
     assert np.abs(ref.channels["joint_angle"] - r.channels["joint_angle"]).max() < 2e-3
     assert r.channels["energy"][0] == pytest.approx(0.0, abs=1e-12)
@@ -383,7 +385,7 @@ def test_beam_hub_angle_follows_the_profile(kind, tmp_path):
         motion = f"{{type='table', file='{f}'}}"
     case = cases.load("spinup_beam", [f"joints.hub.motion={motion}", "joints.hub.q0=0.25",
                                       "solvers.exudyn-beam.elements=8", "solvers.exudyn-beam.dt=1e-3"])
-    r = solvers.run(case, "exudyn-beam", 2.0)
+    r = registry.run(case, "exudyn-beam", 2.0)
     assert r.ok, r.status
     prof = case.joints["hub"].motion
     q = np.array([profiles.motion(prof, t, 0.25)[0] for t in r.t])
@@ -397,7 +399,7 @@ def test_beam_constant_rate_hub_carries_the_beam_rigidly():
     rho Omega^2 L^3 / (3 E) of the rotating rod."""
     case = cases.load("rotating_cantilever", ["loads.kick.force=[0.0, 0.0, 0.0]",
                                               "channels.tip_x={kind='deflection', body='beam', at=10.0, component='x'}"])
-    r = solvers.run(case, "exudyn-beam", 2.0)
+    r = registry.run(case, "exudyn-beam", 2.0)
     assert r.ok, r.status
     assert np.abs(r.channels["hub_angle"] - 4.0 * r.t).max() < 1e-9
     assert np.abs(r.channels["tip_deflection"]).max() < 1e-4 * 10.0
@@ -421,9 +423,9 @@ def test_symbolic_hub_motion_is_the_python_profile(kind, solver, monkeypatch):
     branches of the spin-up)."""
     case = cases.load("spinup_beam", [f"joints.hub.motion={SYMBOLIC_PROFILES[kind]}", "joints.hub.q0=0.25",
                                       f"solvers.{solver}.dt=1e-3", "solvers.exudyn-beam.elements=8"])
-    sym = solvers.run(case, solver, 2.0)
+    sym = registry.run(case, solver, 2.0)
     monkeypatch.setattr(exudyn_common, "SYMBOLIC", ())
-    py = solvers.run(case, solver, 2.0)
+    py = registry.run(case, solver, 2.0)
     assert sym.ok and py.ok and sym.t.size == py.t.size, (sym.status, py.status)
     for ch, v in py.channels.items():
         assert np.abs(sym.channels[ch] - v).max() <= 1e-12 * np.abs(v).max(), ch
@@ -451,12 +453,12 @@ def test_stiffened_pendulum_vibrates_at_the_geometrically_exact_frequency():
     case file: its header's sha256 is checked; `flexmbd regress` runs it again against the baseline,
     12 s here), its samples the run's."""
     from flexmbd.report import regress
-    from flexmbd.resources import BASELINES
+    from flexmbd.core.resources import BASELINES
     case = cases.load("pendulum")
     ref, stale = regress.baseline(BASELINES, case, "exudyn-beam")
     assert stale == ""
     t, ref = ref["t"].to_numpy(), ref["tip_deflection"].to_numpy()
-    r, lin = solvers.run(case, "flexmbd"), solvers.run(linear("pendulum"), "flexmbd")
+    r, lin = registry.run(case, "flexmbd"), registry.run(linear("pendulum"), "flexmbd")
     assert np.abs(r.t - t).max() < 1e-9                 # the same samples: the CSV keeps t to 10 digits
     f_ref = tip_frequency(t, ref)
     assert tip_frequency(r.t, r.channels["tip_deflection"]) == pytest.approx(f_ref, rel=1e-3)

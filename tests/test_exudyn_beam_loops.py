@@ -12,8 +12,9 @@ import pytest
 
 pytest.importorskip("exudyn")
 
-from flexmbd import cases, solvers  # noqa: E402
-from flexmbd.adapters import common, exudyn_beam  # noqa: E402
+from flexmbd import cases  # noqa: E402
+from flexmbd.harness import registry
+from flexmbd.solvers import common, exudyn_beam  # noqa: E402
 
 A, L, W = 0.15, 0.30, 150.0        # slider-crank: crank and rod length (m), crank rate (rad/s)
 # the rigid limit of the slider-crank: a rod 1e4 times stiffer, its axial start transient damped
@@ -88,7 +89,7 @@ def test_slider_crank_rigid_limit_follows_the_closed_form():
     a (cos th F_y - sin th F_x) (the crank turns at a constant rate); the energy gains the drive's
     work within 1e-3 of its range."""
     case = cases.load("slider_crank", RIGID)
-    r = solvers.run(case, "exudyn-beam", 0.02)
+    r = registry.run(case, "exudyn-beam", 0.02)
     assert r.ok, r.status
     x, xdd = slider(r.t)
     assert np.abs(r.channels["slider_position"] - x).max() < 1e-6
@@ -109,7 +110,7 @@ def test_slider_crank_flexible_rod_over_a_revolution():
     dt 1.25e-5 s; measured 3 % and 1 % short), and the energy gains the drive's work within 0.5 %
     of its range."""
     case = cases.load("slider_crank", ["solvers.exudyn-beam.elements=16", "solvers.exudyn-beam.dt=1e-4"])
-    r = solvers.run(case, "exudyn-beam", 2 * np.pi / W)
+    r = registry.run(case, "exudyn-beam", 2 * np.pi / W)
     assert r.ok, r.status
     assert r.extra["loop_closure_m"] < 1e-12
     d = r.channels["midpoint_deflection"]
@@ -123,7 +124,7 @@ def test_free_rigid_four_bar_keeps_its_energy_and_balances_the_rocker():
     the pin force (at its tip, 0.4 m, in its frame) and of gravity at its centre of mass, within
     1 % of its largest value."""
     case = cases.load("four_bar_rigid")
-    r = solvers.run(case, "exudyn-beam", 0.5)
+    r = registry.run(case, "exudyn-beam", 0.5)
     assert r.ok, r.status
     assert r.extra["loop_closure_m"] < 1e-9
     E = r.channels["energy"]

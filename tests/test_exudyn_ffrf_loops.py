@@ -19,8 +19,10 @@ from scipy.integrate import solve_ivp
 
 pytest.importorskip("exudyn")
 
-from flexmbd import cases, flexbody, solvers  # noqa: E402
-from flexmbd.adapters import exudyn_ffrf  # noqa: E402
+from flexmbd import cases  # noqa: E402
+from flexmbd.fe import flexbody
+from flexmbd.harness import registry
+from flexmbd.solvers import exudyn_ffrf  # noqa: E402
 
 from oracle_four_bar import acceleration, angles, rates  # noqa: E402
 
@@ -66,7 +68,7 @@ def test_loop_cases_apply_and_the_others_say_why():
 def test_the_trapezoidal_rule_is_refused_on_a_loop():
     """Spectral radius 1 with index-3 constraints lets the loop's alternating constraint force grow
     (four_bar_rigid: Newton fails at 0.90 s): a failed run at t = 0 says what to use."""
-    r = solvers.run(cases.load("slider_crank", ["solvers.exudyn-ffrf.spectral_radius=1.0"]), "exudyn-ffrf", 0.01)
+    r = registry.run(cases.load("slider_crank", ["solvers.exudyn-ffrf.spectral_radius=1.0"]), "exudyn-ffrf", 0.01)
     assert not r.ok and r.status.t == 0.0
     assert "spectral radius 1" in str(r.status) and "use spectral_radius < 1 (0.9)" in str(r.status)
 
@@ -148,7 +150,7 @@ def four_bar_oracle(case, t: np.ndarray) -> dict:
 @pytest.fixture(scope="module")
 def four_bar_rigid():
     case = cases.load("four_bar_rigid", FOX_GOODWIN)
-    r = solvers.run(case, "exudyn-ffrf", 0.3)
+    r = registry.run(case, "exudyn-ffrf", 0.3)
     assert r.ok, r.status
     return r, four_bar_oracle(case, r.t)
 
@@ -173,7 +175,7 @@ def test_stiff_four_bar_follows_the_oracle():
     cut-joint force is not: the coupler starts undeformed, and the bending vibration that start
     sets off, however stiff the coupler, moves the pin force by up to 2.5 N about the rigid one."""
     case = cases.load("four_bar", STIFF + DAMPED)
-    r = solvers.run(case, "exudyn-ffrf", 0.1)
+    r = registry.run(case, "exudyn-ffrf", 0.1)
     want = four_bar_oracle(case, r.t)
     assert np.abs(r.channels["crank_angle"] - want["crank_angle"]).max() < 1e-5
     sec = case.bodies["coupler"].geometry
@@ -186,7 +188,7 @@ def test_stiff_four_bar_follows_the_oracle():
 def test_flexible_four_bar_keeps_its_energy_and_its_loop():
     """The flexible coupler, 0.1 s: the energy within 3e-5 J of its start (measured 2.1e-5 J),
     which is the rigid four-bar's (the coupler starts undeformed); the loop closed to 1e-6 m."""
-    r = solvers.run(cases.load("four_bar", FOX_GOODWIN), "exudyn-ffrf", 0.1)
+    r = registry.run(cases.load("four_bar", FOX_GOODWIN), "exudyn-ffrf", 0.1)
     e = r.channels["energy"]
     assert e[0] == pytest.approx(four_bar_oracle(cases.load("four_bar_rigid"), r.t[:2])["energy"][0], abs=1e-12)
     assert np.abs(e - e[0]).max() < 3e-5
@@ -236,7 +238,7 @@ def test_stiff_slider_crank_follows_the_closed_form():
     rod's largest axial load (from the node forces, the cut joint's among them) as the rigid
     mechanism's (measured 175 N, to 1e-14)."""
     case = cases.load("slider_crank", STIFF + DAMPED)
-    r = solvers.run(case, "exudyn-ffrf", 0.02)
+    r = registry.run(case, "exudyn-ffrf", 0.02)
     assert r.ok, r.status
     x, F, N = slider_crank(case, r.t)
     assert np.abs(r.channels["slider_position"] - x).max() < 1e-10

@@ -6,9 +6,11 @@ import pytest
 
 pytest.importorskip("exudyn")
 
-from flexmbd import cases, flexbody, solvers
+from flexmbd import cases
+from flexmbd.fe import flexbody
+from flexmbd.harness import registry
 from flexmbd.mbd import invariants  # noqa: E402
-from flexmbd.adapters import exudyn_ffrf  # noqa: E402
+from flexmbd.solvers import exudyn_ffrf  # noqa: E402
 
 
 def rel_rms(a, b):
@@ -77,8 +79,8 @@ def test_solid_pendulum_follows_flexmbd_short():
     still catch a wrong body: the lumped row-sum mass gives 5.4e-4 / 4.3e-8 rad, Exudyn's
     LoadMassProportional gravity 7.0e-4 / 1.4e-6 rad, the trapezoidal rule at 2.5e-5 s 5.4e-2."""
     case = cases.load("brick_pendulum")
-    ref = solvers.run(case, "flexmbd", 0.2)
-    r = solvers.run(case, "exudyn-ffrf", 0.2)
+    ref = registry.run(case, "flexmbd", 0.2)
+    r = registry.run(case, "exudyn-ffrf", 0.2)
     assert r.ok, r.status
     assert r.settings["solver"] == "fox-goodwin" and r.settings["dt"] == pytest.approx(1.25e-5)
     np.testing.assert_allclose(r.t, ref.t)
@@ -92,7 +94,7 @@ def test_solid_energy_with_the_consistent_mass():
     gravity with m = Ms 1. Released at rest it starts at 0 and stays there: measured 8.9e-11 J over
     0.1 s against m g L = 0.95 J exchanged; bound 1e-8 J."""
     case = cases.load("brick_pendulum", ["channels.energy={kind='energy'}"])
-    r = solvers.run(case, "exudyn-ffrf", 0.1)
+    r = registry.run(case, "exudyn-ffrf", 0.1)
     assert r.ok, r.status
     assert r.channels["energy"][0] == pytest.approx(0.0, abs=1e-15)
     assert np.abs(r.channels["energy"]).max() < 1e-8
@@ -103,8 +105,8 @@ def test_solid_stress_channel_and_tip_load():
     stress at an element centre from the modal stresses S_solid), 0.05 s at the adapter's defaults:
     measured tip deflection 2.6e-6 and stress 1.2e-4 RMS / max off flexmbd; bounds 10x that."""
     case = cases.load("cantilever_solid")
-    ref = solvers.run(case, "flexmbd", 0.05)
-    r = solvers.run(case, "exudyn-ffrf", 0.05)
+    ref = registry.run(case, "flexmbd", 0.05)
+    r = registry.run(case, "exudyn-ffrf", 0.05)
     assert r.ok, r.status
     assert rel_rms(ref.channels["tip_deflection"], r.channels["tip_deflection"]) < 3e-5
     assert rel_rms(ref.channels["stress_vm"], r.channels["stress_vm"]) < 1.2e-3
@@ -124,8 +126,8 @@ def test_solid_averaging_interface_position(over):
     2.3e-5 RMS / max off flexmbd, hinge angle 4.3e-9 / 2.8e-9 rad; bounds 1e-4 and 5e-8 rad."""
     case = cases.load("brick_pendulum", over)
     assert exudyn_ffrf.applies(case) == ""
-    ref = solvers.run(case, "flexmbd", 0.1)
-    r = solvers.run(case, "exudyn-ffrf", 0.1)
+    ref = registry.run(case, "flexmbd", 0.1)
+    r = registry.run(case, "exudyn-ffrf", 0.1)
     assert r.ok, r.status
     assert rel_rms(ref.channels["tip_deflection"], r.channels["tip_deflection"]) < 1e-4
     assert np.abs(ref.channels["hinge_angle"] - r.channels["hinge_angle"]).max() < 5e-8
@@ -136,7 +138,7 @@ def test_solid_not_applicable_reasons():
     for jt in ("revolute", "fixed"):
         tip = f"joints.tipjoint={{type='{jt}', parent='block', child='weight', at='tip'}}"
         c = cases.load("brick_pendulum", [WEIGHT, tip])
-        assert str(solvers.status_for(c, "exudyn-ffrf")) == (
+        assert str(registry.status_for(c, "exudyn-ffrf")) == (
             f"not applicable: joint 'tipjoint': a {jt} joint at interface 'tip' of solid 'block' (not its frame's) "
             f"needs the interface's rotation, which Exudyn's super-element marker on its reference node does not "
             f"give (its position only: spherical joints)")

@@ -25,9 +25,9 @@ from pathlib import Path
 import pytest
 
 import flexmbd
-from flexmbd import resources
+from flexmbd.core import resources
 from flexmbd.cli import main
-from flexmbd.errors import Interrupted
+from flexmbd.core.errors import Interrupted
 
 ROOT = Path(flexmbd.__file__).resolve().parent.parent
 # One OpenBLAS thread: on a loaded two-core machine OpenBLAS's threads make the 600-DOF eigen
@@ -145,7 +145,7 @@ def edit_result(results: Path, change_csv=None, change_meta=None) -> None:
     meta = json.loads(js.read_text())
     if change_csv:
         edit_csv(csv, change_csv)
-        meta["csv_sha256"] = flexmbd.results.sha256(csv.read_text())
+        meta["csv_sha256"] = flexmbd.harness.results.sha256(csv.read_text())
     if change_meta:
         change_meta(meta)
     js.write_text(json.dumps(meta))
@@ -220,8 +220,8 @@ def test_run_out_lies_under_a_file(tmp_path):
 
 
 def test_run_out_case_folder_is_a_file(tmp_path, monkeypatch):
-    from flexmbd import solvers
-    monkeypatch.setattr(solvers, "run", lambda *a, **k: pytest.fail("a solver ran"))
+    from flexmbd.harness import registry
+    monkeypatch.setattr(registry, "run", lambda *a, **k: pytest.fail("a solver ran"))
     (tmp_path / "results").mkdir()
     (tmp_path / "results" / CASE).write_text("keep")
     cli(["run", CASE, "--solver", SOLVER, "--out", tmp_path], 2, names=[tmp_path / "results" / CASE])
@@ -237,9 +237,10 @@ def test_run_out_is_unwritable(tmp_path):
 
 def test_an_unwritable_out_is_refused_before_work(tmp_path, monkeypatch):
     """As any user (root passes the permission bits, so os.access is planted): nothing runs."""
-    from flexmbd import files, solvers
+    from flexmbd.core import files
+    from flexmbd.harness import registry
     monkeypatch.setattr(files.os, "access", lambda p, mode: Path(p) != tmp_path)
-    monkeypatch.setattr(solvers, "run", lambda *a, **k: pytest.fail("a solver ran"))
+    monkeypatch.setattr(registry, "run", lambda *a, **k: pytest.fail("a solver ran"))
     cli(["report", *ONE, "--out", tmp_path / "rep"], 2, names=[tmp_path / "rep", "not writable"])
     assert list(tmp_path.iterdir()) == []
 
@@ -306,7 +307,7 @@ def test_modes_save_past_the_file_size_limit_leaves_no_part(tmp_path):
 
 def test_a_full_disk_during_a_report_keeps_the_old_report(report, monkeypatch):
     """ENOSPC on the third file written (a full file system, planted in the one writer)."""
-    from flexmbd import files
+    from flexmbd.core import files
     real, calls = files.os.fdopen, []
 
     def full(fd, mode="r", *a, **k):
@@ -416,7 +417,7 @@ def test_a_signal_after_the_swap_leaves_no_staging_folder(tmp_path, monkeypatch,
     """SIGTERM right after each entry of a generation is swapped in, or while the old entries
     are removed: it waits for the swap and the removal, so `dest` holds the whole new set and
     neither the `.new-*` staging folder nor an old entry kept aside is left."""
-    from flexmbd import files
+    from flexmbd.core import files
     dest = tmp_path / "rep"
     (dest / CASE).mkdir(parents=True)
     for page in ("index.html", f"{CASE}/index.html"):
@@ -433,7 +434,7 @@ def test_a_signal_after_the_swap_leaves_no_staging_folder(tmp_path, monkeypatch,
 
 SWAPPER = """
 import contextlib, json, os, random, signal, sys, time
-from flexmbd import files
+from flexmbd.core import files
 
 
 def loop(w, handled):
@@ -491,7 +492,7 @@ def test_no_signal_is_lost_while_stretches_begin_and_end():
 
 FINALIZER = """
 import os, sys, time
-from flexmbd import files
+from flexmbd.core import files
 
 
 class Slow:
@@ -546,7 +547,7 @@ def test_an_ignored_signal_stays_ignored(sig, tmp_path):
         _, err = p.communicate(timeout=120)
     check(p.returncode, err, 0, 0, [])
     assert sent > 1
-    assert flexmbd.results.read(out / "results", CASE, SOLVER).ok
+    assert flexmbd.harness.results.read(out / "results", CASE, SOLVER).ok
     no_leftovers(out)
 
 
@@ -756,7 +757,7 @@ def test_report_with_a_missing_case_path_runs_nothing(tmp_path):
 
 
 SOLVING = """import sys
-from flexmbd import progress
+from flexmbd.harness import progress
 real = progress.Progress.update
 def update(self, t):
     if not getattr(update, "said", False):

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from flexmbd.cli import main
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.fe import meshfile, solid
 from test_fe_meshfile import line_of, refused, write
 from test_solids import case_file
@@ -72,7 +72,7 @@ def test_the_largest_numbers_that_fit_are_read(tmp_path):
 RANGE_READ = """
 import resource, sys
 resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))   # 2 GB: the range as a list would take 16 GB
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.fe import meshfile
 try:
     meshfile.read(sys.argv[1])

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.fe import meshfile
 from flexmbd.fe.mesh import EDGES, box, without_orphans
 

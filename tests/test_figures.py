@@ -8,7 +8,7 @@ import pytest
 
 from flexmbd import cases
 from flexmbd.report import figures
-from flexmbd.results import Result
+from flexmbd.harness.results import Result
 
 
 @pytest.fixture(scope="module")
@@ -182,7 +182,7 @@ def test_a_failed_run_is_drawn_up_to_its_failure_and_named_so(pendulum):
     """A run that diverged at t = 0.6 s keeps its samples before: drawn to 0.59 s, its difference
     from the reference too, named 'diverged at t = 0.6 s' in both legends with a dotted line at
     0.6 s; the overview's limits are the other runs', not its 100 m."""
-    from flexmbd import results
+    from flexmbd.harness import results
     t = np.linspace(0.0, 1.0, 101)
     y = 1e-3 * np.sin(2 * np.pi * t)
     bad = Result(solver="exudyn-ffrf", case="pendulum", t=t[:60], channels={"tip_deflection": y[:60] + np.exp(t[:60] * 30) * 1e-6},
@@ -259,7 +259,7 @@ def test_a_figure_drawn_from_the_same_bytes_is_taken_from_the_cache(tmp_path, mo
 def test_a_failed_run_is_named_by_its_cause_in_a_legend():
     """The legend says of a failed run what its verdict says (`results.Status.cause`): diverged or
     aborted, never 'failed'; the reference keeps its mark first."""
-    from flexmbd import results
+    from flexmbd.harness import results
     t = np.linspace(0.0, 0.5, 51)
     aborted = Result(solver="s", case="c", t=t, status=results.failed("Exudyn: Newton did not converge", 0.5))
     assert figures.label("s", aborted) == "s (aborted at t = 0.5 s)"

@@ -7,11 +7,14 @@ import numpy as np
 import pytest
 import scipy.linalg as la
 
-from flexmbd import cases, channels, flexbody, solver
+from flexmbd import cases
+from flexmbd.harness import channels
+from flexmbd.fe import flexbody
+from flexmbd.solvers import inhouse
 from flexmbd.mbd import integrate
 from flexmbd.mbd.invariants import invariants
 from flexmbd.fe import assembly, stress
-from flexmbd.build import from_case
+from flexmbd.solvers.build import from_case
 from trees import one_beam
 
 
@@ -69,7 +72,7 @@ def test_stress_sections_and_their_channels():
     eta = np.random.default_rng(8).normal(size=(2, fb.n_modes)) * 1e-3
     Q = np.zeros((2, model.nq))
     Q[:, a:a + fb.n_modes] = eta
-    out = channels.channels(case, solver.trajectory(case, model, np.zeros(2), Q, np.zeros((2, model.nv))))
+    out = channels.channels(case, inhouse.trajectory(case, model, np.zeros(2), Q, np.zeros((2, model.nv))))
     for ch, x, fibre in [("stress_vm", 0.03, None), ("s_far", 0.9, [-0.004, 0.005]), ("s_mid", 0.4, None)]:
         cs, ct = stress.stress_coefficients(nodes, elements, E, G, sec, x, fibre=fibre, shear=body.shear)
         s_sigma, s_tau = cs @ Phi_fe, ct @ Phi_fe
@@ -217,7 +220,7 @@ def test_foreshortening_gives_southwell_coefficients():
 
 def test_modal_field_is_the_shapes_at_each_samples_coordinates():
     """`modal_field` against the same sum written as an einsum, on a non-contiguous slice of
-    shapes and of states (as solver.node_forces passes them), and with no mode at all."""
+    shapes and of states (as inhouse.node_forces passes them), and with no mode at all."""
     rng = np.random.default_rng(5)
     Phi, Q = rng.standard_normal((11, 6, 4)), rng.standard_normal((7, 9))
     P, eta = Phi[:, 3:, :], Q[:, 2:6]

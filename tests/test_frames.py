@@ -1,4 +1,4 @@
-"""Frames end to end (flexmbd/flexbody.py `frame_body`, cases, channels, fe-linear's full-order
+"""Frames end to end (flexmbd/fe/flexbody.py `frame_body`, cases, channels, fe-linear's full-order
 frame): a straight CBAR pendulum runs as the case's own beam does; turned anywhere in a turned
 world it swings the same; clamped, its modal model approaches the full-order frame as modes are
 added; Craig-Bampton and free-free mode sets; the solvers that cannot take a frame say so; case
@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from flexmbd import cases, flexbody, solvers
+from flexmbd import cases
+from flexmbd.fe import flexbody
+from flexmbd.harness import registry
 from flexmbd.cli import main
 from flexmbd.fe import section
 
@@ -123,9 +125,9 @@ def test_a_straight_frame_pendulum_runs_as_the_beam_does(tmp_path):
     section, material and lumped mass: the same modes, so the same motion to round-off (the
     frame's sums run over two more, massless, nodes)."""
     bar_file(tmp_path)
-    frame = solvers.run(frame_case(tmp_path), "flexmbd")
+    frame = registry.run(frame_case(tmp_path), "flexmbd")
     (tmp_path / "beam.toml").write_text(BEAM)
-    beam = solvers.run(cases.load(str(tmp_path / "beam.toml")), "flexmbd")
+    beam = registry.run(cases.load(str(tmp_path / "beam.toml")), "flexmbd")
     assert frame.status.ok and beam.status.ok
     for c in ("angle", "tip_y"):
         scale = np.abs(beam.channels[c]).max()
@@ -161,7 +163,7 @@ def test_a_turned_frame_in_a_turned_world_swings_the_same(tmp_path):
         folder.mkdir()
         bar_file(folder, turn)
         case = frame_case(folder, turn, overrides=["integrator.rtol=1e-11", "integrator.atol=1e-13"])
-        results[k] = solvers.run(case, "flexmbd")
+        results[k] = registry.run(case, "flexmbd")
         assert results[k].status.ok
     a, b = results[0].channels, results[1].channels
     assert np.abs(a["angle"] - b["angle"]).max() <= 1e-7 * np.abs(a["angle"]).max()
@@ -191,7 +193,7 @@ def test_clamped_frame_against_the_full_order_frame(tmp_path):
     errors = {}
     for count in (2, 12):
         case = frame_case(tmp_path, joint="fixed", count=count, extra=STEP, name=f"c{count}")
-        a, b = solvers.run(case, "flexmbd"), solvers.run(case, "fe-linear")
+        a, b = registry.run(case, "flexmbd"), registry.run(case, "fe-linear")
         assert a.status.ok and b.status.ok
         errors[count] = {c: np.sqrt(np.mean((a.channels[c] - b.channels[c]) ** 2)) / np.abs(b.channels[c]).max()
                          for c in ("tip_y", "tip_z", "stress")}
@@ -213,7 +215,7 @@ def test_other_mode_sets_hold_the_frame_node(tmp_path, boundary, count):
     I9 = np.einsum("pam,pab,pbn->mn", fb.Phi[:, :3], fb.J, fb.Phi[:, :3]) + \
         np.einsum("p,pam,pan->mn", fb.m, fb.Phi[:, 3:], fb.Phi[:, 3:])
     assert np.abs(I9 - np.eye(count)).max() < 1e-10
-    assert solvers.run(case, "flexmbd").status.ok
+    assert registry.run(case, "flexmbd").status.ok
     if boundary == "craig-bampton":                 # the tip's constraint modes: any static tip load exactly
         K, _ = flexbody.frame_matrices(case.bodies["rod"])
         free = np.arange(6, K.shape[0])
@@ -248,9 +250,9 @@ def test_a_body_hinged_on_a_frames_interface_moves_as_on_the_beams_tip(tmp_path)
     """A rigid bob hinged at the rod's tip, the joint on the frame's tip interface or on the
     beam's tip node: the same double pendulum to round-off."""
     bar_file(tmp_path)
-    frame = solvers.run(frame_case(tmp_path, extra=CHILD.format(at='"tip"')), "flexmbd")
+    frame = registry.run(frame_case(tmp_path, extra=CHILD.format(at='"tip"')), "flexmbd")
     (tmp_path / "beam.toml").write_text(BEAM.replace("[integrator]", CHILD.format(at="1.5") + "[integrator]"))
-    beam = solvers.run(cases.load(str(tmp_path / "beam.toml")), "flexmbd")
+    beam = registry.run(cases.load(str(tmp_path / "beam.toml")), "flexmbd")
     assert frame.status.ok and beam.status.ok
     for c in ("angle", "elbow", "tip_y"):
         scale = np.abs(beam.channels[c]).max()
@@ -260,8 +262,8 @@ def test_a_body_hinged_on_a_frames_interface_moves_as_on_the_beams_tip(tmp_path)
 def test_solvers_without_frames_say_so(tmp_path):
     bar_file(tmp_path)
     case = frame_case(tmp_path)
-    assert solvers.status_for(case, "exudyn-ffrf").startswith(("not applicable: body 'rod' is a frame", "unavailable"))
-    assert solvers.status_for(case, "flexmbd") == ""
+    assert registry.status_for(case, "exudyn-ffrf").startswith(("not applicable: body 'rod' is a frame", "unavailable"))
+    assert registry.status_for(case, "flexmbd") == ""
 
 
 @pytest.mark.parametrize("edit, key", [

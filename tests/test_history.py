@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from flexmbd import files, resources, results, solvers
+from flexmbd.core import files, resources
+from flexmbd.harness import results, registry
 from flexmbd.cli import main
 from flexmbd.report import accuracy, history
 from flexmbd.version import __version__
@@ -46,7 +47,7 @@ def test_a_report_records_each_run_of_this_commit_on_this_machine(report):
     same verdict, channel differences, tolerances and wall time as the case page's record; the
     index links the history page, which says there is one commit so far."""
     me, rev = history.machine(), results.git_commit()
-    commit = rev.removesuffix("+dirty") or f"{__version__}-{solvers.source_sha256()[:12]}"
+    commit = rev.removesuffix("+dirty") or f"{__version__}-{registry.source_sha256()[:12]}"
     path = report / "history" / me["name"] / f"{commit}{'+dirty' if rev.endswith('+dirty') else ''}.json"
     rec = json.loads(path.read_text())
     assert rec["machine"]["name"] == me["name"] and rec["machine"]["cores"] == me["cores"]
@@ -91,7 +92,7 @@ def test_a_machine_s_name_and_the_page_s_key(monkeypatch):
     assert re.fullmatch("[0-9a-f]{64}", key) and key == history.history_page_key([dict(recs[0])], ["abc"])
     assert key not in {history.history_page_key([{"file": "a.json", "x": 2}], ["abc"]),
                        history.history_page_key(recs, ["abd"])}
-    monkeypatch.setattr(solvers, "source_sha256", lambda: "0" * 64)
+    monkeypatch.setattr(registry, "source_sha256", lambda: "0" * 64)
     assert history.history_page_key(recs, ["abc"]) != key
 
 
@@ -139,7 +140,7 @@ def test_a_dirty_tree_is_marked_and_a_tree_outside_git_named_by_version_and_sour
 
     monkeypatch.setattr(results, "git_commit", lambda: "")
     path = history.record(out, [outcome("beam", "flexmbd")], [row("beam", "flexmbd")])
-    assert path.name == f"{__version__}-{solvers.source_sha256()[:12]}.json"
+    assert path.name == f"{__version__}-{registry.source_sha256()[:12]}.json"
     assert json.loads(path.read_text())["commit"]["dirty"] is False
 
 
@@ -230,7 +231,7 @@ def test_the_stored_bench_runs_are_read_and_a_bench_run_kept_beside_them(tmp_pat
 
 
 def test_a_bench_run_written_to_a_report_folder_is_kept_in_its_history(tmp_path, monkeypatch, capsys):
-    from flexmbd import bench
+    from flexmbd.report import bench
     raw = json.loads((resources.HISTORY / "2026-12-01_9af03fa.json").read_text())
     monkeypatch.setattr(bench, "run", lambda **k: raw)
     monkeypatch.setattr(bench, "plots", lambda result, folder: [])

@@ -9,16 +9,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbd import cases, cli, results, solvers
+from flexmbd import cases, cli
+from flexmbd.harness import results, registry
 
 HUB_BEAM = Path(__file__).resolve().parent / "data" / "hub_beam.toml"
 FLEXIBLE = ("flexmbd", "exudyn-ffrf", "exudyn-beam")
 
 
 def applying(overrides=()) -> list:
-    """The solvers that run the case here (`solvers.status_for`: the capability table's source)."""
+    """The solvers that run the case here (`registry.status_for`: the capability table's source)."""
     case = cases.load(str(HUB_BEAM), list(overrides))
-    return [s for s in solvers.NAMES if solvers.status_for(case, s) == "" and s in solvers.BUILT_IN]
+    return [s for s in registry.NAMES if registry.status_for(case, s) == "" and s in registry.BUILT_IN]
 
 
 def compared(tmp_path, capsys, overrides=()) -> dict:
@@ -65,7 +66,7 @@ def test_hub_beam_whole(tmp_path, capsys):
                      "--workers", "1", "--json"]) == cli.OK
     capsys.readouterr()
     a = cases.load(str(HUB_BEAM), ["bodies.beam.stiffening=false"])
-    x, y = solvers.run(a, "flexmbd"), solvers.run(a, "exudyn-ffrf")
+    x, y = registry.run(a, "flexmbd"), registry.run(a, "exudyn-ffrf")
     ref = y.channels["tip_deflection"]
     d = np.interp(y.t, x.t, x.channels["tip_deflection"]) - ref
     assert np.sqrt(np.mean(d ** 2)) / np.abs(ref).max() < 0.005

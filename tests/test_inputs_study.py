@@ -14,7 +14,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flexmbd import files, results
+from flexmbd.core import files
+from flexmbd.harness import results
 from flexmbd.cli import main
 from flexmbd.report import study
 from tests.test_faults import child, cli
@@ -61,7 +62,7 @@ def test_a_grid_of_a_million_points_is_refused_at_once_naming_vary_and_its_point
 
 
 def test_a_grid_within_the_limits_passes_and_one_of_a_few_thousand_points_is_over(tmp_path):
-    from flexmbd import cost
+    from flexmbd.harness import cost
     from flexmbd.cli import _case
 
     def over(n):
@@ -116,7 +117,7 @@ def test_a_header_after_comments_in_any_order_is_imported(tmp_path):
 
 STAGER = """
 import sys
-from flexmbd import files
+from flexmbd.core import files
 with files.generation(sys.argv[1]) as stage:
     print(stage, flush=True)
     sys.stdin.read()

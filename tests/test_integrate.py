@@ -7,12 +7,15 @@ import pinocchio as pin
 import pytest
 from scipy.integrate import solve_ivp
 
-from flexmbd import cases, flexbody, results, solver, solvers
+from flexmbd import cases
+from flexmbd.fe import flexbody
+from flexmbd.harness import results, registry
+from flexmbd.solvers import inhouse
 from flexmbd.mbd import integrate
-from flexmbd.adapters import pinocchio_model
-from flexmbd.build import from_case
+from flexmbd.solvers import pinocchio_model
+from flexmbd.solvers.build import from_case
 from flexmbd.cases.schema import INTEGRATOR
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.mbd.model import make_data
 from flexmbd.mbd.compiled import entry
 
@@ -54,7 +57,7 @@ def pinocchio_angles(model, t):
 def test_beam_declared_rigid_matches_pinocchio(name):
     rigid = [f"bodies.{b}.rigid=true" for b in cases.load(name).bodies]
     case = cases.load(name, rigid)
-    r = solvers.run(case, "flexmbd")
+    r = registry.run(case, "flexmbd")
     assert r.ok
     model = from_case(case)
     ref = pinocchio_angles(model, r.t)
@@ -68,7 +71,7 @@ def test_divergence_is_a_failed_result_keeping_the_samples():
     """rk4 far past its stability limit: the run fails at the first sample the divergence rule
     rejects, and keeps every sample before it."""
     case = cases.load("cantilever_step", ["integrator.method=rk4", "integrator.dt=0.005", "integrator.output_dt=0.01"])
-    r = solvers.run(case, "flexmbd", 0.5)
+    r = registry.run(case, "flexmbd", 0.5)
     assert r.status.kind == "failed" and r.status.t is not None
     assert 1 < len(r.t) < 51 and np.all(np.isfinite(r.channels["tip_deflection"]))
     assert r.status.t == pytest.approx(r.t[-1] + 0.01)
@@ -94,12 +97,12 @@ def test_a_check_of_the_samples_ends_the_run_at_the_first_it_fails(method, last)
 
 def test_flexmbd_stops_at_the_first_sample_beyond_the_divergence_rule(monkeypatch):
     """A linear floating frame spun past its first bending frequency diverges: the run stops at the
-    sample the rule after the run cuts at (`solver.watch`), with the full run's samples before it."""
+    sample the rule after the run cuts at (`inhouse.watch`), with the full run's samples before it."""
     case = cases.load("slewing_beam", ["joints.hub.motion.W=12", "joints.hub.motion.T=1", "duration=3",
                                        "bodies.beam.elements=20", "bodies.beam.stiffening=false"])
-    r = solvers.run(case, "flexmbd")
-    monkeypatch.setattr(solver, "watch", lambda case, model: None)      # the same run, integrated to its end
-    full = solvers.run(case, "flexmbd")
+    r = registry.run(case, "flexmbd")
+    monkeypatch.setattr(inhouse, "watch", lambda case, model: None)      # the same run, integrated to its end
+    full = registry.run(case, "flexmbd")
     k = len(full.t)                                                     # full.t[k]: the first sample beyond
     assert r.status == full.status and "diverged (|tip_deflection| beyond 16 m" in r.status.why
     assert r.status.t == pytest.approx(k * 0.01) and len(r.t) == k and r.rhs_evals < full.rhs_evals / 2
@@ -108,8 +111,8 @@ def test_flexmbd_stops_at_the_first_sample_beyond_the_divergence_rule(monkeypatc
 
 
 def test_fixed_step_rk4_agrees_with_adams():
-    a = solvers.run(cases.load("cantilever_step"), "flexmbd", 0.1)
-    b = solvers.run(cases.load("cantilever_step", ["integrator.method=rk4", "integrator.dt=2e-5"]), "flexmbd", 0.1)
+    a = registry.run(cases.load("cantilever_step"), "flexmbd", 0.1)
+    b = registry.run(cases.load("cantilever_step", ["integrator.method=rk4", "integrator.dt=2e-5"]), "flexmbd", 0.1)
     x, y = a.channels["tip_deflection"], b.channels["tip_deflection"]
     assert np.abs(x - y).max() < 1e-6 * np.abs(x).max()
 
@@ -118,11 +121,11 @@ def test_fixed_step_rk4_agrees_with_adams():
 def test_compiled_dopri5_agrees_with_adams_and_converges(name):
     """The compiled Dormand-Prince loop against VODE's Adams method at tight tolerance, and its
     own error shrinking with the tolerance."""
-    ref = solvers.run(cases.load(name, ["integrator.rtol=1e-11", "integrator.atol=1e-13"]), "flexmbd", 0.2)
+    ref = registry.run(cases.load(name, ["integrator.rtol=1e-11", "integrator.atol=1e-13"]), "flexmbd", 0.2)
     ch = "tip_deflection"
     err = []
     for rtol in (1e-4, 1e-6, 1e-9):
-        r = solvers.run(cases.load(name, ["integrator.method=dopri5", f"integrator.rtol={rtol}",
+        r = registry.run(cases.load(name, ["integrator.method=dopri5", f"integrator.rtol={rtol}",
                                           f"integrator.atol={rtol * 1e-2}"]), "flexmbd", 0.2)
         assert r.ok and r.settings["method"] == "dopri5" and r.rhs_evals > 6 * r.steps > 0
         err.append(np.abs(r.channels[ch] - ref.channels[ch]).max() / np.abs(ref.channels[ch]).max())
@@ -132,11 +135,11 @@ def test_compiled_dopri5_agrees_with_adams_and_converges(name):
 def test_compiled_fox_goodwin_converges_at_fourth_order_in_phase():
     """Fox-Goodwin against VODE's Adams at tight tolerance on the cantilever: the error falls about
     16x per halving of the step (phase error (w h)^4/480), with about one evaluation per step."""
-    ref = solvers.run(cases.load("cantilever_step", ["integrator.rtol=1e-11", "integrator.atol=1e-13"]), "flexmbd", 0.3)
+    ref = registry.run(cases.load("cantilever_step", ["integrator.rtol=1e-11", "integrator.atol=1e-13"]), "flexmbd", 0.3)
     ch = "tip_deflection"
     err = []
     for dt in (2e-4, 1e-4):
-        r = solvers.run(cases.load("cantilever_step", ["integrator.method=fox-goodwin", f"integrator.dt={dt}",
+        r = registry.run(cases.load("cantilever_step", ["integrator.method=fox-goodwin", f"integrator.dt={dt}",
                                                        "integrator.rtol=1e-9"]), "flexmbd", 0.3)
         assert r.ok and r.steps == round(0.3 / dt) and r.rhs_evals < 2 * r.steps + 100
         err.append(np.sqrt(np.mean((r.channels[ch] - ref.channels[ch]) ** 2)) / np.abs(ref.channels[ch]).max())
@@ -167,7 +170,7 @@ def test_exp_adams_linearizes_every_refresh_steps():
     for refresh in (5, 25):
         case = cases.load("pendulum", ["bodies.beam.rigid=true", "integrator.method=exp-adams",
                                        "integrator.dt=4e-3", f"integrator.refresh={refresh}"])
-        r = solvers.run(case, "flexmbd", 1.0)
+        r = registry.run(case, "flexmbd", 1.0)
         assert r.ok and r.steps == 250 and r.settings["refresh"] == refresh
         assert r.rhs_evals == 1 + 2 * 250 + 2 * -(-250 // refresh)
     assert cases.load("pendulum").integrator.refresh == integrate.EXP_REFRESH
@@ -191,11 +194,11 @@ def test_exp_adams_agrees_with_dopri5_on_the_flexible_pendulum():
     against the compiled Dormand-Prince at rtol 1e-10 over 0.5 s: the tip deflection's RMS
     difference over its largest value 5.8e-5 and 1.0e-5 (measured), falling with the step. The
     run reports its settings and its count of evaluations (two a step, the linearizations)."""
-    ref = solvers.run(cases.load("pendulum", ["integrator.method=dopri5", "integrator.rtol=1e-10",
+    ref = registry.run(cases.load("pendulum", ["integrator.method=dopri5", "integrator.rtol=1e-10",
                                               "integrator.atol=1e-12"]), "flexmbd", 0.5)
     ch, err = "tip_deflection", []
     for dt in (1e-3, 5e-4):
-        r = solvers.run(cases.load("pendulum", ["integrator.method=exp-adams", f"integrator.dt={dt}"]), "flexmbd", 0.5)
+        r = registry.run(cases.load("pendulum", ["integrator.method=exp-adams", f"integrator.dt={dt}"]), "flexmbd", 0.5)
         assert r.ok and r.settings["method"] == "exp-adams" and r.steps == round(0.5 / dt)
         assert 2 * r.steps < r.rhs_evals < 3 * r.steps
         err.append(np.sqrt(np.mean((r.channels[ch] - ref.channels[ch]) ** 2)) / np.abs(ref.channels[ch]).max())
@@ -248,7 +251,7 @@ def test_compiled_dopri5_lands_on_instants_its_summed_max_steps_miss_by_roundoff
     """Steps of max_step = 1 ms summed from 1 s do not reach the instant 1.01 s in floating point
     (1.0099999999999998): the step left, 2e-16 s, once ended the run as `step size too small`
     (spinup_beam with dopri5 at any tolerance). The landing step now goes to the instant itself."""
-    r = solvers.run(cases.load("pendulum", ["bodies.beam.rigid=true", "integrator.method=dopri5",
+    r = registry.run(cases.load("pendulum", ["bodies.beam.rigid=true", "integrator.method=dopri5",
                                             "integrator.max_step=0.001", "integrator.output_dt=0.01"]), "flexmbd", 2.0)
     assert r.ok, r.status
     assert len(r.t) == 201 and r.t[-1] == 2.0 and 2000 <= r.steps < 2010
@@ -268,7 +271,7 @@ def test_compiled_dopri5_stops_on_a_non_finite_or_diverging_state():
 
 def test_prescribed_spin_up_follows_its_profile():
     case = cases.load("pendulum", ["joints.pivot.motion={type=\"spin_up\", W=2.0, T=0.2}"])
-    r = solvers.run(case, "flexmbd", 0.3)
+    r = registry.run(case, "flexmbd", 0.3)
     assert r.ok
     W, T, t = 2.0, 0.2, r.t
     ref = np.where(t < T, W / T * (t ** 2 / 2 + (T / (2 * np.pi)) ** 2 * (np.cos(2 * np.pi * t / T) - 1)),
@@ -279,10 +282,10 @@ def test_prescribed_spin_up_follows_its_profile():
 
 def test_more_modes_shrink_the_difference_from_fe_linear():
     """What remains between flexmbd and fe-linear on cantilever_step is modal truncation."""
-    fe = solvers.run(cases.load("cantilever_step"), "fe-linear", 0.5)
+    fe = registry.run(cases.load("cantilever_step"), "fe-linear", 0.5)
     diffs = {"tip_deflection": [], "stress_vm": []}
     for n in (4, 12, 24):
-        r = solvers.run(cases.load("cantilever_step", [f"bodies.beam.modes.count={n}"]), "flexmbd", 0.5)
+        r = registry.run(cases.load("cantilever_step", [f"bodies.beam.modes.count={n}"]), "flexmbd", 0.5)
         for ch, d in diffs.items():
             e = r.channels[ch] - fe.channels[ch]
             d.append(np.sqrt(np.mean(e ** 2)) / np.abs(fe.channels[ch]).max())
@@ -299,7 +302,7 @@ def test_cantilever_flexmbd_agrees_with_fe_linear(cantilever_run):
 def test_reaction_channels_balance_the_tip_load_on_average():
     extra = ['channels.Mz={kind="reaction_moment", joint="clamp", component="z"}',
              'channels.Fy={kind="reaction_force", joint="clamp", component="y"}']
-    r = solvers.run(cases.load("cantilever_step", extra), "flexmbd", 1.0)
+    r = registry.run(cases.load("cantilever_step", extra), "flexmbd", 1.0)
     assert r.ok
     # the clamp holds the beam against 12 N at 1.5 m: +12 N and +18 N m (time-mean of the vibration)
     assert r.channels["Fy"].mean() == pytest.approx(12.0, rel=0.02)

@@ -4,8 +4,8 @@ compiled entry leak no reference."""
 import numba
 import numpy as np
 
-from flexmbd import bench
-from flexmbd.build import from_case
+from flexmbd.report import bench
+from flexmbd.solvers.build import from_case
 from flexmbd.mbd.compiled import bound, entry
 from flexmbd.mbd.model import make_data
 

@@ -13,21 +13,14 @@ from flexmbd.mbd.compiled import jit
 
 ROOT = Path(flexmbd.__file__).resolve().parent
 
-# module or package (its first dotted part, under flexmbd) -> layer, bottom to top (docs/architecture.md)
-LAYERS = {
-    "mbd": 1, "errors": 1, "files": 1, "version": 1, "progress": 1, "fe": 1, "results": 1, "metrics": 1,
-    "resources": 1,
-    "cases": 2, "flexbody": 2,
-    "build": 3,
-    "channels": 4, "solver": 4, "adapters": 4, "solvers": 4, "linearize": 4, "cost": 4, "external": 4,
-    "executor": 4, "capabilities": 4,
-    "report": 5, "bench": 5, "cli": 5, "completion": 5, "__main__": 5, "__init__": 5,
-}
+# package -> layer, bottom to top (docs/architecture.md): one entry a package, each above the ones it imports
+LAYERS = {"mbd": 1, "core": 2, "fe": 3, "cases": 4, "harness": 5, "solvers": 6, "report": 7, "cli": 8}
+FLAT = {"version": 0, "__init__": 9, "__main__": 9}     # the only modules outside a package
 
 
 def layer(module: str) -> int:
     """The layer of a module (dotted, under flexmbd; '__init__' for the package itself): its package's."""
-    return LAYERS[module.split(".")[0]]
+    return FLAT[module] if module in FLAT else LAYERS[module.split(".")[0]]
 
 
 def target(base: str, name: str) -> str:
@@ -69,10 +62,20 @@ def modules() -> dict:
     return {p.relative_to(ROOT).with_suffix("").as_posix().replace("/", "."): p for p in ROOT.rglob("*.py")}
 
 
-def test_every_module_has_a_layer_and_every_package_one():
-    assert all("." not in k for k in LAYERS)
+def test_every_module_is_in_a_package_but_the_version_and_the_entry_points():
+    assert len(LAYERS) <= 8 and all("." not in k for k in LAYERS)
+    flat = sorted(rel for rel in modules() if "." not in rel)
+    assert flat == sorted(FLAT), flat
     for rel in modules():
-        assert layer(rel), rel
+        assert layer(rel) is not None, rel
+    assert {p.name for p in ROOT.iterdir() if (p / "__init__.py").is_file()} == set(LAYERS)
+
+
+def test_every_package_says_what_it_holds_and_may_import():
+    """Each package's docstring (its __init__) is a few lines saying what it holds."""
+    for name in LAYERS:
+        doc = ast.get_docstring(ast.parse((ROOT / name / "__init__.py").read_text()))
+        assert doc and len(doc.split()) >= 20, name
 
 
 def test_no_module_imports_a_higher_layer():
@@ -88,14 +91,14 @@ def test_a_planted_upward_import_is_caught():
     planted = ["import flexmbd", "import flexmbd as f", "from flexmbd import __version__",
                "from flexmbd import load_case", "from flexmbd import cli", "import flexmbd.solvers",
                "from flexmbd.report import build", "from flexmbd.report.build import write",
-               "from flexmbd.build import from_case", "def f():\n    from flexmbd import channels\n"]
+               "from flexmbd.solvers.build import from_case", "def f():\n    from flexmbd.solvers import inhouse\n"]
     for source in planted:
-        assert upward("results", source), source
-    assert upward("mbd.model", "import flexmbd") == ["mbd.model (layer 1) imports __init__ (layer 5)"]
-    fine = ("from flexmbd import errors, files\nfrom flexmbd.errors import InputError\n"
+        assert upward("harness.results", source), source
+    assert upward("mbd.model", "import flexmbd") == ["mbd.model (layer 1) imports __init__ (layer 9)"]
+    fine = ("from flexmbd.core import errors, files\nfrom flexmbd.core.errors import InputError\n"
             "from flexmbd.version import __version__\nfrom flexmbd.fe import assembly\nimport numpy")
-    assert not upward("results", fine)
-    assert imported(fine) == {"errors", "files", "version", "fe.assembly"}
+    assert not upward("harness.results", fine)
+    assert imported(fine) == {"core.errors", "core.files", "version", "fe.assembly"}
 
 
 def test_the_solver_imports_nothing_of_the_harness():
@@ -137,7 +140,7 @@ def test_loading_a_case_imports_no_solver():
     code = ("import sys; from flexmbd import cases; "
             "cases.load('pendulum', ['solvers.exudyn-ffrf.dt=0.001', 'solvers.mujoco-rod.dt=1e-4']); "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('exudyn', 'pinocchio', 'mujoco') "
-            "or m.startswith('flexmbd.adapters') or m == 'flexmbd.solvers'))")
+            "or m.startswith('flexmbd.solvers') or m == 'flexmbd.harness.registry'))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"

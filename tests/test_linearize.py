@@ -4,8 +4,10 @@ and the hinged pendulum vibrates at the pinned-free frequency of the Euler-Berno
 import numpy as np
 import pytest
 
-from flexmbd import cases, flexbody, linearize
-from flexmbd.errors import InputError
+from flexmbd import cases
+from flexmbd.fe import flexbody
+from flexmbd.solvers import linearize
+from flexmbd.core.errors import InputError
 from flexmbd.mbd.compiled import entry
 
 

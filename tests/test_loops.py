@@ -9,14 +9,15 @@ import numpy as np
 import pytest
 from scipy.integrate import cumulative_simpson
 
-from flexmbd import cases, solvers
+from flexmbd import cases
+from flexmbd.harness import registry
 
 W = 150.0                          # rad/s: the slider-crank's crank rate
 REV = 2 * np.pi / W                # s: one revolution
 
 
 def run(name, solver, t_end, overrides=()):
-    r = solvers.run(cases.load(name, list(overrides)), solver, t_end)
+    r = registry.run(cases.load(name, list(overrides)), solver, t_end)
     assert r.ok, (solver, r.status)
     return r
 
@@ -99,7 +100,8 @@ def test_a_driven_loop_takes_no_mode_as_a_dependent_coordinate():
     links' in-plane modes move the pins by round-off out of the plane only (1e-12 of their
     slopes), which must not make a mode dependent: its start and its velocity would be set by the
     projection instead of by the dynamics."""
-    from flexmbd import build, flexbody
+    from flexmbd.solvers import build
+    from flexmbd.fe import flexbody
     from flexmbd.mbd import constraints
     case = cases.load(ALU, RIGID_CRANK).modelled
     model = build.from_case(case, flexbody.for_case(case))
@@ -136,21 +138,21 @@ def test_every_solver_starts_in_the_assembly_the_case_states(crank):
     assert 1.6 < x["follower_pivot"] < 1.7 and -1.0 < x["crank_pin"] < -0.9, x
     assert case.joints["follower_pivot"].q0 == (x["follower_pivot"],)
     for s in ("flexmbd", "exudyn-beam", "exudyn-ffrf", "pinocchio"):
-        r = solvers.run(case, s, 2e-3)
+        r = registry.run(case, s, 2e-3)
         assert r.ok and r.extra["assembly"] == x, (s, r.status)
         assert abs(r.channels["follower_angle"][0] - x["follower_pivot"]) < 1e-9, s
 
 
 def test_a_run_that_starts_in_another_assembly_is_failed_naming_the_joint():
-    from flexmbd import channels
+    from flexmbd.harness import channels
     case = cases.load(ALU)
     x = dict((n, v) for n, _, v in case.assembly)
     ok = channels.Trajectory(t=np.zeros(1), joints={"follower_pivot": np.array([x["follower_pivot"] + 1e-8])})
-    assert solvers.started(case, ok) is None
+    assert registry.started(case, ok) is None
     turned = channels.Trajectory(t=np.zeros(1), joints={"follower_pivot": np.array([x["follower_pivot"] - 2 * np.pi])})
-    assert solvers.started(case, turned) is None                  # a whole turn apart: the same start
+    assert registry.started(case, turned) is None                  # a whole turn apart: the same start
     other = channels.Trajectory(t=np.zeros(1), joints={"follower_pivot": np.array([3.8128])})
-    why = solvers.started(case, other)
+    why = registry.started(case, other)
     assert why is not None and why.kind == "failed" and "follower_pivot at 3.8128" in str(why), why
 
 

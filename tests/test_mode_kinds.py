@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 from threadpoolctl import threadpool_limits
 
-from flexmbd import cases, cli, flexbody, solvers
-from flexmbd.errors import InputError
+from flexmbd import cases, cli
+from flexmbd.fe import flexbody
+from flexmbd.harness import registry
+from flexmbd.core.errors import InputError
 from flexmbd.fe import modes
 
 XY = 'bodies.beam.modes.kinds=["bending xy"]'
@@ -113,7 +115,7 @@ def test_a_planar_run_needs_only_the_planar_modes():
     to the integrator's tolerance (rtol 1e-8 on states of other sizes: measured 3.1e-7 of the tip
     deflection, bound 1e-5), while the five lowest modes of any kind (three in-plane) differ by 9 %
     (bound: more than 1e-3)."""
-    runs = {name: solvers.run(cases.load("pendulum", ["duration=0.3", *over]), "flexmbd")
+    runs = {name: registry.run(cases.load("pendulum", ["duration=0.3", *over]), "flexmbd")
             for name, over in (("kinds", ["bodies.beam.modes.count=5", XY]), ("all", ["bodies.beam.modes.count=11"]),
                                ("lowest", ["bodies.beam.modes.count=5"]))}
     assert all(r.ok for r in runs.values())

@@ -13,12 +13,13 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from flexmbd import cases, solvers
+from flexmbd import cases
+from flexmbd.harness import registry
 from flexmbd.mbd import spatial
 
 mujoco = pytest.importorskip("mujoco")
 
-from flexmbd.adapters import common, mujoco_rigid  # noqa: E402
+from flexmbd.solvers import common, mujoco_rigid  # noqa: E402
 
 PRISM = ['solvers.mujoco.beam_mass="prism"']        # the oracle's bars: homogeneous prisms
 BARS = ("crank", "coupler", "rocker")
@@ -122,7 +123,7 @@ def mujoco_at(case, dt=1e-4):
 @pytest.fixture(scope="module")
 def four_bar():
     case = cases.load("four_bar_rigid", PRISM)
-    r = solvers.run(case, "mujoco")
+    r = registry.run(case, "mujoco")
     assert r.ok, r.status
     bar = FourBar(case)
     return case, r, bar, bar.run(np.pi / 2, 20.0, r.t)
@@ -298,7 +299,7 @@ def test_energy_of_a_spatial_loop_is_conserved(tmp_path):
     """The revolute-cut block over the case's 0.1 s: MuJoCo's energy within 1e-6 of its kinetic
     energy (the cut does no work)."""
     case = revolute_block(tmp_path)
-    r = solvers.run(case, "mujoco")
+    r = registry.run(case, "mujoco")
     assert r.ok, r.status
     m, d, _ = mujoco_at(case)
     mujoco.mj_forward(m, d)
@@ -308,7 +309,7 @@ def test_energy_of_a_spatial_loop_is_conserved(tmp_path):
 
 def test_cuts_without_an_equality_and_driven_loops_are_not_applicable(tmp_path):
     case = block(tmp_path, f'type = "prismatic"\naxis = {toml(AXIS)}', np.eye(3), np.zeros(3))
-    assert solvers.status_for(case, "mujoco") == (
+    assert registry.status_for(case, "mujoco") == (
         "not applicable: loop joint 'cut' is prismatic: MuJoCo's equality constraints hold a point "
         "(connect) or a frame (weld), none leaves a slide free")
-    assert "prescribed motion" in solvers.status_for(cases.load("slider_crank"), "mujoco")
+    assert "prescribed motion" in registry.status_for(cases.load("slider_crank"), "mujoco")

@@ -74,7 +74,7 @@ def test_the_wheel_holds_the_cases_and_baselines(installed):
 
 
 def test_the_installed_package_is_imported_and_finds_its_cases(installed):
-    code = "import flexmbd, flexmbd.resources as r; print(flexmbd.__file__); print(r.CASES); print(r.CHECKOUT)"
+    code = "import flexmbd, flexmbd.core.resources as r; print(flexmbd.__file__); print(r.CASES); print(r.CHECKOUT)"
     got = run(installed, str(installed["venv"] / "bin" / "python"), "-c", code)
     assert got.returncode == 0, got.stderr
     module, cases, checkout = got.stdout.splitlines()

@@ -13,16 +13,19 @@ suite, against `flexmbd` on cantilever_step.
 import numpy as np
 import pytest
 
-from flexmbd import build, cases, channels, flexbody, solvers
+from flexmbd.solvers import build
+from flexmbd import cases
+from flexmbd.harness import channels, registry
+from flexmbd.fe import flexbody
 from flexmbd.mbd import dynamics, spatial
-from flexmbd.build import from_case
+from flexmbd.solvers.build import from_case
 from flexmbd.mbd.compiled.entry import forward_dynamics
 from flexmbd.mbd.model import make_data
 
 pin = pytest.importorskip("pinocchio")
 mujoco = pytest.importorskip("mujoco")
 
-from flexmbd.adapters import common, mujoco_common, mujoco_rigid, mujoco_rod, pinocchio_model, pinocchio_rigid  # noqa: E402
+from flexmbd.solvers import common, mujoco_common, mujoco_rigid, mujoco_rod, pinocchio_model, pinocchio_rigid  # noqa: E402
 from flexmbd.mbd.compiled import entry
 
 LUMPED = ['solvers.pinocchio.beam_mass="lumped"', 'solvers.mujoco.beam_mass="lumped"']
@@ -222,7 +225,7 @@ def test_pinocchio_accelerations_with_loads_match_flexmbd(tree):
 
 def test_pinocchio_prescribed_spin_up_follows_its_profile():
     case = cases.load("pendulum", ['joints.pivot.motion={type="spin_up", W=2.0, T=0.2}'])
-    r = solvers.run(case, "pinocchio", 0.3)
+    r = registry.run(case, "pinocchio", 0.3)
     assert r.ok
     W, T, t = 2.0, 0.2, r.t
     ref = np.where(t < T, W / T * (t ** 2 / 2 + (T / (2 * np.pi)) ** 2 * (np.cos(2 * np.pi * t / T) - 1)),
@@ -315,7 +318,7 @@ def agreement(case, t_end=None) -> dict:
     """flexmbd, pinocchio and mujoco on the case: the largest end-angle difference (rad) over the
     joint-angle channels and the pairs of solvers, the largest energy difference (J) of pinocchio
     from the other two over the run; both peers' differences from flexmbd separately."""
-    runs = {s: solvers.run(case, s, t_end) for s in ("flexmbd", "pinocchio", "mujoco")}
+    runs = {s: registry.run(case, s, t_end) for s in ("flexmbd", "pinocchio", "mujoco")}
     assert all(r.ok for r in runs.values()), {s: r.status for s, r in runs.items()}
     angles = [c for c, ch in case.channels.items() if ch.kind == "joint_angle"]
     end = {s: np.array([r.channels[c][-1] for c in angles]) for s, r in runs.items()}
@@ -349,20 +352,20 @@ def test_rigid_peers_as_prisms_agree_with_each_other_and_differ_from_the_lumped_
 
 
 def test_rigid_peers_run_the_flexible_case_as_its_rigid_limit():
-    a = solvers.run(cases.load("pendulum"), "pinocchio", 0.5)
-    b = solvers.run(rigid("pendulum"), "pinocchio", 0.5)
+    a = registry.run(cases.load("pendulum"), "pinocchio", 0.5)
+    b = registry.run(rigid("pendulum"), "pinocchio", 0.5)
     assert a.ok and np.array_equal(a.channels["joint_angle"], b.channels["joint_angle"])
     assert np.all(a.channels["tip_deflection"] == 0.0) and np.all(a.channels["stress_vm"] == 0.0)
 
 
 def test_missing_engine_is_unavailable(monkeypatch):
-    monkeypatch.setitem(solvers.MODULES, "mujoco", "flexmbd.adapters.no_such_engine")
-    assert solvers.status_for(cases.load("pendulum"), "mujoco").startswith("unavailable")
+    monkeypatch.setitem(registry.MODULES, "mujoco", "flexmbd.solvers.no_such_engine")
+    assert registry.status_for(cases.load("pendulum"), "mujoco").startswith("unavailable")
 
 
 def test_engine_error_is_a_failed_result(monkeypatch):
     monkeypatch.setattr(mujoco_rod, "mjcf", lambda *a: ("<mujoco><worldbody><body/></mujoco>", 0.0))
-    r = solvers.run(cases.load("cantilever_step"), "mujoco-rod", 0.01)
+    r = registry.run(cases.load("cantilever_step"), "mujoco-rod", 0.01)
     assert r.status.kind == "failed" and "XML" in r.status.why
 
 
@@ -395,7 +398,7 @@ def test_rod_static_tip_deflection_matches_euler_bernoulli():
     """Clamped rod, constant 12 N tip load, default edge count: settles to P L^3 / 3 E I within 0.5 %.
     A large discrete step damps the vibration numerically (backward Euler), which is what we want here."""
     case = cases.load("cantilever_step", ["integrator.output_dt=0.01", "solvers.mujoco-rod.dt=0.01"])
-    r = solvers.run(case, "mujoco-rod", 3.0)
+    r = registry.run(case, "mujoco-rod", 3.0)
     assert r.ok
     EB = 12.0 * 1.5 ** 3 / (3 * 2.06e11 * 0.01 * 0.015 ** 3 / 12)
     y = r.channels["tip_deflection"]
@@ -411,9 +414,9 @@ def test_rod_stops_at_the_first_sample_beyond_the_divergence_rule(monkeypatch):
     and keeps the full run's samples before it."""
     case = cases.load("cantilever_step", ["integrator.output_dt=0.01", "solvers.mujoco-rod.dt=0.01"])
     monkeypatch.setattr(channels, "bounds", lambda case: {"tip_deflection": 0.01})
-    r = solvers.run(case, "mujoco-rod", 1.0)
+    r = registry.run(case, "mujoco-rod", 1.0)
     monkeypatch.setattr(channels, "failure", lambda case, traj: None)   # the same run, integrated to its end
-    full = solvers.run(case, "mujoco-rod", 1.0)
+    full = registry.run(case, "mujoco-rod", 1.0)
     k = len(full.t)                                                      # the first sample beyond the bound
     assert r.status == full.status and "beyond 0.01 m" in r.status.why and 0 < k < 100
     assert r.status.t == pytest.approx(k * 0.01) and r.steps == k < full.steps
@@ -433,7 +436,7 @@ def first_frequency(t, y):
 @pytest.mark.slow
 def test_rod_cantilever_step_agrees_with_flexmbd():
     case = cases.load("cantilever_step")
-    a, b = solvers.run(case, "flexmbd"), solvers.run(case, "mujoco-rod")
+    a, b = registry.run(case, "flexmbd"), registry.run(case, "mujoco-rod")
     assert a.ok and b.ok
     x, y = a.channels["tip_deflection"], b.channels["tip_deflection"]
     fa, fb = first_frequency(a.t, x), first_frequency(b.t, y)

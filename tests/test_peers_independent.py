@@ -19,7 +19,8 @@ import pytest
 pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")
 
-from flexmbd import build, solvers
+from flexmbd.solvers import build
+from flexmbd.harness import registry
 from flexmbd.mbd import spatial  # noqa: E402
 from test_peers import LUMPED, agreement, agrees, rigid  # noqa: E402
 
@@ -52,7 +53,7 @@ def shifted_joint(monkeypatch, child: str, dx: float):
 
 
 def peers(case) -> dict:
-    return {s: solvers.run(case, s, T_END).channels for s in ("pinocchio", "mujoco")}
+    return {s: registry.run(case, s, T_END).channels for s in ("pinocchio", "mujoco")}
 
 
 PLANTS = {                          # name: (case, plant)

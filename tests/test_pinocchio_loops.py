@@ -13,12 +13,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from flexmbd import cases, solvers
+from flexmbd import cases
+from flexmbd.harness import registry
 from flexmbd.cases import closure
 
 pin = pytest.importorskip("pinocchio")
 
-from flexmbd.adapters import common, pinocchio_rigid  # noqa: E402
+from flexmbd.solvers import common, pinocchio_rigid  # noqa: E402
 
 from oracle_four_bar import acceleration, angles, rates  # noqa: E402
 
@@ -29,7 +30,7 @@ def across(case, name: str, m: float) -> float:
     """Inertia of beam `name` (mass m) about a normal to it through its centre, without the
     section's rotary part, as the peer's `beam_mass` has it."""
     beam = case.bodies[name]
-    lumped = solvers.settings(case, "pinocchio")["beam_mass"] == "lumped"
+    lumped = registry.settings(case, "pinocchio")["beam_mass"] == "lumped"
     return m * beam.length ** 2 / 12 * (1 + 2 / beam.elements ** 2 if lumped else 1)
 
 
@@ -107,7 +108,7 @@ def slider_crank(case, t):
 def four_bar():
     """four_bar_rigid by the peer (1 s), and the oracle at its outputs."""
     case = cases.load("four_bar_rigid")
-    r = solvers.run(case, "pinocchio")
+    r = registry.run(case, "pinocchio")
     return r, four_bar_oracle(case, r.t)
 
 
@@ -156,7 +157,7 @@ def test_slider_crank_rigid_kinematics_crank_pin_force_and_drive():
     1e-6 m, the crank pin's force on the rod (cut joint) and the crank's drive torque (tree joint)
     the closed-form rigid ones to 1e-6 of their largest."""
     case = cases.load("slider_crank")
-    r = solvers.run(case, "pinocchio")
+    r = registry.run(case, "pinocchio")
     assert r.ok
     x, F, torque = slider_crank(case, r.t)
     assert np.abs(r.channels["slider_position"] - x).max() < 1e-6
@@ -186,6 +187,6 @@ def test_applies_to_planar_hinges_only(monkeypatch):
     assert pinocchio_rigid.applies(cases.load("four_bar_rigid")) == ""
     monkeypatch.setattr(closure, "assemble", lambda case, where: {})
     tilted = cases.load("four_bar_rigid", ["joints.rocker_pivot.axis=[0.0, 1.0, 0.0]"])
-    assert "not all turn about its axis" in solvers.status_for(tilted, "pinocchio")
+    assert "not all turn about its axis" in registry.status_for(tilted, "pinocchio")
     sliding = cases.load("slider_crank", ['joints.crank_pin.type="prismatic"'])
-    assert "is prismatic" in solvers.status_for(sliding, "pinocchio")
+    assert "is prismatic" in registry.status_for(sliding, "pinocchio")

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 import pandas as pd
 
-from flexmbd import cases, solvers
+from flexmbd import cases
+from flexmbd.harness import registry
 
 PLUGIN = Path(__file__).resolve().parent.parent / "examples" / "plugin_solver"
 
@@ -54,7 +55,7 @@ def test_example_plugin_runs_beside_the_built_in_solvers(tmp_path, example):
     # and the rigid beam's zero deflection and stress, no energy channel
     assert list(got.columns) == ["t", "joint_angle", "tip_deflection", "stress_vm"]
     assert (got["tip_deflection"] == 0).all() and (got["stress_vm"] == 0).all()
-    rigid = solvers.run(cases.load("pendulum"), "pinocchio")
+    rigid = registry.run(cases.load("pendulum"), "pinocchio")
     np.testing.assert_allclose(got["t"], rigid.t)
     assert np.abs(got["joint_angle"] - rigid.channels["joint_angle"]).max() < 1e-3   # slender rod: no section inertia
 
@@ -62,10 +63,10 @@ def test_example_plugin_runs_beside_the_built_in_solvers(tmp_path, example):
 def test_a_plugin_does_not_replace_a_built_in_and_a_broken_one_is_unavailable(tmp_path):
     env = install(tmp_path / "site", "[flexmbd.solvers]\nflexmbd = flexmbd_example_solver\n"
                                      "broken = no_such_module_here\n", module=None)
-    code = ("from flexmbd import solvers; print(solvers.MODULES['flexmbd']); "
-            "print(solvers.unavailable_reason('broken'))")
+    code = ("from flexmbd.harness import registry; print(registry.MODULES['flexmbd']); "
+            "print(registry.unavailable_reason('broken'))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
-    assert out.splitlines()[0] == "flexmbd.solver" and out.splitlines()[1].startswith("unavailable:")
+    assert out.splitlines()[0] == "flexmbd.solvers.inhouse" and out.splitlines()[1].startswith("unavailable:")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -76,7 +77,7 @@ def trajectory_only(case, t_end, tip, extent):
     """A run of the cantilever as a bare `channels.Trajectory`: the beam's tracked points at their
     undeformed positions but the tip, at `tip(t)` below it (m, along y); no strains but at the stress
     section (zero), and the deflection validity measure `extent(t)`."""
-    from flexmbd import channels
+    from flexmbd.harness import channels
     t = np.arange(0.0, t_end + 1e-12, case.integrator.output_dt)
     L = case.bodies["beam"].length
     xs = channels.points_needed(case, "beam")
@@ -94,15 +95,15 @@ def plug(monkeypatch, name, run):
     mod = types.ModuleType(f"plugin_{name.replace('-', '_')}")
     mod.SETTINGS, mod.version, mod.applies, mod.run = {}, lambda: "1", lambda case: "", run
     monkeypatch.setitem(sys.modules, mod.__name__, mod)
-    monkeypatch.setitem(solvers.MODULES, name, mod.__name__)
-    monkeypatch.setattr(solvers, "NAMES", solvers.NAMES + (name,))
+    monkeypatch.setitem(registry.MODULES, name, mod.__name__)
+    monkeypatch.setattr(registry, "NAMES", registry.NAMES + (name,))
 
 
 def test_a_plugin_reporting_only_a_trajectory_gets_channels_validity_and_the_divergence_cut(monkeypatch):
     case = cases.load("cantilever_step")
     L, dt = case.bodies["beam"].length, case.integrator.output_dt
     plug(monkeypatch, "bare", lambda c, t_end, s: trajectory_only(c, t_end, lambda t: -1e-3 * t, lambda t: 0.5 * t))
-    r = solvers.run(case, "bare", 0.5)
+    r = registry.run(case, "bare", 0.5)
     np.testing.assert_allclose(r.channels["tip_deflection"], -1e-3 * r.t, rtol=0, atol=1e-15)
     np.testing.assert_array_equal(r.channels["stress_vm"], np.zeros(r.t.size))
     # the deflection measure passes its limit (0.10) after 0.2 s: an ok run, outside validity, reported
@@ -113,10 +114,10 @@ def test_a_plugin_reporting_only_a_trajectory_gets_channels_validity_and_the_div
     # a tip beyond twice the beam's length at t >= 0.3 s: the run is cut there, failed
     plug(monkeypatch, "wild", lambda c, t_end, s: trajectory_only(c, t_end, lambda t: np.where(t < 0.3 - 1e-9, 0.0, 3 * L),
                                                                   lambda t: 0 * t))
-    r = solvers.run(case, "wild", 0.5)
+    r = registry.run(case, "wild", 0.5)
     assert r.status.kind == "failed" and "diverged" in r.status.why and r.status.t == pytest.approx(0.3)
     assert r.t[-1] == pytest.approx(0.3 - dt) and len(r.channels["tip_deflection"]) == len(r.t)
     # neither a Result nor a Trajectory: the plug-in's failure, as a failed result
     plug(monkeypatch, "odd", lambda c, t_end, s: {"t": [0.0]})
-    r = solvers.run(case, "odd", 0.5)
+    r = registry.run(case, "odd", 0.5)
     assert r.status.kind == "failed" and "not a Result or a channels.Trajectory" in r.status.why

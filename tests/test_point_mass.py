@@ -13,9 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbd import cases, cli, cost, solvers
-from flexmbd.errors import InputError
-from flexmbd.adapters import mujoco_rod
+from flexmbd import cases, cli
+from flexmbd.harness import cost, registry
+from flexmbd.core.errors import InputError
+from flexmbd.solvers import mujoco_rod
 
 DATA = Path(__file__).resolve().parent / "data"
 PENDULUM = DATA / "point_mass_pendulum.toml"     # rigid link on a hinge, 0.5 kg point mass at its tip
@@ -67,7 +68,7 @@ def test_point_mass_is_a_tip_body_of_negligible_inertia(carrier):
         point, tiny = cases.load(str(PENDULUM)), cases.load(str(PENDULUM), [TINY])
     else:
         point, tiny = (cases.load("pendulum", [over] + ON_BEAM) for over in (BOB, TINY))
-    a, b = solvers.run(point, "flexmbd"), solvers.run(tiny, "flexmbd")
+    a, b = registry.run(point, "flexmbd"), registry.run(tiny, "flexmbd")
     assert a.ok and b.ok, (a.status, b.status)
     assert np.array_equal(a.t, b.t) and set(a.channels) == set(b.channels)
     for ch, y in a.channels.items():
@@ -76,7 +77,7 @@ def test_point_mass_is_a_tip_body_of_negligible_inertia(carrier):
     if carrier == "flexible beam":
         assert np.abs(a.channels["tip_deflection"]).max() > 1e-3       # the beam does bend
     else:
-        cube = solvers.run(cases.load(str(PENDULUM), [TINY.replace("1e-12", "1e-4")]), "flexmbd")
+        cube = registry.run(cases.load(str(PENDULUM), [TINY.replace("1e-12", "1e-4")]), "flexmbd")
         assert abs(a.channels["angle"][-1] - cube.channels["angle"][-1]) > 1e-5
 
 
@@ -88,7 +89,7 @@ def test_rigid_peers_agree_with_flexmbd(peer):
     1e-11 rad, docs/peers.md), the energy conserved to 1e-8 J of 7.4 J kinetic. A point mass given an
     inertia of its own would show: 1e-4 kg m^2 (a 3.5 cm cube of 0.5 kg) shifts the angle by 2e-4 rad."""
     case = cases.load(str(PENDULUM))
-    ref, r = solvers.run(case, "flexmbd"), solvers.run(case, peer)
+    ref, r = registry.run(case, "flexmbd"), registry.run(case, peer)
     assert r.ok, r.status
     angle = np.interp(ref.t, r.t, r.channels["angle"])
     assert np.abs(angle - ref.channels["angle"]).max() < 1e-8
@@ -134,7 +135,7 @@ def test_cantilever_with_a_tip_point_mass_vibrates_at_the_closed_form(solver):
     EI, L = b.material.E * b.geometry.Iz, b.length
     f = tip_mass_frequency(EI, b.material.rho * b.geometry.A, L, 0.2)
     static = case.loads["push"].force[1] * L ** 3 / (3.0 * EI)
-    r = solvers.run(case, solver)
+    r = registry.run(case, solver)
     assert r.ok, r.status
     y = r.channels["tip_deflection"]
     assert crossing_frequency(r.t, y - static) == pytest.approx(f, rel=2e-4)
@@ -146,7 +147,7 @@ def test_every_solver_that_runs_it_has_a_cost_estimate():
     is that beam and its point masses."""
     for path in (TIP, PENDULUM):
         case = cases.load(str(path))
-        runs = [s for s in solvers.NAMES if not solvers.status_for(case, s)]
+        runs = [s for s in registry.NAMES if not registry.status_for(case, s)]
         assert {"flexmbd", "exudyn-beam"} <= set(runs)
         cost.check([(case, s) for s in runs])
 

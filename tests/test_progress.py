@@ -1,8 +1,8 @@
-"""flexmbd/progress.py: the bar of a call that says nothing while it runs (`Ticking`)."""
+"""flexmbd/harness/progress.py: the bar of a call that says nothing while it runs (`Ticking`)."""
 
 import threading
 
-from flexmbd.progress import Ticking
+from flexmbd.harness.progress import Ticking
 
 
 def test_ticking_draws_elapsed_time_against_the_estimate_while_the_call_runs(capsys):

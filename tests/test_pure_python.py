@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from flexmbd import cases
-from flexmbd.build import from_case
+from flexmbd.solvers.build import from_case
 from flexmbd.mbd.compiled.entry import forward_dynamics
 from flexmbd.mbd.model import make_data
 
@@ -21,7 +21,7 @@ STATE = """
 import json, sys
 import numpy as np
 from flexmbd import cases
-from flexmbd.build import from_case
+from flexmbd.solvers.build import from_case
 from flexmbd.mbd.compiled import jit
 from flexmbd.mbd.compiled.entry import forward_dynamics
 from flexmbd.mbd.model import make_data

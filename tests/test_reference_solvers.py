@@ -5,8 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from flexmbd import cases, results
-from flexmbd.adapters import analytic
+from flexmbd import cases
+from flexmbd.harness import results
+from flexmbd.solvers import analytic
 from flexmbd.cli import main
 
 STATIC_TIP = -12.0 * 1.5 ** 3 / (3 * 2.06e11 * 0.01 * 0.015 ** 3 / 12)     # -23.30 mm
@@ -79,9 +80,9 @@ def test_fe_linear_modal_scheme_against_the_matrix_exponential():
     Both are exact for a step load, so they differ by round-off of the two factorizations only:
     a frequency's relative error ~1e-13 times the highest mode's w t = 3.5e3 radians over the run
     gives ~1e-10 (seen: 1.4e-10 of the peak); 1e-7 leaves three decades for other machines' LAPACK."""
-    from flexmbd import flexbody
+    from flexmbd.fe import flexbody
     from flexmbd.mbd import profiles
-    from flexmbd.adapters import fe_linear
+    from flexmbd.solvers import fe_linear
     case = cases.load("cantilever_step", ["bodies.beam.elements=6"])
     nodes, elements, sec, K, M, _ = flexbody.fe_model(case.bodies["beam"])
     free = np.arange(6, K.shape[0])

@@ -10,7 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flexmbd import cases, channels, flexbody, metrics, resources, solvers
+from flexmbd import cases
+from flexmbd.harness import channels, metrics, registry
+from flexmbd.fe import flexbody
+from flexmbd.core import resources
 from flexmbd.cli import main
 from flexmbd.report import regress, spectra, tables
 from tests.test_tables import compile_input
@@ -54,7 +57,7 @@ def test_deformed_shapes_follow_the_deflections(report):
     titles = re.findall(r"<h2>([^<]*)</h2>", page)
     assert titles[titles.index("Deflection") + 1] == "Deformed shape at chosen instants"
     assert "<img src='shapes.png'" in page and (report / "cantilever_step" / "shapes.svg").is_file()
-    from flexmbd import results
+    from flexmbd.harness import results
     stored = {s: results.read(report / "results", "cantilever_step", s).extra.get("shapes") for s in FAST.split(",")}
     assert all(sh["beam"]["t"] == [0.5, 1.0, 1.5, 2.0] for sh in stored.values())
 
@@ -173,7 +176,7 @@ def test_regress_flags_a_perturbed_baseline_and_passes_the_real_one(report, tmp_
 def test_regress_measures_a_conserved_energy_against_the_kinetic_energy(tmp_path):
     """A conserved total energy is round-off around zero: regress normalises it as the accuracy
     table does (by the run's largest kinetic energy), not by its own maximum."""
-    from flexmbd.results import Result
+    from flexmbd.harness.results import Result
     case = cases.load("pendulum")
     t = np.linspace(0.0, 1.0, 101)
     rng = np.random.default_rng(0)
@@ -198,7 +201,7 @@ def test_regress_measures_a_rigid_peer_s_energy_noise_against_the_case_s_scale(t
     the reference run's largest kinetic energy (its baseline's header), or without one against the
     gravity closed form |g| sum m l (25.9 J for the pendulum: m g L with m = 1.76 kg, L = 1.5 m),
     it reads about 1e-11."""
-    from flexmbd.results import Result
+    from flexmbd.harness.results import Result
     case = cases.load("pendulum")
     t = np.linspace(0.0, 1.0, 101)
     rng = np.random.default_rng(1)
@@ -239,7 +242,7 @@ def test_baselines_carry_provenance():
 
 def test_a_baseline_written_from_a_stored_result_carries_that_run_s_date_and_commit(tmp_path):
     case = cases.load("cantilever_step")
-    r = solvers.run(case, "analytic", 0.01)
+    r = registry.run(case, "analytic", 0.01)
     r.extra.update(date="2000-01-02T03:04:05+00:00", git_commit="abc1234", python="3.0.1")   # as read back
     text = regress.write(tmp_path, case, r).read_text()
     assert "# date: 2000-01-02T03:04:05+00:00; git commit: abc1234; python 3.0.1\n" in text
@@ -266,7 +269,7 @@ def test_no_peak_below_the_noise_floor():
 
 
 def test_verdicts_of_a_run():
-    from flexmbd import results
+    from flexmbd.harness import results
     from flexmbd.report import accuracy
     row = lambda s, ch, rms, tol: {"solver": s, "channel": ch, "rms": rms, "tolerance": tol}
     rows = [row("a", "tip", 0.001, 0.01), row("a", "stress", 0.1, 0.05), row("a", "energy", 0.5, 0.1),
@@ -378,7 +381,7 @@ def test_a_channel_is_matched_against_the_modes_that_move_its_point_in_its_direc
 def test_frozen_frequencies_only_where_they_move():
     """A hub spun at a constant rate has the same system at every instant: no frozen sweep. A hub
     spun up has one, its in-plane bending stiffening with the rate (0.604 Hz at rest)."""
-    from flexmbd.results import Result
+    from flexmbd.harness.results import Result
     t = np.linspace(0.0, 20.0, 201)
     steady = cases.load("rotating_cantilever")
     r = Result(solver="flexmbd", case=steady.name, t=t, channels={"hub_angle": 4.0 * t})
@@ -405,7 +408,7 @@ def test_a_case_s_notes_are_on_its_page_above_the_accuracy_table(tmp_path):
 def test_a_diverged_run_s_page_says_why_with_the_case_s_explanation():
     """slewing_beam's exudyn-ffrf: its status and the case's physical explanation
     (report.expected_failures) under the page's verdicts."""
-    from flexmbd import results
+    from flexmbd.harness import results
     from flexmbd.report import accuracy, pages
     case = cases.load("slewing_beam")
     st = results.diverged("diverged (|tip_deflection| beyond 16 m, 2 beam lengths)", 10.58)
@@ -418,7 +421,7 @@ def test_a_diverged_run_s_page_says_why_with_the_case_s_explanation():
 
 
 def test_provenance_settings_are_whole():
-    from flexmbd import results
+    from flexmbd.harness import results
     from flexmbd.report import pages
     settings = {f"key{k}": "x" * 20 for k in range(30)}
     r = results.Result(solver="flexmbd", case="c", status=results.Status(), settings=settings)

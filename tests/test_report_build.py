@@ -35,7 +35,7 @@ def stored(report: Path, tmp_path: Path, *names: str) -> Path:
 
 
 def test_a_failing_solver_does_not_stop_the_report(report, tmp_path, monkeypatch):
-    from flexmbd.adapters import analytic
+    from flexmbd.solvers import analytic
 
     def boom(*a, **k):
         raise RuntimeError("boom")

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbd import cases, results
+from flexmbd import cases
+from flexmbd.harness import results
 from flexmbd.cli import main
 
 
@@ -70,7 +71,7 @@ def test_a_rigid_model_is_graded_only_on_the_channels_it_has():
     stress, or strain energy: on the flexible case its energy is not compared (the coupler's strain
     energy failed it at 107 x the tolerance while its angles lay on the reference), on the rigid one
     it is."""
-    from flexmbd.adapters import pinocchio_rigid
+    from flexmbd.solvers import pinocchio_rigid
     from flexmbd.report import accuracy
     flexible, rigid = cases.load("four_bar"), cases.load("four_bar_rigid")
     has = {ch: accuracy.comparable(flexible, pinocchio_rigid, ch) for ch in flexible.channels}
@@ -84,7 +85,7 @@ def test_the_worst_channel_is_the_one_the_verdict_names():
     """The largest RMS difference is not the worst channel when its tolerance is wider: the index's
     worst channel is the one furthest beyond its tolerance, the one the verdict's text names."""
     from flexmbd.report import accuracy
-    from flexmbd.results import Status
+    from flexmbd.harness.results import Status
     rows = [{"solver": "s", "channel": "energy", "rms": 0.02, "tolerance": 1e-4},
             {"solver": "s", "channel": "stress_vm", "rms": 0.3, "tolerance": 0.05},
             {"solver": "s", "channel": "free", "rms": 0.9, "tolerance": float("nan")}]

@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbd import files, results
-from flexmbd.errors import InputError
-from flexmbd.results import Result, Status
+from flexmbd.core import files
+from flexmbd.harness import results
+from flexmbd.core.errors import InputError
+from flexmbd.harness.results import Result, Status
 
 
 # ---------------------------------------------------------------------------------------------
@@ -68,10 +69,11 @@ def test_first_failure_finds_the_first_bad_sample_of_any_channel():
 
 
 def test_solvers_run_cuts_a_diverged_history(monkeypatch):
-    """The rule is applied to every solver in solvers.run: an adapter's blown-up history ends
+    """The rule is applied to every solver in registry.run: an adapter's blown-up history ends
     at its first bad sample, with the samples before it kept."""
-    from flexmbd import cases, solvers
-    from flexmbd.adapters import analytic
+    from flexmbd import cases
+    from flexmbd.harness import registry
+    from flexmbd.solvers import analytic
 
     def blown_up(case, t_end, settings):
         t = np.linspace(0.0, t_end, 101)
@@ -79,20 +81,21 @@ def test_solvers_run_cuts_a_diverged_history(monkeypatch):
         return Result(solver="analytic", case=case.name, t=t, channels={"tip_deflection": tip, "stress_vm": 0 * t})
 
     monkeypatch.setattr(analytic, "run", blown_up)
-    r = solvers.run(cases.load("cantilever_step"), "analytic", 0.1)
+    r = registry.run(cases.load("cantilever_step"), "analytic", 0.1)
     assert r.status.kind == "failed" and r.status.t == pytest.approx(0.05) and r.status.cause == "diverged"
     assert len(r.t) == 50 and np.all(r.channels["tip_deflection"] == 0.01)
 
 
 def test_an_exception_in_a_solver_is_a_failed_result(monkeypatch):
-    from flexmbd import cases, solvers
-    from flexmbd.adapters import analytic
+    from flexmbd import cases
+    from flexmbd.harness import registry
+    from flexmbd.solvers import analytic
 
     def broken(case, t_end, settings):
         raise RuntimeError("engine exploded")
 
     monkeypatch.setattr(analytic, "run", broken)
-    r = solvers.run(cases.load("cantilever_step"), "analytic", 0.1)
+    r = registry.run(cases.load("cantilever_step"), "analytic", 0.1)
     assert r.status.kind == "failed" and "RuntimeError: engine exploded" in r.status.why
     assert r.status.cause == "aborted"
 
@@ -121,26 +124,26 @@ def test_a_failed_run_s_cause_is_set_where_its_failure_is_made():
 
 
 def test_the_integrators_end_becomes_a_status_with_its_cause():
-    """`solver.status_of`: the integrators' whys of the divergence rule (a state or acceleration
+    """`inhouse.status_of`: the integrators' whys of the divergence rule (a state or acceleration
     not finite, a velocity beyond integrate.DIVERGED) are diverged, every other end aborted, and a
     failure the divergence watch found keeps the watch's own status."""
-    from flexmbd import solver
+    from flexmbd.solvers import inhouse
     from flexmbd.mbd import integrate
-    assert solver.status_of(integrate.Ended()) == Status()
-    assert set(integrate.NON_FINITE) < set(solver.DIVERGES) and len(solver.DIVERGES) == 3
-    for why in solver.DIVERGES:
-        assert solver.status_of(integrate.failed(why, 0.5)) == results.diverged(why, 0.5)
-    others = set(integrate.WHY.values()) - set(solver.DIVERGES)
+    assert inhouse.status_of(integrate.Ended()) == Status()
+    assert set(integrate.NON_FINITE) < set(inhouse.DIVERGES) and len(inhouse.DIVERGES) == 3
+    for why in inhouse.DIVERGES:
+        assert inhouse.status_of(integrate.failed(why, 0.5)) == results.diverged(why, 0.5)
+    others = set(integrate.WHY.values()) - set(inhouse.DIVERGES)
     for why in [*others, "VODE return code -1", "the loop of joint 'j' does not close (residual 0.1)"]:
-        assert solver.status_of(integrate.failed(why, 0.5)) == results.failed(why, 0.5)
+        assert inhouse.status_of(integrate.failed(why, 0.5)) == results.failed(why, 0.5)
     watched = results.diverged("diverged (|tip| beyond 3 m, 2 beam lengths)", 0.3)
-    assert solver.status_of(integrate.failed(watched.why, 0.3), [watched]) is watched
+    assert inhouse.status_of(integrate.failed(watched.why, 0.3), [watched]) is watched
 
 
 def test_an_exudyn_run_cut_short_keeps_its_cause():
     """A run Exudyn stopped fails at the last instant it reached with its own cause: the watch's
     divergence stays diverged, Exudyn's own failure aborted, a run that stopped without one aborted."""
-    xc = pytest.importorskip("flexmbd.adapters.exudyn_common")
+    xc = pytest.importorskip("flexmbd.solvers.exudyn_common")
     t = np.linspace(0.0, 1.0, 11)
     for status, want in ((results.diverged("diverged (|tip| beyond 3 m, 2 beam lengths)", 0.9), "diverged"),
                          (results.failed("Exudyn: Newton did not converge"), "aborted"), (Status(), "aborted")):
@@ -219,7 +222,8 @@ WRITER = """
 import os
 import sys
 import numpy as np
-from flexmbd import files, results
+from flexmbd.core import files
+from flexmbd.harness import results
 k = 0
 try:
     with files.signals_handled():
@@ -359,14 +363,16 @@ def test_the_keys_of_stored_results_are_the_same_as_before_the_one_recipe(tmp_pa
     import hashlib
     from types import SimpleNamespace
 
-    from flexmbd import cases, flexbody, solvers, version
-    monkeypatch.setattr(solvers, "source_sha256", lambda: "f" * 64)
+    from flexmbd import cases, version
+    from flexmbd.fe import flexbody
+    from flexmbd.harness import registry
+    monkeypatch.setattr(registry, "source_sha256", lambda: "f" * 64)
     (tmp_path / "plug.py").write_text("VERSION = '1.0'\n")
     plug = SimpleNamespace(__file__=str(tmp_path / "plug.py"), version=lambda: "1.0")
     case = SimpleNamespace(content_sha256="c" * 64, duration=2.0)
-    assert solvers._key(case, "my-plugin", plug, {"dt": 1e-3, "scheme": "a"}, None) == \
+    assert registry._key(case, "my-plugin", plug, {"dt": 1e-3, "scheme": "a"}, None) == \
         "64819a937f2b85b5555a9804f6a5bfd28ed77f5853f1509ae4aeb82eedea76ba"
-    assert solvers._key(case, "analytic", SimpleNamespace(version=lambda: "2"), {}, 1.5) == \
+    assert registry._key(case, "analytic", SimpleNamespace(version=lambda: "2"), {}, 1.5) == \
         "0706a40aec78e10d81b90d27d0568ec3232dc6f1ded7130f308f11bac818a02f"
     assert results.sha256("t,x\n0,1\n") == "2236b4989592e6ce72adf96ba645c7a1b486744aca25334c60217c4d1da992d7"
     (tmp_path / "m.bin").write_bytes(b"\x00mesh\x01")
@@ -392,7 +398,7 @@ def test_the_keys_of_stored_results_are_the_same_as_before_the_one_recipe(tmp_pa
 # for byte (the same files), no temporary or kept copy left
 
 CASE, SOLVER = "cantilever_step", "analytic"
-ROOT = Path(results.__file__).resolve().parent.parent
+ROOT = Path(results.__file__).resolve().parents[2]
 
 
 def run(out: Path) -> tuple[int, str]:
@@ -414,7 +420,7 @@ def old(tmp_path) -> Path:
 def test_a_sidecar_that_cannot_be_replaced_keeps_the_old_pair(old, monkeypatch):
     """An immutable old sidecar (chattr +i; planted: renaming onto it fails with EPERM), met after
     the CSV was swapped in: the old CSV is put back."""
-    from flexmbd import files
+    from flexmbd.core import files
     before, real = listing(old), os.replace
 
     def replace(src, dst, **kw):
@@ -440,7 +446,7 @@ def test_a_folder_where_the_sidecar_goes_is_refused_before_any_replace(old):
 
 def test_a_failing_second_temporary_leaves_no_first(old, monkeypatch):
     """A full disk met while the second temporary of the pair is written (planted: ENOSPC)."""
-    from flexmbd import files
+    from flexmbd.core import files
     before, real, opened = listing(old), os.fdopen, []
 
     def full(fd, *a, **k):
@@ -476,7 +482,7 @@ def test_past_the_file_size_limit_the_old_pair_stays(old, limit, name):
 def test_a_signal_while_the_temporaries_are_made_leaves_none(old, monkeypatch):
     """SIGTERM while the second temporary of the pair is made: exit 143 with its line, no temporary
     left, the old pair as it was."""
-    from flexmbd import files
+    from flexmbd.core import files
     before, real, made = listing(old), tempfile.mkstemp, []
 
     def mkstemp(*a, **k):
@@ -498,9 +504,10 @@ def test_a_signal_while_the_temporaries_are_made_leaves_none(old, monkeypatch):
 
 def test_the_sidecar_records_every_override_and_the_versions(tmp_path):
     import json
-    from flexmbd import cases, results, solvers
+    from flexmbd import cases
+    from flexmbd.harness import results, registry
     case = cases.load("cantilever_step", ["materials.steel.E=2.1e11", "duration=0.01"])
-    _, js = results.write(solvers.run(case, "analytic"), tmp_path)
+    _, js = results.write(registry.run(case, "analytic"), tmp_path)
     meta = json.loads(js.read_text())
     assert meta["overrides"] == ["materials.steel.E=2.1e11", "duration=0.01"]
     assert meta["versions"]["numba"] and meta["versions"]["exudyn"]

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import flexmbd
-from flexmbd import results
+from flexmbd.harness import results
 from flexmbd.mbd import integrate
 from flexmbd.cases.validate import LOOP_METHODS
 from flexmbd.cli import main

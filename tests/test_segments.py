@@ -5,9 +5,11 @@ segments, and the split against the unsplit beam and the closed form."""
 import numpy as np
 import pytest
 
-from flexmbd import cases, channels, solver, solvers
-from flexmbd.errors import InputError
-from flexmbd.build import from_case
+from flexmbd import cases
+from flexmbd.harness import channels, registry
+from flexmbd.solvers import inhouse
+from flexmbd.core.errors import InputError
+from flexmbd.solvers.build import from_case
 from flexmbd.mbd.compiled.entry import forward_dynamics
 from flexmbd.mbd.model import make_data
 from flexmbd.mbd.spatial import expm_so3
@@ -81,7 +83,7 @@ def test_bad_segments_name_the_key(item, words):
 
 def test_exudyn_ffrf_declines_a_segmented_beam():
     pytest.importorskip("exudyn")
-    st = solvers.status_for(cases.load("pendulum", ["bodies.beam.segments=2"]), "exudyn-ffrf")
+    st = registry.status_for(cases.load("pendulum", ["bodies.beam.segments=2"]), "exudyn-ffrf")
     assert st.startswith("not applicable") and "segments" in st
 
 
@@ -102,7 +104,7 @@ def test_channels_of_a_split_beam_follow_its_segments_rigidly_joined():
     q = np.zeros(m.nq)
     q[0] = 0.7
     q[1:] = 0.02 * rng.standard_normal(m.nq - 1)
-    out = channels.channels(case, solver.trajectory(case, m, np.zeros(1), q[None], np.zeros((1, m.nv))))
+    out = channels.channels(case, inhouse.trajectory(case, m, np.zeros(1), q[None], np.zeros((1, m.nv))))
 
     R, r, pts = expm_so3(np.array([0.0, 0.0, 0.7])), np.zeros(3), {}
     for k, name in enumerate(case.segments["beam"]):
@@ -121,7 +123,7 @@ def test_channels_of_a_split_beam_follow_its_segments_rigidly_joined():
     first = m.index("beam:1")
     eta1 = q[m.body_madr[first]:m.body_madr[first] + m.body_nm[first]]
     own = channels.modal_strains(m.bodies["beam:1"], eta1[None])[0.03]
-    whole = solver.trajectory(case, m, np.zeros(1), q[None], np.zeros((1, m.nv))).beams["beam"].strains[0.03]
+    whole = inhouse.trajectory(case, m, np.zeros(1), q[None], np.zeros((1, m.nv))).beams["beam"].strains[0.03]
     assert whole[0, 1:] == pytest.approx(own[0, 1:], abs=1e-15)         # curvatures and twist of segment 1
 
 
@@ -131,8 +133,8 @@ def test_channels_of_a_split_beam_follow_its_segments_rigidly_joined():
 
 def test_one_segment_changes_nothing():
     """segments = 1 gives the unsplit pendulum's channels bit for bit."""
-    one = solvers.run(cases.load("pendulum", ["bodies.beam.segments=1"]), "flexmbd", 0.5)
-    plain = solvers.run(cases.load("pendulum"), "flexmbd", 0.5)
+    one = registry.run(cases.load("pendulum", ["bodies.beam.segments=1"]), "flexmbd", 0.5)
+    plain = registry.run(cases.load("pendulum"), "flexmbd", 0.5)
     assert one.channels.keys() == plain.channels.keys()
     assert all(np.array_equal(one.channels[k], plain.channels[k]) for k in plain.channels)
 
@@ -147,7 +149,7 @@ def settled(case, iterations=8) -> dict:
         J = np.array([(qdd(q + h * e) - qdd(q - h * e)) / (2 * h) for e in np.eye(m.nq)]).T
         q = q - np.linalg.solve(J, qdd(q))
     assert np.abs(qdd(q)).max() < 1e-8
-    out = channels.channels(case, solver.trajectory(case, m, np.array([1.0]), q[None], np.zeros((1, m.nv))))
+    out = channels.channels(case, inhouse.trajectory(case, m, np.array([1.0]), q[None], np.zeros((1, m.nv))))
     return {k: float(v[0]) for k, v in out.items()}
 
 
@@ -190,9 +192,9 @@ def test_flexible_pendulum_case_follows_the_exact_beam():
     of the converged geometrically exact beam (exudyn-beam, 256 elements, 1e-5 s) over 1 s
     (measured 1.22 %; docs/formulation.md §9)."""
     case = cases.load("flexible_pendulum")
-    ref = solvers.run(cases.load("flexible_pendulum", ["solvers.exudyn-beam.elements=256",
+    ref = registry.run(cases.load("flexible_pendulum", ["solvers.exudyn-beam.elements=256",
                                                        "solvers.exudyn-beam.dt=1e-5"]), "exudyn-beam")
-    r = solvers.run(case, "flexmbd")
+    r = registry.run(case, "flexmbd")
     assert ref.ok and r.status.outside, (ref.status, r.status)
     d = np.linalg.norm(tip_positions(r, 1.0) - tip_positions(ref, 1.0), axis=1)
     assert d.max() < 0.02, d.max()

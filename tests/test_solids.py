@@ -1,4 +1,4 @@
-"""Flexible solids end to end (flexmbd/flexbody.py `solid_body`, cases, channels, fe-linear's
+"""Flexible solids end to end (flexmbd/fe/flexbody.py `solid_body`, cases, channels, fe-linear's
 full-order solid, the command line): one reduced body from any of the three mesh formats, the
 frequencies of an imported tetrahedral mesh against scikit-fem's own reading and assembly, the
 modal solid against the full-order one, and import errors as one line with exit status 2."""
@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from flexmbd import cases, solvers
+from flexmbd import cases
+from flexmbd.harness import registry
 from flexmbd.mbd import invariants
 from flexmbd.cli import main
 
@@ -123,7 +124,7 @@ def test_modal_solid_against_the_full_order_solid(tmp_path):
     for count in (3, 24):
         path = case_file(tmp_path, mesh, "x0", "xL", count=count, name=f"m{count}", duration=0.005)
         case = cases.load(str(path), ["solvers.fe-linear.dt=2.5e-7"])
-        a, b = solvers.run(case, "flexmbd"), solvers.run(case, "fe-linear")
+        a, b = registry.run(case, "flexmbd"), registry.run(case, "fe-linear")
         assert a.status.ok and b.status.ok
         errors[count] = {c: np.sqrt(np.mean((a.channels[c] - b.channels[c]) ** 2)) / np.abs(b.channels[c]).max()
                          for c in ("tip_y", "stress")}
@@ -158,9 +159,9 @@ def test_a_missing_set_names_the_file_and_its_sets(tmp_path, capsys):
 def test_solvers_without_solids_say_so(tmp_path):
     case = cases.load(str(case_file(tmp_path, f'file = "{DATA / "block.inp"}"')))
     for name in ("pinocchio", "mujoco", "exudyn-beam", "analytic", "mujoco-rod"):
-        status = solvers.status_for(case, name)
+        status = registry.status_for(case, name)
         assert status.startswith(("not applicable", "unavailable")), (name, status)
-    assert solvers.status_for(case, "flexmbd") == "" and solvers.status_for(case, "fe-linear") == ""
+    assert registry.status_for(case, "flexmbd") == "" and registry.status_for(case, "fe-linear") == ""
 
 
 def test_craig_bampton_modes_with_a_rigid_tip_against_the_full_order_solid(tmp_path):
@@ -174,7 +175,7 @@ def test_craig_bampton_modes_with_a_rigid_tip_against_the_full_order_solid(tmp_p
     path.write_text(text.replace('modes = { count = 30 }', 'modes = { count = 30, boundary = "craig-bampton" }'))
     case = cases.load(str(path), ["solvers.fe-linear.dt=2.5e-7"])
     assert case.reduced("block").boundary == "craig-bampton"
-    a, b = solvers.run(case, "flexmbd"), solvers.run(case, "fe-linear")
+    a, b = registry.run(case, "flexmbd"), registry.run(case, "fe-linear")
     rel = {c: np.sqrt(np.mean((a.channels[c] - b.channels[c]) ** 2)) / np.abs(b.channels[c]).max()
            for c in ("tip_y", "stress")}
     assert rel["tip_y"] < 0.01 and rel["stress"] < 0.03, rel      # the case tolerances (seen 0.09 %, 2.2 %)
@@ -186,7 +187,7 @@ def test_free_free_modes_of_a_hinged_block_in_flexmbd_and_exudyn(tmp_path):
     pytest.importorskip("exudyn")
     case = cases.load("brick_pendulum", ['bodies.block.modes.boundary="free-free"', "bodies.block.modes.count=6",
                                          'bodies.block.interfaces.hinge.kind="averaging"'])
-    a, b = solvers.run(case, "flexmbd", 0.05), solvers.run(case, "exudyn-ffrf", 0.05)
+    a, b = registry.run(case, "flexmbd", 0.05), registry.run(case, "exudyn-ffrf", 0.05)
     assert a.status.ok and b.status.ok
     d = np.sqrt(np.mean((a.channels["tip_deflection"] - b.channels["tip_deflection"]) ** 2))
     assert d < 0.005 * np.abs(b.channels["tip_deflection"]).max()         # the case's tolerance
@@ -204,7 +205,7 @@ def test_matrices_from_abaqus_matrix_files_give_the_same_body(tmp_path, capsys):
     """A mesh file's stiffness and mass given as Abaqus matrix files (`mesh.stiffness`, `mesh.mass`)
     replace the assembly; written from the assembly, they reduce to the same body to 1e-12. A mass
     that is not a solid's (M = Ms (x) I3) is one line naming the file, exit status 2."""
-    from flexmbd import flexbody
+    from flexmbd.fe import flexbody
     from flexmbd.fe import solid
     base = case_file(tmp_path, f'file = "{DATA / "block.inp"}"', name="assembled")
     case = cases.load(str(base))

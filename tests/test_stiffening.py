@@ -5,7 +5,8 @@ foreshortening matrices themselves are checked in tests/test_flexbody.py.)"""
 import numpy as np
 import pytest
 
-from flexmbd import cases, solvers
+from flexmbd import cases
+from flexmbd.harness import registry
 
 @pytest.mark.parametrize("name", ["pendulum", "double_pendulum"])
 def test_stiffened_paper_cases_conserve_energy(name):
@@ -13,7 +14,7 @@ def test_stiffened_paper_cases_conserve_energy(name):
     largest kinetic energy (undamped, 0.3 s, tight tolerances)."""
     case = cases.load(name, ["integrator.rtol=1e-11", "integrator.atol=1e-13"])
     assert all(b.stiffening for b in case.bodies.values())
-    r = solvers.run(case, "flexmbd", 0.3)
+    r = registry.run(case, "flexmbd", 0.3)
     E = r.channels["energy"]
     assert r.ok and np.abs(E - E[0]).max() <= 1e-6 * r.extra["kinetic_max_J"]
 
@@ -25,19 +26,19 @@ def test_spin_up_beam_stays_bounded_with_stiffening(W, peak):
     foreshortening (references/rotating_beam.py: 0.2067 m at W = 2, 0.5744 m at W = 6 rad/s)
     within 1 %; without it, W = 2 overshoots by 11 % and is reported outside linear validity."""
     spin = f"joints.hub.motion.W={W}"
-    r = solvers.run(cases.load("spinup_beam", [spin]), "flexmbd")
+    r = registry.run(cases.load("spinup_beam", [spin]), "flexmbd")
     assert r.ok and not r.status.outside
     assert np.abs(r.channels["tip_deflection"]).max() == pytest.approx(peak, rel=0.01)
     if W == 2.0:
-        lin = solvers.run(cases.load("spinup_beam", [spin, "bodies.beam.stiffening=false"]), "flexmbd")
+        lin = registry.run(cases.load("spinup_beam", [spin, "bodies.beam.stiffening=false"]), "flexmbd")
         assert np.abs(lin.channels["tip_deflection"]).max() > 1.1 * peak and lin.status.outside
 
 
 def rotating_frequencies_of_flexmbd(W: float) -> np.ndarray:
     """Frequencies (rad/s) of the paper's beam spun at a constant rate W (no gravity): the
     eigenvalues of flexmbd's equations linearized about the steady rotation (linearize.py)."""
-    from flexmbd import linearize
-    from flexmbd.build import from_case
+    from flexmbd.solvers import linearize
+    from flexmbd.solvers.build import from_case
     case = cases.load("pendulum", ["gravity=[0.0, 0.0, 0.0]", "bodies.beam.modes.count=8",
                                    f'joints.pivot.motion={{type="constant_rate", rate={W}}}'])
     m = from_case(case)
@@ -55,7 +56,7 @@ def test_rotating_cantilever_follows_the_southwell_curves():
     from pathlib import Path
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "references"))
     from rotating_beam import rotating_frequencies
-    from flexmbd import flexbody
+    from flexmbd.fe import flexbody
     case = cases.load("pendulum")
     body, mat = case.bodies["beam"], case.materials["steel"]
     sec = flexbody.beam_section(body)

@@ -11,7 +11,7 @@ import pytest
 
 from flexmbd.report import study
 from flexmbd.cli import main
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 GRID = ["cantilever_step", "--vary", "solvers.analytic.modes=2,8", "--vary", "integrator.output_dt=1e-3,5e-4",
         "--vary", "duration=0.4",

@@ -8,7 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from flexmbd import results
+from flexmbd.harness import results
 from flexmbd.report import accuracy, tables
 from flexmbd.report.accuracy import Outcome, Verdict
 

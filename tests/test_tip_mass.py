@@ -12,8 +12,10 @@ from scipy.optimize import brentq
 
 pytest.importorskip("exudyn")
 
-from flexmbd import cases, flexbody, solvers  # noqa: E402
-from flexmbd.adapters import exudyn_beam, exudyn_common, exudyn_ffrf  # noqa: E402
+from flexmbd import cases  # noqa: E402
+from flexmbd.fe import flexbody
+from flexmbd.harness import registry
+from flexmbd.solvers import exudyn_beam, exudyn_common, exudyn_ffrf  # noqa: E402
 
 DATA = Path(__file__).resolve().parent / "data"
 CANTILEVER = DATA / "tip_mass_cantilever.toml"
@@ -68,7 +70,7 @@ def test_cantilever_with_tip_mass_vibrates_at_the_closed_form(solver):
     f = tip_mass_frequency(EI, rhoA, L, tip.mass, tip.inertia[2])
     assert f == pytest.approx(23.3785, rel=1e-5)
     static = -F * L ** 3 / (3.0 * EI)
-    r = solvers.run(case, solver)
+    r = registry.run(case, solver)
     assert r.ok, r.status
     y = r.channels["tip_deflection"]
     assert crossing_frequency(r.t, y - static) == pytest.approx(f, rel=5e-4)
@@ -104,7 +106,7 @@ def test_who_models_a_tip_mass():
     why it cannot (its vertices carry no bending rotation)."""
     case = cases.load(str(CANTILEVER))
     assert exudyn_beam.applies(case) == "" and exudyn_ffrf.applies(case) == ""
-    rod = solvers.status_for(case, "mujoco-rod")
+    rod = registry.status_for(case, "mujoco-rod")
     assert rod.startswith("unavailable") or rod.startswith("not applicable: body 'tip': a rigid body joined "
                                                             "to a rod needs the rod's material frame"), rod
     assert exudyn_beam.applies(cases.load(str(HUB_BEAM_TIP))) == ""
@@ -124,7 +126,7 @@ def test_hub_beam_with_tip_mass_three_solvers():
     exudyn-ffrf 6.6e-3 off exudyn-beam (the missing stiffening), flexmbd without it 1.4e-8 off
     exudyn-ffrf (the same model: the anchor's rigid marker is exact)."""
     case = cases.load(str(HUB_BEAM_TIP))
-    runs = {s: solvers.run(case, s) for s in ("exudyn-beam", "flexmbd", "exudyn-ffrf")}
+    runs = {s: registry.run(case, s) for s in ("exudyn-beam", "flexmbd", "exudyn-ffrf")}
     assert all(r.ok for r in runs.values()), {s: str(r.status) for s, r in runs.items()}
     t, ref = tip(runs["exudyn-beam"])
     scale = np.abs(ref).max()
@@ -132,7 +134,7 @@ def test_hub_beam_with_tip_mass_three_solvers():
         ts, y = tip(runs[s])
         d = np.interp(t, ts, y) - ref
         assert np.sqrt(np.mean(d ** 2)) / scale < 0.01, s
-    linear = solvers.run(cases.load(str(HUB_BEAM_TIP), ["bodies.beam.stiffening=false"]), "flexmbd")
+    linear = registry.run(cases.load(str(HUB_BEAM_TIP), ["bodies.beam.stiffening=false"]), "flexmbd")
     ts, y = tip(linear)
     t, ref = tip(runs["exudyn-ffrf"])
     assert np.sqrt(np.mean((np.interp(t, ts, y) - ref) ** 2)) / np.abs(ref).max() < 0.005
@@ -145,7 +147,7 @@ def test_body_frame_load_on_the_tip_mass_follows_flexmbd(solver, profile):
     turning with the rigid body, which turns with the tip node): the tip deflection within 0.5 %
     RMS of flexmbd's."""
     case = cases.load(str(CANTILEVER), ['loads.push.frame="body"', f'loads.push.profile={profile}'])
-    ref, r = solvers.run(case, "flexmbd"), solvers.run(case, solver)
+    ref, r = registry.run(case, "flexmbd"), registry.run(case, solver)
     assert r.ok, r.status
     y = np.interp(ref.t, r.t, r.channels["tip_deflection"])
     assert np.sqrt(np.mean((y - ref.channels["tip_deflection"]) ** 2)) / np.abs(y).max() < 0.005
@@ -158,7 +160,7 @@ def test_rigid_hub_beam_and_tip_mass_follow_flexmbd(solver):
     tip deflection within 0.5 % RMS of flexmbd's largest (measured: exudyn-beam 0.14 %,
     exudyn-ffrf 0.22 %), energy within 0.1 % (0.067 %, 0.040 %), the hub angle its profile."""
     case = cases.load(str(DATA / "hub_rigid_tip.toml"))
-    ref, r = solvers.run(case, "flexmbd"), solvers.run(case, solver)
+    ref, r = registry.run(case, "flexmbd"), registry.run(case, solver)
     assert r.ok, r.status
     for ch, tol in (("tip_deflection", 0.005), ("energy", 0.001), ("drive_angle", 1e-9)):
         x, y = ref.channels[ch], np.interp(ref.t, r.t, r.channels[ch])

@@ -41,8 +41,8 @@ def applies(case) -> str:
 
 
 def run(case, t_end, settings):
-    from flexmbd.channels import Trajectory
-    from flexmbd.results import Result, Status, failed
+    from flexmbd.harness.channels import Trajectory
+    from flexmbd.harness.results import Result, Status, failed
     (body,), (joint,) = case.bodies.values(), case.joints.values()
     L, (gx, gy, _) = body.length, case.gravity
     dt = case.integrator.output_dt                      # the case's output instants 0, dt, ...

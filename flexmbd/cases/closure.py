@@ -13,7 +13,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from flexmbd.mbd.constraints import pick      # the rank rule of the dependent coordinates, the solver's own
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 CLOSES = 1e-9       # m (rad): the largest residual a closed loop may keep, relative to the mechanism's size
 STEP = 1e-7         # rad (m): the central differences' step on a joint coordinate

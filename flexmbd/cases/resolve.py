@@ -29,7 +29,7 @@ import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from flexmbd import flexbody
+from flexmbd.fe import flexbody
 from flexmbd.cases.schema import JOINT, JOINT_COORDS, TOLERANCES
 from flexmbd.mbd.spatial import rotation_rpy
 

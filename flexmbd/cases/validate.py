@@ -15,13 +15,13 @@ import math
 import tomllib
 from pathlib import Path
 
-from flexmbd import flexbody
+from flexmbd.fe import flexbody
 from flexmbd.cases.schema import (BEAM, CASE, CHANNEL_KEYS, DERIVED, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS,
                                   MAX_SNAPSHOTS, NAME_CHARS, POINT_MASS, POINT_MASS_JOINTS, REQUIRED, RIGID, SOLID)
 from flexmbd.fe import modes as fe_modes
-from flexmbd.errors import InputError, printable
+from flexmbd.core.errors import InputError, printable
 from flexmbd.fe.solid import fits_rigid
-from flexmbd.resources import CASES as CASES_DIR      # the shipped cases (resources.py)
+from flexmbd.core.resources import CASES as CASES_DIR      # the shipped cases (resources.py)
 
 # ---------------------------------------------------------------------------------------------
 # finding and reading

@@ -16,7 +16,7 @@ import threading
 import traceback
 from pathlib import Path
 
-from flexmbd import files
+from flexmbd.core import files
 from flexmbd.cli.arguments import parser
 from flexmbd.cli.commands.catalogue import cmd_completion, cmd_list, cmd_modes, system_modes
 from flexmbd.cli.commands.frames import cmd_animate, cmd_export
@@ -25,7 +25,7 @@ from flexmbd.cli.commands.runs import cmd_compare, cmd_regress, cmd_report, cmd_
 from flexmbd.cli.commands.studies import cmd_import, cmd_study
 from flexmbd.cli.shared import _case, check_all, run_checked
 from flexmbd.cli.status import BAD_INPUT, DIFFERENT, EXIT, INTERNAL, OK
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 # the commands, which `arguments.parser` looks up here (one replaced here is the one that runs), and
 # what other modules and the tests use

@@ -9,10 +9,11 @@ import argparse
 import math
 from typing import Callable, NamedTuple
 
-from flexmbd import resources, solvers
+from flexmbd.core import resources
+from flexmbd.harness import registry
 from flexmbd.cli.status import EXIT
 from flexmbd.cli.stdout import stdout_checked
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.version import __version__
 
 DESCRIPTION = ("Flexible multibody validation harness: cases, solvers, reports. Exit status: 0 the command did its "
@@ -78,7 +79,7 @@ def _count(text: str) -> int:
 
 
 def solver_names() -> str:
-    return ", ".join(solvers.NAMES)
+    return ", ".join(registry.NAMES)
 
 
 def shared() -> dict:

@@ -7,15 +7,16 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from flexmbd import cases, cost, solvers
+from flexmbd import cases
+from flexmbd.harness import cost, registry
 
 
 def _case(name: str, overrides=()) -> cases.Case:
     """A case loaded and its solver tables checked: bad input stops here, before any work. A case
-    that names no reference solver gets its default (`solvers.graded`)."""
+    that names no reference solver gets its default (`registry.graded`)."""
     case = cases.load(name, overrides)
-    solvers.check(case)
-    return solvers.graded(case)
+    registry.check(case)
+    return registry.graded(case)
 
 
 def _load(args) -> cases.Case:
@@ -24,14 +25,14 @@ def _load(args) -> cases.Case:
 
 def _where(args):
     """Where the command's runs go (executor.Where), from --workers, --scheduler, --dask-local."""
-    from flexmbd import executor
+    from flexmbd.harness import executor
     return executor.Where(args.workers, args.scheduler, args.dask_local)
 
 
 def _solver_list(text: str | None, flag: str) -> list:
-    chosen = text.split(",") if text else list(solvers.NAMES)
+    chosen = text.split(",") if text else list(registry.NAMES)
     for name in chosen:
-        solvers.check_name(name, flag)
+        registry.check_name(name, flag)
     return chosen
 
 
@@ -46,7 +47,7 @@ def run_checked(jobs: list, out: Path, keep: bool = False, where=None, after=Non
     """Run jobs already checked (`check_all`) into out/results (`executor.into`: with `keep`, a
     stored result with the key of the run it would be is kept), where `where` says (executor.Where:
     a local pool of one worker per core by default); `after(case, solver)` told as each is in place."""
-    from flexmbd import executor, results
+    from flexmbd.harness import executor, results
     executor.into(jobs, lambda case: results.folder(out), keep, where or executor.Where(), after)
 
 
@@ -54,7 +55,7 @@ def stored_sidecars(out, pages) -> list:
     """The sidecars of the stored results that case pages will read, for their sizes
     (`cost.check_stored`): pages [(case, the solvers read from storage)], each with the results
     imported for its case (`loading.page_solvers`)."""
-    from flexmbd import results
+    from flexmbd.harness import results
     from flexmbd.report import loading
     return [results.folder(out) / c.name / f"{s}.json" for c, names in pages for s in loading.page_solvers(out, c, names)]
 

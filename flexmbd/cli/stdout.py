@@ -7,8 +7,8 @@ import functools
 import os
 import sys
 
-from flexmbd import files
-from flexmbd.errors import InputError
+from flexmbd.core import files
+from flexmbd.core.errors import InputError
 
 
 def stdout_checked(command):

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.fe.mesh import Mesh
 from flexmbd.fe.meshfiles import abaqus, convert, gmsh, nastran
 from flexmbd.fe.meshfiles.common import UNITS, check_units

@@ -17,5 +17,5 @@ coordinates (docs/formulation.md), readable and usable without the harness aroun
     cache        the user's cache folder, where the compiled code is kept
 
 It imports nothing else of flexmbd (tests/test_layers.py); the harness says a case in its terms
-(`flexmbd.build`: bodies and joints for `tree.model`) and reads what the solver returns.
+(`flexmbd.solvers.build`: bodies and joints for `tree.model`) and reads what the solver returns.
 """

@@ -7,8 +7,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd import channels, metrics
-from flexmbd.results import CAUSES, Status
+from flexmbd.harness import channels, metrics
+from flexmbd.harness.results import CAUSES, Status
 
 DEFORMATION = ("deflection", "stress_vm")
 

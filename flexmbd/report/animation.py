@@ -24,8 +24,10 @@ import tempfile
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-from flexmbd import cases, channels, files
-from flexmbd.errors import InputError
+from flexmbd import cases
+from flexmbd.harness import channels
+from flexmbd.core import files
+from flexmbd.core.errors import InputError
 from flexmbd.report.fields import surface
 from flexmbd.report.figures import label, style
 from flexmbd.report.shapes import drawn, nearest

@@ -26,7 +26,9 @@ import traceback
 from multiprocessing import get_context
 from pathlib import Path
 
-from flexmbd import files, results, solvers, version
+from flexmbd.core import files
+from flexmbd.harness import results, registry
+from flexmbd import version
 from flexmbd.report import accuracy, convergence, loading, pages, spectra, tables
 
 RECORD = "page.json"        # in OUT/CASE/: the page's key and what it gave the index
@@ -192,7 +194,8 @@ class Drawer:
 def _draw(conn, out: str, stage: str, indexed: bool) -> None:
     """The Drawer's life: take (case file, overrides, solver names), draw the page, answer ("ok",
     (what it gave, its warnings)) or ("error", traceback), until the pipe closes."""
-    from flexmbd import cases, executor, progress
+    from flexmbd import cases
+    from flexmbd.harness import executor, progress
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     executor.die_with_parent()
     progress.silence()
@@ -203,7 +206,7 @@ def _draw(conn, out: str, stage: str, indexed: bool) -> None:
             return
         try:
             said = []
-            got = pages.write_case(Path(out), Path(stage), solvers.graded(cases.load(path, list(overrides))), names, said.append,
+            got = pages.write_case(Path(out), Path(stage), registry.graded(cases.load(path, list(overrides))), names, said.append,
                                    indexed)
             answer = ("ok", (got, said))
         except Exception:                               # noqa: BLE001 - the parent raises it
@@ -215,11 +218,11 @@ def page_key(out: Path, case, names) -> str:
     """SHA-256 (hex) of everything a case page in a report (with an index) is drawn from: the case's
     text and content, the solvers it shows (`names` and those imported), the bytes of their stored
     sidecars and CSVs, its convergence studies' files (`convergence.files`), and flexmbd's source
-    (`solvers.source_sha256`)."""
+    (`registry.source_sha256`)."""
     studies = convergence.files(case)                       # the stored convergence studies drawn on it
     stored = [results.folder(out) / case.name / f"{s}.{ext}" for s in loading.page_solvers(out, case, names)
               for ext in ("json", "csv")]
-    return version.cache_key({"case": [case.sha256, case.content_sha256], "flexmbd": solvers.source_sha256(),
+    return version.cache_key({"case": [case.sha256, case.content_sha256], "flexmbd": registry.source_sha256(),
                               "names": list(names)},
                              *(part for f in studies for part in (f"\0{f.name}\0", version.cache_key(f.read_bytes()))),
                              *(part for f in stored for part in (f"\0{f.name}\0", version.cache_key(f.read_bytes())

@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import solvers
+from flexmbd.harness import registry
 from flexmbd.report import study
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.report import figures, tables
 
 FOLDER = "convergence"      # beside the case file
@@ -102,8 +102,8 @@ def own_value(case, key: str):
     (`case.resolved`), each part of the key an entry of one of its tables or a field of one of its
     parts, as the file gives it (`_as_given`)."""
     parts = key.split("+")[0].split(".")
-    if parts[0] == "solvers" and len(parts) == 3 and parts[1] in solvers.NAMES:
-        return solvers.settings(case, parts[1]).get(parts[2])
+    if parts[0] == "solvers" and len(parts) == 3 and parts[1] in registry.NAMES:
+        return registry.settings(case, parts[1]).get(parts[2])
     at = case.resolved
     for p in parts:
         if isinstance(at, Mapping) and p in at:

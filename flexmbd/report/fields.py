@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from flexmbd import flexbody
+from flexmbd.fe import flexbody
 from flexmbd.fe import solid
 from flexmbd.report.figures import label, save
 import matplotlib.pyplot as plt  # noqa: E402  (after figures, which chooses the Agg backend)

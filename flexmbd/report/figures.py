@@ -21,9 +21,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib import ticker  # noqa: E402
 
-from flexmbd import channels, metrics, solvers, version  # noqa: E402
-from flexmbd.errors import InputError  # noqa: E402
-from flexmbd.files import atomic_write, user_cache  # noqa: E402
+from flexmbd.harness import channels, metrics, registry  # noqa: E402
+from flexmbd import version
+from flexmbd.core.errors import InputError  # noqa: E402
+from flexmbd.core.files import atomic_write, user_cache  # noqa: E402
 
 DRAWN = {"m": ("mm", 1e3), "Pa": ("MPa", 1e-6)}     # SI unit (`channels.unit`) -> drawn unit, factor
 
@@ -38,7 +39,7 @@ def declared(name: str, what: str):
     """A built-in solver's module-level literal `what` (its `STYLE`), read from its module's source
     without importing it: a solver's look is the same where its engine is not installed (a page drawn
     from stored results) and costs no engine's import. None when the module declares none."""
-    path = solvers.BUILT_IN.get(name)
+    path = registry.BUILT_IN.get(name)
     spec = importlib.util.find_spec(path) if path else None
     source = spec.loader.get_source(path) if spec and spec.loader else None
     for node in ast.parse(source or "").body:
@@ -49,7 +50,7 @@ def declared(name: str, what: str):
 
 # one colour and marker per solver on every figure and page: each built-in solver's own (the `STYLE`
 # its module declares: `color`, `marker`), solid lines
-STYLE = {name: (look["color"], look["marker"]) for name in solvers.BUILT_IN if (look := declared(name, "STYLE"))}
+STYLE = {name: (look["color"], look["marker"]) for name in registry.BUILT_IN if (look := declared(name, "STYLE"))}
 
 # any other name (a plug-in, an imported result): one of the (colour, marker, line style) combinations
 # of colours none of STYLE's, the colour changing fastest, chosen by a hash of the name (`looks`)

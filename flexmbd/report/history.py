@@ -36,8 +36,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 from matplotlib.ticker import FuncFormatter
 
-from flexmbd import files, resources, results, solvers, version
-from flexmbd.errors import InputError
+from flexmbd.core import files, resources
+from flexmbd.harness import results, registry
+from flexmbd import version
+from flexmbd.core.errors import InputError
 from flexmbd.report import accuracy, figures, pages, tables
 from flexmbd.report.pages import seconds
 from flexmbd.version import __version__
@@ -90,7 +92,7 @@ def commit() -> dict:
     git cannot say); outside a git checkout {id: VERSION-SOURCE12, dirty: False, version, source}."""
     rev, _, dirty = results.git_commit().partition("+")
     if not rev:
-        source = solvers.source_sha256()
+        source = registry.source_sha256()
         return {"id": f"{__version__}-{source[:12]}", "dirty": False, "date": "", "subject": "",
                 "version": __version__, "source": source}
     date, _, subject = git("log", "-1", "--format=%cI%x1f%s", rev).partition("\x1f")
@@ -451,14 +453,14 @@ def figure(make, d: Path, name: str, shown) -> str:
     """The figure `make()` as d/NAME-DIGEST.png and .svg (`figures.save`), DIGEST of what it shows
     (`shown`, as JSON) and of flexmbd's source; copied from the user's cache of drawn figures when
     drawn before (`figures.kept`). Its PNG's name."""
-    source = json.dumps([name, shown, solvers.source_sha256()], default=str).encode()
+    source = json.dumps([name, shown, registry.source_sha256()], default=str).encode()
     return figures.kept(d / f"{name}-{version.cache_key(source, digits=12)}.png", source, make)
 
 
 def history_page_key(recs: list, labels: list) -> str:
     """SHA-256 (hex) of what the history page is drawn from: every record's file and contents, the
-    order of the commits and flexmbd's source (`solvers.source_sha256`)."""
-    return version.cache_key({"labels": labels, "flexmbd": solvers.source_sha256()},
+    order of the commits and flexmbd's source (`registry.source_sha256`)."""
+    return version.cache_key({"labels": labels, "flexmbd": registry.source_sha256()},
                              *(part for rec in recs for part in (f"\0{rec['file']}\0", rec)))
 
 

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from flexmbd import results
-from flexmbd.errors import InputError
-from flexmbd.results import Result
+from flexmbd.harness import results
+from flexmbd.core.errors import InputError
+from flexmbd.harness.results import Result
 
 
 def jobs(case, names) -> list:

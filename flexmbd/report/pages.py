@@ -13,8 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, metrics, resources, results, solvers
-from flexmbd.files import atomic_write
+from flexmbd import cases
+from flexmbd.harness import metrics, results, registry
+from flexmbd.core import resources
+from flexmbd.core.files import atomic_write
 from flexmbd.report import accuracy, animation, convergence, fields, figures, loading, shapes, spectra, tables
 
 
@@ -108,7 +110,7 @@ def defaults_note(case) -> str:
     rep, said = case.report, []
     if "reference" in rep.defaults:
         said.append(f"the reference {rep.reference} is the default (the first independent solver that runs "
-                    f"the case, in the order {', '.join(solvers.REFERENCES)})")
+                    f"the case, in the order {', '.join(registry.REFERENCES)})")
     if "tolerances" in rep.defaults:
         said.append("the tolerances are the defaults of each channel's kind ("
                     + ", ".join(f"{k} {v:g}" for k, v in cases.TOLERANCES.items()) + ")")
@@ -172,7 +174,7 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True, 
     names = loading.page_solvers(out, case, names)
     res = loading.load_results(out, case, names, warn)
     ok = {s: r for s, r in res.items() if r.ok}
-    mods = {s: solvers.module(s) if s in solvers.MODULES else None for s in res}     # None: imported
+    mods = {s: registry.module(s) if s in registry.MODULES else None for s in res}     # None: imported
     freqs = spectra.fe_frequencies(case)
     ref = case.report.reference
     ungraded = accuracy.ungraded(case)

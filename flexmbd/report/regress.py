@@ -19,11 +19,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import cases, channels, cost, executor, files, metrics, results, solvers
-from flexmbd.errors import InputError
-from flexmbd.files import atomic_write
-from flexmbd.progress import job, jobs_done
-from flexmbd.results import Result
+from flexmbd import cases
+from flexmbd.harness import channels, cost, executor, metrics, results, registry
+from flexmbd.core import files
+from flexmbd.core.errors import InputError
+from flexmbd.core.files import atomic_write
+from flexmbd.harness.progress import job, jobs_done
+from flexmbd.harness.results import Result
 
 DEFAULT_TOLERANCE = 1e-3          # channels without a tolerance in the case file
 
@@ -83,8 +85,8 @@ def known(base: Path, case: str, solver: str, imported: bool = False) -> Path:
     unknown: neither one of the registry's nor an imported result (`imported`, or a baseline
     whose source is `flexmbd import`)."""
     path = Path(base) / case / f"{solver}.csv"
-    if solver not in solvers.NAMES and not (imported or is_imported(path)):
-        raise InputError(f"{path}: a baseline for an unknown solver {solver!r} (known: {', '.join(solvers.NAMES)}, "
+    if solver not in registry.NAMES and not (imported or is_imported(path)):
+        raise InputError(f"{path}: a baseline for an unknown solver {solver!r} (known: {', '.join(registry.NAMES)}, "
                          f"or a result brought in with flexmbd import)")
     return path
 
@@ -197,10 +199,10 @@ def selected(base: Path, case_names, solver_names, stored: bool, update: bool, l
     if solver_names:                    # registered solvers, and imported results by their baselines or --results
         for name in solver_names:
             if not (stored or name in {s for _, s in pairs}):
-                solvers.check_name(name, "--solvers")
+                registry.check_name(name, "--solvers")
     if update and (case_names or solver_names):          # create baselines too, not only rewrite
-        pairs = [(c, s) for c in case_names or cases.available() for s in solver_names or solvers.NAMES
-                 if s not in solvers.NAMES or not solvers.status_for(load(c), s)]
+        pairs = [(c, s) for c in case_names or cases.available() for s in solver_names or registry.NAMES
+                 if s not in registry.NAMES or not registry.status_for(load(c), s)]
     if case_names:
         pairs = [p for p in pairs if p[0] in case_names]
     if solver_names:
@@ -235,7 +237,7 @@ def checked(base: Path, pairs: list, stored_in, update: bool, allow_large: bool,
                 warn(f"warning: {where / c / (s + '.json')}: stale: {why}")
     else:
         for c, s in pairs:
-            if s not in solvers.NAMES:
+            if s not in registry.NAMES:
                 known(base, c, s)                       # an unknown solver's baseline is named as such
                 raise InputError(f"{base / c / (s + '.csv')}: {s} is an imported result, which cannot be rerun: "
                                  f"give --results DIR (the report folder it was imported into)")

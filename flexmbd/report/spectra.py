@@ -11,8 +11,9 @@ import sys
 
 import numpy as np
 
-from flexmbd import files, flexbody
-from flexmbd.errors import InputError
+from flexmbd.core import files
+from flexmbd.fe import flexbody
+from flexmbd.core.errors import InputError
 
 
 def fe_frequencies(case) -> dict:
@@ -27,7 +28,7 @@ def system_modes(case) -> list:
     """[(frequency Hz, label)] of the case's linearized system about its initial state
     (linearize.py), computed once per case version. The command line computes them before the
     pages are built (`prepare`), where a signal may end the process at once."""
-    from flexmbd import linearize
+    from flexmbd.solvers import linearize
     key = (case.name, case.sha256)
     if key not in SYSTEM:
         with files.signals_held():      # may compile the kernel: a signal waits for it, then acts
@@ -110,7 +111,7 @@ def filtered(moving: dict, system: list) -> dict:
     """Deflection channel -> the system modes [(Hz, label)] led by a joint or by a body's family
     of which the channel's `moving` sets hold a mode (labels 'joint pivot', 'beam1: bending xy 2',
     'block: mode 1 (y)'; `linearize.labelled`)."""
-    from flexmbd.linearize import family
+    from flexmbd.solvers.linearize import family
 
     def mine(label: str, sets: dict) -> bool:
         body, led, fam = label.partition(": ")
@@ -129,7 +130,7 @@ def frozen_modes(case, ok: dict) -> tuple[str, list] | None:
     (independent) joint's angle. None when no run does, when
     nothing is driven and the joints hardly move (below 0.05 rad), or when the frequencies do not
     move (a steady spin): then the initial state's modes hold throughout."""
-    from flexmbd import linearize
+    from flexmbd.solvers import linearize
     angles = {n: c.joint for n, c in case.channels.items() if c.kind == "joint_angle"}
     model = linearize.model_of(case)
     loops = linearize.loops_of(case, model)
@@ -172,8 +173,8 @@ def prepare(chosen_cases, notice=None) -> None:
     `notice(line)` is told when the kernel is not yet compiled for this source version."""
     from flexmbd.mbd.compiled import jit
     if notice and chosen_cases and not jit.is_cached():
-        from flexmbd import solver
-        notice(solver.compiling(", to linearize the cases for their spectra"))
+        from flexmbd.solvers import inhouse
+        notice(inhouse.compiling(", to linearize the cases for their spectra"))
     with files.signals_exit():
         for case in chosen_cases:
             spectral_modes(case)

@@ -29,9 +29,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import cases, channels, cost, metrics, results, solvers, version
-from flexmbd.errors import InputError
-from flexmbd.files import atomic_write
+from flexmbd import cases, version
+from flexmbd.harness import channels, cost, metrics, results, registry
+from flexmbd.core.errors import InputError
+from flexmbd.core.files import atomic_write
 from flexmbd.report import accuracy, loading
 from flexmbd.version import __version__
 
@@ -197,7 +198,7 @@ def stages(st: Study, load) -> list:
     checking every point, and its table (the runs' results read, their rows)."""
     n = math.prod(len(vs) for _, vs in st.vary)
     first = _overrides(st, [vs[0] for _, vs in st.vary])
-    chosen = list(st.solvers) or list(solvers.NAMES)
+    chosen = list(st.solvers) or list(registry.NAMES)
     runs = values = rows = 0
     for name in st.cases:
         case = load(name, first)
@@ -236,8 +237,8 @@ def loaded(st: Study, load) -> list:
     reference (`loading.jobs`). With `st.reference == "base"`, a case's reference runs once, on
     the case without overrides (its entry, first of the case's, has `case.overrides == ()`), and
     not at the points unless the study lists it; InputError when a varied key is one of the
-    reference's own settings (`solvers.REF.*`)."""
-    chosen = list(st.solvers) or list(solvers.NAMES)
+    reference's own settings (`registry.REF.*`)."""
+    chosen = list(st.solvers) or list(registry.NAMES)
     out = []
     for name in st.cases:
         points = [load(name, over) for over in grid(st)]
@@ -384,7 +385,7 @@ def figures(st: Study, df: pd.DataFrame, where: Path) -> list:
     """For each case, varied key (of two values or more) and metric of DRAWN: one figure, a panel per channel, the metric
     against the key's values with one curve per solver, the other keys at their finest (last)
     values; the channel's tolerance drawn as a dashed line. Returns the file names."""
-    from flexmbd.files import make_dir
+    from flexmbd.core.files import make_dir
     from flexmbd.report import figures as figs
     if df.empty:
         return []

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd.files import atomic_write
+from flexmbd.core.files import atomic_write
 from flexmbd.report import accuracy
 from flexmbd.report.accuracy import Verdict
-from flexmbd.results import CAUSES, Status
+from flexmbd.harness.results import CAUSES, Status
 
 # the accuracy table's columns: (row key, header, what it means, with its unit) -- the legend of accuracy.md
 ACCURACY_COLUMNS = [

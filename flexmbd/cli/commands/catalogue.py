@@ -6,10 +6,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from flexmbd import cases, cost, files, solvers
+from flexmbd import cases
+from flexmbd.harness import cost, registry
+from flexmbd.core import files
 from flexmbd.cli.shared import _case, _load, warn
 from flexmbd.cli.status import OK
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 
 def cmd_list(args) -> int:
@@ -23,7 +25,7 @@ def cmd_list(args) -> int:
     for name in args.cases or cases.available():
         c = _case(name)
         rows.append({"case": c.name, "title": c.title, "bodies": list(c.bodies),
-                     "solvers": {s: solvers.status_for(c, s) or "ok" for s in (*solvers.NAMES, *solvers.REFUSED)}})
+                     "solvers": {s: registry.status_for(c, s) or "ok" for s in (*registry.NAMES, *registry.REFUSED)}})
     if args.json:
         print(files.json_text(rows, indent=2))
         return 0
@@ -36,7 +38,7 @@ def cmd_list(args) -> int:
 
 def list_solvers(args) -> int:
     """`flexmbd list --solvers`: which solver models what (`capabilities.table`, docs/solvers.md)."""
-    from flexmbd import capabilities
+    from flexmbd.harness import capabilities
     tab = capabilities.table()
     if args.json:
         print(files.json_text(tab, indent=2))
@@ -46,7 +48,7 @@ def list_solvers(args) -> int:
 
 
 def cmd_modes(args) -> int:
-    from flexmbd import flexbody
+    from flexmbd.fe import flexbody
     case = _load(args)
     cost.check([(case, None)], allow_large=args.allow_large, about=args.about if args.system else None)
     if args.system:
@@ -75,11 +77,11 @@ def cmd_modes(args) -> int:
 def system_modes(case, about: str, as_json: bool) -> int:
     """The assembled system's frequencies, damping and labels (linearize.py), with a progress bar
     past a couple of seconds."""
-    from flexmbd import linearize
+    from flexmbd.solvers import linearize
     from flexmbd.mbd.compiled import jit
     if not jit.is_cached():
-        from flexmbd import solver
-        warn(solver.compiling(", to linearize the case"))
+        from flexmbd.solvers import inhouse
+        warn(inhouse.compiling(", to linearize the case"))
     with files.signals_exit():                          # may compile the kernel; writes nothing
         modes = linearize.for_case(case, about, progress=True)
     rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping, "damping_resolution": m.damping_resolution,
@@ -116,7 +118,7 @@ def mode_notes(rows: list, case) -> list:
 
 
 def cmd_completion(args) -> int:
-    from flexmbd import completion
+    from flexmbd.cli import completion
     from flexmbd.cli.arguments import parser
-    print(completion.bash(parser(), cases.available(), solvers.NAMES), end="")
+    print(completion.bash(parser(), cases.available(), registry.NAMES), end="")
     return OK

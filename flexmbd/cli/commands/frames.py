@@ -6,22 +6,23 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from flexmbd import cost, files, solvers
+from flexmbd.harness import cost, registry
+from flexmbd.core import files
 from flexmbd.cli.shared import _load, _solver_list, warn
 from flexmbd.cli.status import OK
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 
 def framed_runs(args, names: list, flag: str) -> tuple:
     """(the case, its frames' runs {solver: Result}) of `animate` and `export`: each solver run as
-    `flexmbd run` runs it (`solvers.run`, after the same checks), on the case whose shapes are
+    `flexmbd run` runs it (`registry.run`, after the same checks), on the case whose shapes are
     recorded at --frames instants (`animation.framed`). A solver that cannot run the case is
     refused before any work; the runs are not stored."""
     from flexmbd.report import animation
     case = _load(args)
     for name in names:
-        solvers.check_name(name, flag)
-        why = solvers.status_for(case, name)
+        registry.check_name(name, flag)
+        why = registry.status_for(case, name)
         if why:
             raise InputError(f"{case.path}: solver {name}: {why}")
     cost.check([(case, s) for s in names], args.t_end, args.allow_large)     # bounds the output samples
@@ -29,7 +30,7 @@ def framed_runs(args, names: list, flag: str) -> tuple:
     got = {}
     with files.signals_exit():                          # nothing written while they run
         for name in names:
-            got[name] = solvers.run(runs, name, args.t_end)
+            got[name] = registry.run(runs, name, args.t_end)
             if got[name].status.kind == "failed":
                 warn(f"{case.name} / {name}: {got[name].status}; its shapes end there")
     return case, got

@@ -8,7 +8,7 @@ import math
 import sys
 from pathlib import Path
 
-from flexmbd import files
+from flexmbd.core import files
 from flexmbd.cli.status import OK
 
 
@@ -23,7 +23,7 @@ def cmd_history(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from flexmbd import bench
+    from flexmbd.report import bench
 
     def show(row):
         sys.stderr.write(f"bench: {row['case']} / {row['solver']} {row['scheme']} {row['setting']}: "

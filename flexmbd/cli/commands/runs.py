@@ -8,18 +8,20 @@ import sys
 import time
 from pathlib import Path
 
-from flexmbd import cases, cost, files, solvers
+from flexmbd import cases
+from flexmbd.harness import cost, registry
+from flexmbd.core import files
 from flexmbd.cli.shared import _case, _load, _solver_list, _where, check_all, run_checked, stored_sidecars, warn
 from flexmbd.cli.status import DIFFERENT, OK
-from flexmbd.errors import InputError
-from flexmbd.progress import job, jobs_done
+from flexmbd.core.errors import InputError
+from flexmbd.harness.progress import job, jobs_done
 
 
 def cmd_run(args) -> int:
-    from flexmbd import results
+    from flexmbd.harness import results
     case = _load(args)
-    solvers.check_name(args.solver, "--solver")
-    why = solvers.status_for(case, args.solver)
+    registry.check_name(args.solver, "--solver")
+    why = registry.status_for(case, args.solver)
     if why:
         raise InputError(f"{case.path}: solver {args.solver}: {why}")
     cost.check([(case, args.solver)], args.t_end, args.allow_large)
@@ -27,7 +29,7 @@ def cmd_run(args) -> int:
     if case.assembly:                                   # the branch every solver starts in
         print(f"{case.name}: loops assembled at {cases.assembly_line(case)}", file=sys.stderr)
     with files.signals_exit():                          # nothing written while it runs
-        r = solvers.run(case, args.solver, args.t_end)
+        r = registry.run(case, args.solver, args.t_end)
     csv, js = results.write(r, results.folder(args.out))
     if r.status.outside:
         print(f"flexmbd: warning: {case.name} / {r.solver} ran outside its model's linear validity "

@@ -6,14 +6,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from flexmbd import files, solvers
+from flexmbd.core import files
+from flexmbd.harness import registry
 from flexmbd.cli.shared import _case, _load, _where, check_all, warn
 from flexmbd.cli.status import OK
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 
 def cmd_import(args) -> int:
-    from flexmbd import external, results
+    from flexmbd.harness import external, results
     case = _load(args)
     r = external.load(case, args.solver, Path(args.file), Path(args.meta) if args.meta else None)
     files.writable_dir(results.folder(args.out) / case.name, "--out")
@@ -27,7 +28,7 @@ def cmd_import(args) -> int:
 
 
 def cmd_study(args) -> int:
-    from flexmbd import executor
+    from flexmbd.harness import executor
     from flexmbd.report import study
     from flexmbd.report import loading
     out = Path(args.out)
@@ -41,7 +42,7 @@ def cmd_study(args) -> int:
         st = study.Study(tuple(args.cases), tuple(study.parse_vary(v) for v in args.vary),
                          tuple(args.solvers.split(",")) if args.solvers else (), args.reference_at or "each")
     for name in st.solvers:
-        solvers.check_name(name, "--solvers" if not args.file else f"{args.file}: study.solvers")
+        registry.check_name(name, "--solvers" if not args.file else f"{args.file}: study.solvers")
     study.check(st, _case, f"{args.file}: study.vary" if args.file else "--vary", args.allow_large)   # before the grid
     points = study.loaded(st, _case)                    # every point, before any runs
     files.writable_dir(out, "--out")

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, NamedTuple
 
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.fe.mesh import NODES_PER
 from flexmbd.fe.meshfiles import common
 from flexmbd.fe.meshfiles.common import integer, is_int, is_real

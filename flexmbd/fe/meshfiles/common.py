@@ -8,7 +8,7 @@ import re
 
 import numpy as np
 
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 
 # file units -> (length to m, E to Pa, rho to kg/m^3)
 UNITS = {"m": (1.0, 1.0, 1.0), "mm": (1e-3, 1e6, 1e12)}

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.fe.mesh import NODES_PER, Mesh
 from flexmbd.fe.meshfiles.common import UNITS, lookup, place
 from flexmbd.fe.meshfiles.records import Parsed

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.fe.meshfiles import common
 from flexmbd.fe.meshfiles.records import Elements, Members, Parsed
 

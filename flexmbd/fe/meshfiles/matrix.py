@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.fe.meshfiles import common
 from flexmbd.fe.meshfiles.common import is_real, lookup
 

@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.fe.meshfiles import common
 from flexmbd.fe.meshfiles.common import integer, is_int, real
 from flexmbd.fe.meshfiles.records import Bar, Material, Parsed, PointMass, add

@@ -197,6 +197,27 @@ def cmv(Vi, x, half=0):
 
 
 @njit
+def inside(Ed, Wd, wz, Nw, V, Y, k, m, half):
+    """The output instants inside one step, Y[k + j] for 0 < j < m, from the corrector's formula at
+    the fractions j/m (`exp_weights`): Ed (m - 1, n), Wd (m - 1, K, n) its weights, wz the last
+    state's coordinates in the eigenbasis, Nw (kc, n) the remainders at the corrector's nodes."""
+    for j in range(1, m):
+        wd = Ed[j - 1] * wz
+        for i in range(Nw.shape[0]):
+            wd += Wd[j - 1, i] * Nw[i]
+        cmv_real(V, wd, Y[k + j], half)
+
+
+@njit
+def remember(Yh, Fh, Wz, G, y1, f1, Vi, half):
+    """The history one step on, newest first: y1 and its right-hand side f1, and their coordinates
+    in the eigenbasis (Vi = V^-1) in Wz and G."""
+    for j in range(Yh.shape[0] - 1, 0, -1):
+        Yh[j], Fh[j], Wz[j], G[j] = Yh[j - 1], Fh[j - 1], Wz[j - 1], G[j - 1]
+    Yh[0], Fh[0], Wz[0], G[0] = y1, f1, cmv(Vi, y1, half), cmv(Vi, f1, half)    # the real state's coordinates
+
+
+@njit
 def exp_adams(ev, nq, Yh, Fh, basis, Wz, G, t_out, Y, h, m, p, st, clock, counts):
     """Exponential Adams, predictor-corrector (PECE), fixed step h, from t_out[0] through the
     instants t_out, writing Y[1:]. f(y) = L y + N(y) with L a finite-difference linearization
@@ -251,18 +272,11 @@ def exp_adams(ev, nq, Yh, Fh, basis, Wz, G, t_out, Y, h, m, p, st, clock, counts
         w1 = Ec * Wz[0]
         for j in range(kc):
             w1 += Wc[j] * Nw[j]
-        for j in range(1, m):                          # the output instants inside the step
-            if k + j <= t_out.size - 1:
-                wd = Ed[j - 1] * Wz[0]
-                for i in range(kc):
-                    wd += Wd[j - 1, i] * Nw[i]
-                cmv_real(V, wd, Y[k + j], half)
+        inside(Ed, Wd, Wz[0], Nw, V, Y, k, min(m, t_out.size - k), half)
         cmv_real(V, w1, y1, half)
         f1 = rhs(ev, t + h, y1, nq)
         counts[2] += 2
-        for j in range(K - 1, 0, -1):
-            Yh[j], Fh[j], Wz[j], G[j] = Yh[j - 1], Fh[j - 1], Wz[j - 1], G[j - 1]
-        Yh[0], Fh[0], Wz[0], G[0] = y1, f1, cmv(Vi, y1, half), cmv(Vi, f1, half)    # the real state's coordinates
+        remember(Yh, Fh, Wz, G, y1, f1, Vi, half)
         st[0] += 1
         st[1] = min(st[1] + 1, K)
         counts[0] += 1

@@ -62,10 +62,11 @@ import numpy as np
 import pinocchio as pin
 from scipy.integrate import DOP853, RK45, Radau
 
-from flexmbd import cases, channels, cost, results
+from flexmbd import cases
+from flexmbd.harness import channels, cost, results
 from flexmbd.mbd import profiles
 from flexmbd.cases import closure
-from flexmbd.adapters import common, pinocchio_model
+from flexmbd.solvers import common, pinocchio_model
 
 RIGID = True                        # every beam rigid: deformation channels are zero, not compared
 LOOPS = True                        # cut joints closed by Pinocchio's rigid constraints
@@ -401,7 +402,7 @@ def poses(eng: Rigid, Q) -> dict:
 
 
 def run(case, t_end, settings):
-    from flexmbd.results import Result
+    from flexmbd.harness.results import Result
     t0 = time.perf_counter()
     opt = {k: settings.get(k, d) for k, (_, d) in SETTINGS.items()}
     eng = Rigid(case, opt["beam_mass"], opt["baumgarte"])

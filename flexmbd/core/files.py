@@ -36,7 +36,7 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 
-from flexmbd.errors import InputError, Interrupted
+from flexmbd.core.errors import InputError, Interrupted
 from flexmbd.mbd.cache import user_cache  # noqa: F401 - the user's cache folder, the solver's and the harness's
 
 REASONS = {

@@ -16,8 +16,8 @@ import time
 import numpy as np
 from scipy.optimize import brentq
 
-from flexmbd import channels, cost
-from flexmbd.adapters import common
+from flexmbd.harness import channels, cost
+from flexmbd.solvers import common
 
 SETTINGS = {"modes": ("int+", 200)}     # continuous modes summed per bending plane
 STYLE = {"color": "#8c564b", "marker": "D"}     # on the figures (report.figures.looks), solid lines
@@ -133,7 +133,7 @@ def trajectory(case, name: str, t, eta: dict, bL) -> channels.Trajectory:
 
 
 def run(case, t_end, settings):
-    from flexmbd.results import Result
+    from flexmbd.harness.results import Result
     t_start = time.perf_counter()
     name, _ = common.clamped_beam(case)
     body = case.bodies[name]

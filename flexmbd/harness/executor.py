@@ -6,12 +6,12 @@
 - a Dask distributed cluster: an existing one by its scheduler's address, or a `LocalCluster`
   of N worker processes started for the command (`dask`; docs/studies.md).
 
-A worker loads the case from its file and overrides (`Task`) and runs `solvers.run`; the Result
+A worker loads the case from its file and overrides (`Task`) and runs `registry.run`; the Result
 comes back to this process, where `done` writes it. Workers write nothing, so a lost worker or a
 signal here leaves every finished result written and nothing half-written, and a command run
 again keeps what is stored (`cli.run_checked`). The same job gives the same result, bitwise,
 wherever it runs: the same code on the same input, one thread of linear algebra in every run
-(`solvers.run`), no state shared between runs. A job whose worker dies (killed, out of memory, a crash in native
+(`registry.run`), no state shared between runs. A job whose worker dies (killed, out of memory, a crash in native
 code) runs again once on a fresh worker; if that one dies too, the job is a failed result saying
 so. A result computed from another case content, solver version or flexmbd source than this
 process has (a cluster's workers at another version) is refused (`checked`: one line, exit 2).
@@ -32,11 +32,13 @@ from multiprocessing import connection, get_context
 
 from threadpoolctl import threadpool_limits
 
-from flexmbd import cases, files, results, solvers
+from flexmbd import cases
+from flexmbd.core import files
+from flexmbd.harness import results, registry
 from flexmbd.mbd.compiled import jit
-from flexmbd.errors import InputError
-from flexmbd.progress import job, jobs_done
-from flexmbd.results import Result
+from flexmbd.core.errors import InputError
+from flexmbd.harness.progress import job, jobs_done
+from flexmbd.harness.results import Result
 from flexmbd.version import __version__
 
 THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
@@ -78,19 +80,19 @@ def task(case, solver: str) -> Task:
 
 
 def compute(t: Task) -> Result:
-    """A worker's job: the case loaded as the command loaded it, and the run (`solvers.run`),
+    """A worker's job: the case loaded as the command loaded it, and the run (`registry.run`),
     stamped with the worker's environment (`results.environment`: its machine, versions and
     date go into the sidecar, not those of the process that writes it)."""
     return timed(t)[0]
 
 
 def timed(t: Task) -> tuple[Result, float]:
-    """`compute`, and the run's own time where it ran (s, `solvers.run` alone): what a worker
+    """`compute`, and the run's own time where it ran (s, `registry.run` alone): what a worker
     answers. The time travels beside the Result, not in it (a result is the same bytes wherever
     it ran)."""
     case = cases.load(t.path, list(t.overrides))
     start = time.perf_counter()
-    r = solvers.run(case, t.solver)
+    r = registry.run(case, t.solver)
     seconds = time.perf_counter() - start
     r.extra = {**results.environment(), **r.extra}
     return r, seconds
@@ -124,16 +126,16 @@ def into(jobs: list, folder, keep: bool = False, where: Where = Where(), after=N
 
 def up_to_date(folder, case, solver: str) -> bool:
     """True when `folder` holds a readable result of `solver` on `case` whose key is the one a run
-    would have now (`solvers.content_key`); for a solver that cannot run the case here (no key),
+    would have now (`registry.content_key`); for a solver that cannot run the case here (no key),
     one that says the same of the same case file (its status), so that nothing a page is drawn
     from is rewritten (`report.build.page_key`)."""
-    key = solvers.content_key(case, solver)
+    key = registry.content_key(case, solver)
     try:
         r = results.read(folder, case.name, solver)
     except InputError:
         return False
     if key is None:
-        return r.case_sha256 == case.sha256 and str(r.status) == solvers.status_for(case, solver)
+        return r.case_sha256 == case.sha256 and str(r.status) == registry.status_for(case, solver)
     return r.extra.get("key") == key
 
 
@@ -146,13 +148,13 @@ def execute(jobs: list, done, where: Where = Where(), skipped: int = 0, t0: floa
     estimates), so the last to finish are short. Without a count of workers, work estimated
     under POOL_ABOVE seconds runs in this process (starting workers would cost more); with one,
     the pool's workers start before the estimates, which they take the time of. `own`, when
-    given, gets k -> the run's own time (s, `solvers.run` alone, where it ran)."""
+    given, gets k -> the run's own time (s, `registry.run` alone, where it ran)."""
     t0 = time.perf_counter() if t0 is None else t0
     own = {} if own is None else own
     total, n = len(jobs) + skipped, skipped
     runnable = []
     for k, (case, solver) in enumerate(jobs):
-        if solvers.status_for(case, solver):
+        if registry.status_for(case, solver):
             n += 1
             job(n, total, label(case, solver), time.perf_counter() - t0)
             done(k, _run(jobs, k, own))
@@ -184,7 +186,7 @@ def execute(jobs: list, done, where: Where = Where(), skipped: int = 0, t0: floa
 def _run(jobs: list, k: int, own: dict) -> Result:
     """Job k run in this process; its own time into own[k]."""
     start = time.perf_counter()
-    r = solvers.run(*jobs[k])
+    r = registry.run(*jobs[k])
     own[k] = time.perf_counter() - start
     return r
 
@@ -195,19 +197,19 @@ def _longest_first(jobs: list, runnable: list) -> tuple[list, dict]:
     seconds = {k: _seconds(*jobs[k]) for k in runnable}
     first = next((k for k in runnable if jobs[k][1] in COMPILES), None)
     if first is not None and not jit.is_cached():       # its compile: the longest job of all
-        seconds[first] += solvers.module(jobs[first][1]).COMPILE_S
+        seconds[first] += registry.module(jobs[first][1]).COMPILE_S
     return sorted(runnable, key=lambda k: -seconds[k]), seconds
 
 
 def _seconds(case, solver: str) -> float:
-    from flexmbd import cost
+    from flexmbd.harness import cost
     return sum(st.seconds for st in cost.stages(case, solver))
 
 
 def checked(case, solver: str, r: Result) -> Result:
     """A worker's result, if it is the run this process would have made: its key (`solvers.
     content_key`: case content, solver, settings, versions, flexmbd's source) is this process's."""
-    key = solvers.content_key(case, solver)
+    key = registry.content_key(case, solver)
     if key is not None and r.extra.get("key") != key:
         raise InputError(f"{case.path}: {solver}: a worker's result is of another flexmbd, solver or case version "
                          f"than this command's (the source changed while it ran, or a cluster's worker differs: "
@@ -354,11 +356,11 @@ def serve(conn) -> None:
     """A worker's life: take a Task, answer ("ok", `timed`) or ("error", traceback), until the pipe
     closes. SIGINT is ignored (a Ctrl-C reaches the whole process group: the parent stops the
     workers); the worker dies with its parent; no progress bars of its own."""
-    from flexmbd import progress
+    from flexmbd.harness import progress
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     files.forget_live()                                 # the parent's staging folders are not its own
-    solvers.source_sha256.cache_clear()                 # its own reading: a source edited meanwhile shows
+    registry.source_sha256.cache_clear()                 # its own reading: a source edited meanwhile shows
     threadpool_limits(limits=1)                         # a forked worker's BLAS started with the parent's
     signal.pthread_sigmask(signal.SIG_UNBLOCK, files.SIGNALS)
     die_with_parent()
@@ -390,8 +392,8 @@ def die_with_parent() -> None:
 
 
 def identity() -> tuple[str, str]:
-    """(flexmbd's version, the SHA-256 of its source: `solvers.source_sha256`) of this process."""
-    return __version__, solvers.source_sha256()
+    """(flexmbd's version, the SHA-256 of its source: `registry.source_sha256`) of this process."""
+    return __version__, registry.source_sha256()
 
 
 def same_flexmbd(client, flag: str) -> None:

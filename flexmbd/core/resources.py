@@ -11,14 +11,14 @@ in an installed wheel copies of them. The checkout itself (git's commit, the sto
 from importlib.resources import files
 from pathlib import Path
 
-DATA = Path(str(files(__package__) / "data"))
+DATA = Path(str(files("flexmbd") / "data"))
 CASES = (DATA / "cases").resolve()                            # CASE.toml, meshes/, convergence/
 BASELINES = (DATA / "references" / "baselines").resolve()     # CASE/SOLVER.csv
 
 
 def _checkout() -> Path | None:
     """The git checkout flexmbd runs from (the folder holding the package and `.git`), or None."""
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     return root if (root / ".git").exists() and (root / "pyproject.toml").is_file() else None
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd import flexbody
+from flexmbd.fe import flexbody
 from flexmbd.cases import Rigid
 from flexmbd.mbd import constraints, invariants, profiles, spatial, tree
 from flexmbd.mbd.constraints import ROWS, Cut, Side, axis_basis

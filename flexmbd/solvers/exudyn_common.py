@@ -28,9 +28,10 @@ import exudyn as exu                     # ImportError here: the adapters are 'u
 import exudyn.itemInterface as eii       # noqa: F401  (used by the adapters)
 from exudyn.advancedUtilities import CreateSymbolicUserFunction
 
-from flexmbd import channels, files, results
-from flexmbd.adapters import common
-from flexmbd.progress import Progress
+from flexmbd.harness import channels, results
+from flexmbd.core import files
+from flexmbd.solvers import common
+from flexmbd.harness.progress import Progress
 
 from flexmbd.mbd.spatial import expm_so3
 

@@ -27,9 +27,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import resources, version
-from flexmbd.errors import InputError
-from flexmbd.files import json_text, swap, temporary, unusable
+from flexmbd.core import resources
+from flexmbd import version
+from flexmbd.core.errors import InputError
+from flexmbd.core.files import json_text, swap, temporary, unusable
 
 DEPENDENCIES = ("numpy", "scipy", "pandas", "matplotlib", "numba", "exudyn", "pin", "mujoco")
 

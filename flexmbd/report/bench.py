@@ -38,10 +38,11 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, metrics, results, solvers
-from flexmbd.build import from_case
-from flexmbd.errors import InputError
-from flexmbd.files import json_text
+from flexmbd import cases
+from flexmbd.harness import metrics, results, registry
+from flexmbd.solvers.build import from_case
+from flexmbd.core.errors import InputError
+from flexmbd.core.files import json_text
 from flexmbd.mbd.compiled.entry import forward
 from flexmbd.mbd.model import make_data
 
@@ -106,7 +107,7 @@ def state(model) -> tuple:
 
 def rigid_chain(ns=(1, 2, 8, 32, 64)) -> list[dict]:
     import pinocchio as pin
-    from flexmbd.adapters import pinocchio_model
+    from flexmbd.solvers import pinocchio_model
     rows = []
     for n in ns:
         model = from_case(chain_case(n, flexible=False))
@@ -173,8 +174,8 @@ def compile_seconds(method: str = "dopri5") -> dict:
     """First compilation (empty cache, subprocess) and a cached start (same cache, second
     subprocess) of what a run with the compiled integrator `method` uses, and one evaluation
     from Python: the whole process, import included."""
-    code = ("import time; t=time.perf_counter(); from flexmbd import bench; "
-            "from flexmbd.build import from_case; m=from_case(bench.chain_case(2, True)); "
+    code = ("import time; t=time.perf_counter(); from flexmbd.report import bench; "
+            "from flexmbd.solvers.build import from_case; m=from_case(bench.chain_case(2, True)); "
             f"f=bench.evaluation(m)[0]; f(); from flexmbd.mbd import integrate; integrate.warm_up(m, {method!r}); "
             "print(time.perf_counter()-t)")
     with tempfile.TemporaryDirectory() as cache:
@@ -219,7 +220,7 @@ def reference_run(name: str, stored: Path | None = None):
     """(solver, Result) of case `name`'s own reference (report.reference, or the default one) at
     the case's settings: the stored result in `stored` (a report's results folder) when it belongs
     to the current case, else a run of it."""
-    case = solvers.graded(cases.load(name))
+    case = registry.graded(cases.load(name))
     ref = case.report.reference
     if ref is None:
         return None, None
@@ -230,7 +231,7 @@ def reference_run(name: str, stored: Path | None = None):
                 return ref, r
         except InputError:
             pass
-    return ref, solvers.run(case, ref)
+    return ref, registry.run(case, ref)
 
 
 def work_precision(names, flexmbd_settings, exudyn_settings, progress=None, stored: Path | None = None
@@ -249,9 +250,9 @@ def work_precision(names, flexmbd_settings, exudyn_settings, progress=None, stor
         lin = linear(name)
         case = cases.load(name)
         ref_solver, ref = reference_run(name, stored)
-        own = {"flexmbd": solvers.run(cases.load(name, CONVERGED["flexmbd"]), "flexmbd"),
-               "flexmbd-linear": solvers.run(cases.load(name, CONVERGED["flexmbd"] + lin), "flexmbd"),
-               "exudyn-ffrf": solvers.run(cases.load(name, CONVERGED["exudyn-ffrf"]), "exudyn-ffrf")}
+        own = {"flexmbd": registry.run(cases.load(name, CONVERGED["flexmbd"]), "flexmbd"),
+               "flexmbd-linear": registry.run(cases.load(name, CONVERGED["flexmbd"] + lin), "flexmbd"),
+               "exudyn-ffrf": registry.run(cases.load(name, CONVERGED["exudyn-ffrf"]), "exudyn-ffrf")}
         info["models"][name] = {
             "reference": ref_solver,
             "exudyn_ffrf_vs_flexmbd_linear": deflection_error(case, own["flexmbd-linear"], own["exudyn-ffrf"]),
@@ -259,7 +260,7 @@ def work_precision(names, flexmbd_settings, exudyn_settings, progress=None, stor
 
         def add(solver, scheme, setting, over, runs_as):
             c = cases.load(name, over)
-            r = solvers.run(c, runs_as)
+            r = registry.run(c, runs_as)
             rows.append({"case": name, "solver": solver, "scheme": scheme, "setting": setting,
                          "error": deflection_error(c, own[solver], r), "error_reference": deflection_error(c, ref, r),
                          "wall_s": r.wall_s})
@@ -401,7 +402,7 @@ def plots(result: dict, folder: Path) -> list[str]:
             "<p><a href='../index.html'>report</a></p><h1>flexmbd bench</h1>"
             + "".join(f"<p><img src='{n}' alt='{n}'></p>" for n in names)
             + f"<pre>{json_text(result, indent=1)}</pre></body></html>")
-    from flexmbd.files import atomic_write
+    from flexmbd.core.files import atomic_write
     atomic_write(folder / "index.html", page + "\n")
     atomic_write(folder / "bench.json", json_text(result, indent=1) + "\n")
     return names + ["index.html", "bench.json"]

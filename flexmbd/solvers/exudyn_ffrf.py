@@ -58,7 +58,7 @@ rate, every other joint the case's values. The reaction is the joint's `Force` (
 loop needs numerical damping or index-2 constraints: the default scheme, the trapezoidal rule
 with index-3 constraints, is refused there (`refused`).
 
-The trajectory (`flexmbd.channels`) is measured from Exudyn's sensors: node positions of the
+The trajectory (`flexmbd.harness.channels`) is measured from Exudyn's sensors: node positions of the
 super element (global, taken into the body frame with the reference node's pose; formed after the
 run from the frame's and the modal coordinates' sensors by Exudyn's own mesh-node kinematics,
 `node_kinematics`, as are the node velocities and accelerations), the modal coordinates (the root node's rotation and the section strains, through the FlexBody's modes and
@@ -85,10 +85,12 @@ from types import MappingProxyType
 import numpy as np
 import scipy.sparse as sp
 
-from flexmbd import cases, channels, cost, flexbody, results
+from flexmbd import cases
+from flexmbd.harness import channels, cost, results
+from flexmbd.fe import flexbody
 from flexmbd.mbd import invariants, profiles
-from flexmbd.adapters import exudyn_common as xc
-from flexmbd.adapters.exudyn_common import eii, exu
+from flexmbd.solvers import exudyn_common as xc
+from flexmbd.solvers.exudyn_common import eii, exu
 from flexmbd.cases import closure
 
 from exudyn.FEM import ObjectFFRFreducedOrderInterface

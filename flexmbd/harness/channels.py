@@ -35,7 +35,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from flexmbd import flexbody, results
+from flexmbd.fe import flexbody
+from flexmbd.harness import results
 from flexmbd.cases import closure
 from flexmbd.fe.solid import von_mises as solid_von_mises
 from flexmbd.fe.stress import section_stresses, von_mises

@@ -7,16 +7,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from flexmbd import build, flexbody
-from flexmbd.build import from_case
-from flexmbd.errors import InputError
+from flexmbd.solvers import build
+from flexmbd.fe import flexbody
+from flexmbd.solvers.build import from_case
+from flexmbd.core.errors import InputError
 from flexmbd.mbd import constraints
 from flexmbd.mbd.linearize import (ROUNDOFF, STEP, NotLinearized, SystemMode, accelerations, closing,  # noqa: F401
                                    coordinate_groups, coordinates, damping_resolution, energy_shares, equilibrium,
                                    family, labelled, lead, mass_matrix, momenta, perturbed, refined, state_matrix,
                                    system_modes)
 from flexmbd.mbd.model import Model
-from flexmbd.progress import Progress
+from flexmbd.harness.progress import Progress
 
 
 def model_of(case) -> Model:

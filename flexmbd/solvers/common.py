@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flexmbd import channels
+from flexmbd.harness import channels
 
 
 def clamped_beam(case, solids: bool = False, masses: bool = False) -> tuple[str, str]:

@@ -55,11 +55,12 @@ from dataclasses import dataclass
 import numpy as np
 
 import mujoco
-from flexmbd import cases, channels, cost, results
+from flexmbd import cases
+from flexmbd.harness import channels, cost, results
 from flexmbd.mbd import profiles
 from flexmbd.cases.closure import pick
-from flexmbd.adapters import common
-from flexmbd.adapters.mujoco_common import fmt, quat_to_rot, rot_to_quat
+from flexmbd.solvers import common
+from flexmbd.solvers.mujoco_common import fmt, quat_to_rot, rot_to_quat
 
 RIGID = True                        # every beam rigid: deformation channels are zero, not compared
 LOOPS = True                        # cut joints closed by equality constraints (`cut_equalities`)
@@ -398,7 +399,7 @@ def samples(case, cuts, loads, m, d, S: dict) -> tuple:
 
 
 def run(case, t_end, settings):
-    from flexmbd.results import Result
+    from flexmbd.harness.results import Result
     t0 = time.perf_counter()
     beam_mass = settings.get("beam_mass", SETTINGS["beam_mass"][1])
     bodies = common.rigid_bodies(case, beam_mass)

@@ -52,11 +52,12 @@ import scipy.linalg
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from flexmbd import channels, cost, flexbody
+from flexmbd.harness import channels, cost
+from flexmbd.fe import flexbody
 from flexmbd.mbd import profiles
-from flexmbd.adapters import common
+from flexmbd.solvers import common
 from flexmbd.fe import frame, solid, stress
-from flexmbd.progress import Progress, Ticking
+from flexmbd.harness.progress import Progress, Ticking
 
 SETTINGS = {
     "scheme": (("exact", "newmark", "modal"), None),   # default: exact on a beam, newmark on a solid
@@ -149,7 +150,7 @@ def with_point_masses(case, M, node=None):
 
 
 def run(case, t_end, settings):
-    from flexmbd.results import Result
+    from flexmbd.harness.results import Result
     t_start = time.perf_counter()
     name, _ = common.clamped_beam(case, solids=True, masses=True)
     body = case.bodies[name]
@@ -250,7 +251,7 @@ def frame_trajectory(case, name: str, t, U, mesh, nodes) -> channels.Trajectory:
 
 def run_solid(case, name: str, t_end, settings, t_start: float):
     """The full-order transient of a clamped solid (module docstring)."""
-    from flexmbd.results import Result
+    from flexmbd.harness.results import Result
     scheme = settings.get("scheme") or "newmark"
     if scheme == "exact":
         raise ValueError("a solid steps by scheme = \"newmark\" or \"modal\" (the exact scheme's exponential of "

@@ -38,7 +38,7 @@ fixed), which Newton's method on the closure of the undeformed bodies fixes, and
 which the closure's velocity equations fix (`close_loops`); every body starts undeformed, moving
 with that rigid-body velocity field.
 
-The trajectory (`flexmbd.channels`) from Exudyn's nodes and elements (docs/formulation.md §7):
+The trajectory (`flexmbd.harness.channels`) from Exudyn's nodes and elements (docs/formulation.md §7):
   deflection   clamped-root body: node displacement in the root node's frame (the cross-section
                frame: it differs from the tangent by the shear angle, ~1e-6 rad here) minus the
                undeformed offset; hinged-hinged body: signed distance from the chord through the
@@ -68,11 +68,13 @@ import time
 
 import numpy as np
 
-from flexmbd import cases, channels, cost, flexbody, results
+from flexmbd import cases
+from flexmbd.harness import channels, cost, results
+from flexmbd.fe import flexbody
 from flexmbd.mbd import profiles
-from flexmbd.adapters import common
-from flexmbd.adapters import exudyn_common as xc
-from flexmbd.adapters.exudyn_common import eii, exu
+from flexmbd.solvers import common
+from flexmbd.solvers import exudyn_common as xc
+from flexmbd.solvers.exudyn_common import eii, exu
 
 SETTINGS = {
     "elements": ("int+", 64),                # per flexible beam

@@ -11,13 +11,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd import build, channels, cost, flexbody, results
-from flexmbd.build import from_case
+from flexmbd.solvers import build
+from flexmbd.harness import channels, cost, results
+from flexmbd.fe import flexbody
+from flexmbd.solvers.build import from_case
 from flexmbd.mbd import constraints, dynamics, integrate
 from flexmbd.mbd.compiled import entry, jit
 from flexmbd.mbd.model import Model, make_data
-from flexmbd.progress import Progress
-from flexmbd.results import Result
+from flexmbd.harness.progress import Progress
+from flexmbd.harness.results import Result
 from flexmbd.version import __version__
 
 SETTINGS = {}           # the case's [integrator] table holds this solver's settings

@@ -62,10 +62,10 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from flexmbd import version
-from flexmbd.errors import InputError
+from flexmbd.core.errors import InputError
 from flexmbd.fe import assembly, element, frame, meshfile, modes, section, solid, stress
 from flexmbd.fe import mesh as fe_mesh
-from flexmbd.files import atomic_write
+from flexmbd.core.files import atomic_write
 
 
 @dataclass(frozen=True)

@@ -34,8 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import flexbody, solvers
-from flexmbd.errors import InputError
+from flexmbd.fe import flexbody
+from flexmbd.harness import registry
+from flexmbd.core.errors import InputError
 
 MEMORY_LIMIT = 3e9          # bytes, of one stage
 SILENT_LIMIT = 10.0         # s, a stage that shows no progress
@@ -115,10 +116,10 @@ def stages(case, solver: str | None, t_end: float | None = None) -> list:
     t_end = case.duration if t_end is None else t_end
     if solver is None:
         return modes(case)
-    if solvers.status_for(case, solver):               # unavailable or not applicable: nothing runs
+    if registry.status_for(case, solver):               # unavailable or not applicable: nothing runs
         return []
-    opt = solvers.settings(case, solver)
-    own = getattr(solvers.module(solver), "stages", None) if solver in solvers.BUILT_IN else None
+    opt = registry.settings(case, solver)
+    own = getattr(registry.module(solver), "stages", None) if solver in registry.BUILT_IN else None
     return (own(case, t_end, opt) if own else []) + [output(case, t_end)]      # a plug-in: its output only
 
 

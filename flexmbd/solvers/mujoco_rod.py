@@ -28,7 +28,7 @@ no inertia at the vertex, in the parent body). A box
 section of half-sizes (extent along y, extent along z) / 2 gives the rod the beam's two bending
 stiffnesses (checked: 23.29 mm / 52.4 mm static tip deflections).
 
-The trajectory (`flexmbd.channels`), from the rod's own vertex positions in the root frame (the
+The trajectory (`flexmbd.harness.channels`), from the rod's own vertex positions in the root frame (the
 parent body's frame, which holds the clamped first edge, i.e. the frame attached to the root and
 tangent to the beam there):
   deflection   position of the rod point at `at` (linear between vertices) minus its undeformed one;
@@ -49,11 +49,12 @@ import time
 import numpy as np
 
 import mujoco
-from flexmbd import cases, channels, cost, results
+from flexmbd import cases
+from flexmbd.harness import channels, cost, results
 from flexmbd.mbd import profiles
-from flexmbd.adapters import common
-from flexmbd.adapters.mujoco_common import fmt, rot_to_quat
-from flexmbd.progress import Progress
+from flexmbd.solvers import common
+from flexmbd.solvers.mujoco_common import fmt, rot_to_quat
+from flexmbd.harness.progress import Progress
 
 SETTINGS = {
     "edges": ("int+", 40),                  # rod edges per beam
@@ -305,7 +306,7 @@ def apply_loads(case, m, d, ne: int, s: np.ndarray) -> None:
 
 
 def run(case, t_end, settings):
-    from flexmbd.results import Result
+    from flexmbd.harness.results import Result
     get = lambda k: settings.get(k, SETTINGS[k][1])
     ne, tc, integrator = get("edges"), get("edge_timeconst"), get("integrator")
     t0 = time.perf_counter()

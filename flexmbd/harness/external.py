@@ -27,9 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbd import cases, channels, files, results, solvers
-from flexmbd.errors import InputError
-from flexmbd.results import Result
+from flexmbd import cases
+from flexmbd.harness import channels, results, registry
+from flexmbd.core import files
+from flexmbd.core.errors import InputError
+from flexmbd.harness.results import Result
 
 # key -> (what it must be, a check)
 META = {
@@ -59,7 +61,7 @@ def check_name(case, name: str) -> None:
     registry uses."""
     if results.bad_name(name):
         raise InputError(f"--solver: an imported result's name: {results.bad_name(name)}")
-    if name in solvers.NAMES:
+    if name in registry.NAMES:
         raise InputError(f"--solver: {name} is one of flexmbd's solvers; name an imported result otherwise "
                          f"(for example {name}-external)")
 

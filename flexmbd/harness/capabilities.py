@@ -1,4 +1,4 @@
-"""Which solver models what: each solver's own `applies` (through `solvers.status_for`) asked on
+"""Which solver models what: each solver's own `applies` (through `registry.status_for`) asked on
 small probe cases, one feature each, so that the table cannot drift from the adapters.
 
 A solver models a feature when it can run at least one of the feature's probes. The probes are
@@ -14,7 +14,8 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
-from flexmbd import cases, solvers
+from flexmbd import cases
+from flexmbd.harness import registry
 
 STEEL = {"E": 2.06e11, "nu": 0.29, "rho": 7820.0}
 BEAM = {"type": "beam", "material": "steel", "length": 1.0, "elements": 8,
@@ -75,15 +76,15 @@ def case_of(p) -> cases.Case:
 def table(names=None) -> dict:
     """{solver: {feature: "yes" / "rigid" / "no" / "unavailable"}} for `names` (default: every
     solver, plug-ins included)."""
-    names = list(names or solvers.NAMES)
+    names = list(names or registry.NAMES)
     probes = {f: [case_of(p) for p in ps] for f, ps in FEATURES.items()}
     out = {}
     for s in names:
-        if solvers.unavailable_reason(s):
+        if registry.unavailable_reason(s):
             out[s] = dict.fromkeys(FEATURES, "unavailable")
             continue
-        rigid = getattr(solvers.module(s), "RIGID", False)
-        out[s] = {f: mark(any(solvers.status_for(c, s) == "" for c in cs), f, rigid) for f, cs in probes.items()}
+        rigid = getattr(registry.module(s), "RIGID", False)
+        out[s] = {f: mark(any(registry.status_for(c, s) == "" for c in cs), f, rigid) for f, cs in probes.items()}
     return out
 
 

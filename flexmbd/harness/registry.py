@@ -38,20 +38,21 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from flexmbd import cases, channels, results, version
-from flexmbd.errors import InputError
-from flexmbd.results import Result
+from flexmbd import cases, version
+from flexmbd.harness import channels, results
+from flexmbd.core.errors import InputError
+from flexmbd.harness.results import Result
 
 # registered name -> module (None: not part of this build)
 BUILT_IN = {
-    "flexmbd": "flexmbd.solver",
-    "fe-linear": "flexmbd.adapters.fe_linear",
-    "analytic": "flexmbd.adapters.analytic",
-    "exudyn-ffrf": "flexmbd.adapters.exudyn_ffrf",
-    "exudyn-beam": "flexmbd.adapters.exudyn_beam",
-    "mujoco-rod": "flexmbd.adapters.mujoco_rod",
-    "pinocchio": "flexmbd.adapters.pinocchio_rigid",
-    "mujoco": "flexmbd.adapters.mujoco_rigid",
+    "flexmbd": "flexmbd.solvers.inhouse",
+    "fe-linear": "flexmbd.solvers.fe_linear",
+    "analytic": "flexmbd.solvers.analytic",
+    "exudyn-ffrf": "flexmbd.solvers.exudyn_ffrf",
+    "exudyn-beam": "flexmbd.solvers.exudyn_beam",
+    "mujoco-rod": "flexmbd.solvers.mujoco_rod",
+    "pinocchio": "flexmbd.solvers.pinocchio_rigid",
+    "mujoco": "flexmbd.solvers.mujoco_rigid",
 }
 GROUP = "flexmbd.solvers"           # entry-point group of solver plug-ins (docs/plugins.md)
 
