@@ -6,7 +6,7 @@ for `report` (page building), `run` with flexmbd (set-up and integration) and wi
 
 It prints one line per command and signal: median and largest latency in seconds, and the exit
 statuses seen (130 / 143: ended by the signal; 0: finished first). The tests check what the
-signal does (tests/test_faults.py); how long it takes is measured here, not asserted there.
+signal does (tests/cli/test_faults.py); how long it takes is measured here, not asserted there.
 """
 
 import os

@@ -19,7 +19,7 @@ K + W^2 (G - M). Nondimensional (L = E I = rho A = 1), 200 elements: the first f
 
 Printed (20 and 40 elements agree to 4 digits at W = 6): Kane's beam (L 10 m, EI 1.4e4 N m^2,
 rho A 1.2 kg/m, T 15 s): 0.2067 / 0.4003 / 0.5744 m at W = 2 / 4 / 6 rad/s with stiffening;
-0.2298 m at W = 2 without (W = 4 and 6 grow without bound). tests/test_stiffening.py compares
+0.2298 m at W = 2 without (W = 4 and 6 grow without bound). tests/mbd/test_stiffening.py compares
 flexmbd's peaks and frequencies with these.
 """
 

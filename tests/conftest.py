@@ -13,25 +13,13 @@ from pathlib import Path
 
 import pytest
 
-# The files that take longest, longest first (measured: 25 to 65 s each on one core, the kernel
-# compiled): they start first, every other file after them in collection order. The first of them
-# compiles the kernel on one worker while another runs the KERNEL_FREE files, which come next; it
-# has more than 2 tests, so that pytest-xdist gives that worker no second file before it ends.
-HEAVY = ["test_report_build.py", "test_faults.py", "test_report_verdicts.py", "test_executor.py", "test_exudyn.py",
-         "test_contract.py", "test_report.py", "test_packaging.py", "test_tip_mass.py", "test_integrate.py",
-         "test_loops.py", "test_pure_python.py", "test_stiffening.py", "test_linearize.py"]
-
-# The files none of whose tests compiles or loads flexmbd's kernel, in this process or any it
-# starts. One worker runs them while the other compiles the kernel (`compiled_kernel`, about 40 s
-# of one core on a fresh checkout); a file here that did need it would compile it a second
-# time alongside, which costs time and changes no result.
-KERNEL_FREE = ["test_study.py", "test_results.py", "test_fe_modes.py", "test_oracle_lagrange.py",
-               "test_reference_solvers.py", "test_invariants.py", "test_exudyn_ffrf_loops.py", "test_fe_solid.py",
-               "test_fe_meshfile.py", "test_fe_element.py", "test_fe_stress.py", "test_figures.py", "test_cases.py",
-               "test_tables.py", "test_spatial.py", "test_mujoco_loops.py", "test_pinocchio_loops.py",
-               "test_exudyn_beam_loops.py", "test_accuracy.py", "test_capabilities.py", "test_completion.py",
-               "test_jit.py", "test_layers.py", "test_profiles.py", "test_progress.py", "test_solvers.py",
-               "test_fe_input.py", "test_inputs_study.py"]
+# Scheduling comes from each file's marker: `heavy(SECONDS)` on the files that take longest (their
+# time measured with both cores busy), `kernel_free` on the files none of whose tests compiles or
+# loads flexmbd's kernel, in this process or any it starts. The longest heavy file starts first and
+# compiles the kernel on one worker while the other runs the kernel-free files; it has more than 2
+# tests, so that pytest-xdist gives that worker no second file before it ends. A kernel-free file
+# that did need the kernel would compile it a second time alongside, which costs time and changes
+# no result.
 
 
 def pytest_configure(config):
@@ -41,14 +29,27 @@ def pytest_configure(config):
         config.option.loadscopereorder = False
 
 
+def seconds(item) -> float:
+    """A test's file's measured time when the file is marked heavy, else 0."""
+    mark = item.get_closest_marker("heavy")
+    return float(mark.args[0]) if mark else 0.0
+
+
+def kernel_free(node) -> bool:
+    return node.get_closest_marker("kernel_free") is not None
+
+
 def pytest_collection_modifyitems(session, config, items):
-    """The first file needing the kernel (it compiles it), the KERNEL_FREE files (another worker
-    runs them meanwhile), the rest of HEAVY, then every other file; a file's tests in their order."""
-    rank = {name: k for k, name in enumerate(HEAVY[:1] + KERNEL_FREE + HEAVY[1:])}
-    order = {}
+    """The longest heavy file (it compiles the kernel), the kernel-free files (another worker runs
+    them meanwhile), the other heavy files longest first, then every other file; a file's tests in
+    their order."""
+    files = {}                                  # file -> (its heavy seconds, kernel-free, its place)
     for item in items:
-        order.setdefault(item.path.name, len(order))
-    items.sort(key=lambda item: (rank.get(item.path.name, len(rank)), order[item.path.name]))
+        files.setdefault(item.path, (seconds(item), kernel_free(item), len(files)))
+    heavy = sorted((f for f, (s, _, _) in files.items() if s), key=lambda f: (-files[f][0], files[f][2]))
+    free = [f for f, (s, free, _) in files.items() if free and not s]
+    rank = {f: k for k, f in enumerate(heavy[:1] + free + heavy[1:])}
+    items.sort(key=lambda item: (rank.get(item.path, len(rank)), files[item.path][2]))
 
 
 @contextlib.contextmanager
@@ -106,8 +107,8 @@ def compiled_kernel(shared_dir) -> None:
 @pytest.fixture(scope="module", autouse=True)
 def _kernel_first(request):
     """The kernel compiled before a module's first fixture or test (`compiled_kernel`), unless
-    none of the module's tests needs it (KERNEL_FREE)."""
-    if request.path.name not in KERNEL_FREE:
+    the module is marked kernel_free."""
+    if not kernel_free(request.node):
         request.getfixturevalue("compiled_kernel")
 
 
@@ -140,7 +141,7 @@ def cantilever_report(shared_dir, compiled_kernel) -> Path:
 def cantilever_run(shared_dir):
     """cantilever_run(solver): a fresh copy of the Result of `registry.run` of `solver` on the shipped
     cantilever_step (its whole duration), run once per session. flexmbd's run needs the kernel
-    (compiled before any module outside KERNEL_FREE)."""
+    (compiled before any module not marked kernel_free)."""
     from flexmbd import cases
     from flexmbd.harness import registry
 

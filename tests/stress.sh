@@ -5,7 +5,7 @@
 #
 #   tests/stress.sh [N [PYTEST-ARGUMENTS...]]
 #
-# N = 20 by default; the arguments (default: tests/test_faults.py tests/test_results.py) go to
+# N = 20 by default; the arguments (default: tests/cli/test_faults.py tests/harness/test_results.py) go to
 # pytest after -m "signals and not slow"; PYTHON=... for another interpreter.
 set -u
 n=${1:-20}
@@ -13,7 +13,7 @@ shift $(($# > 0))
 cd "$(dirname "$0")/.."
 python=${PYTHON:-.venv/bin/python}
 tests=("$@")
-[ ${#tests[@]} -gt 0 ] || tests=(tests/test_faults.py tests/test_results.py)
+[ ${#tests[@]} -gt 0 ] || tests=(tests/cli/test_faults.py tests/harness/test_results.py)
 pytest=("$python" -m pytest -q -p no:cacheprovider -m "signals and not slow" "${tests[@]}")
 
 busy=()

@@ -2,6 +2,7 @@
 below, every package is one layer, and `import flexmbd` (or a name of its `__init__`, which
 re-exports the API) counts as an import of the top layer."""
 
+import pytest
 import ast
 import re
 import subprocess
@@ -10,6 +11,8 @@ from pathlib import Path
 
 import flexmbd
 from flexmbd.mbd.compiled import jit
+
+pytestmark = pytest.mark.kernel_free
 
 ROOT = Path(flexmbd.__file__).resolve().parent
 

@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy
 import pytest
 
+pytestmark = pytest.mark.heavy(12)       # seconds, measured with both cores busy (tests/conftest.py)
+
 ROOT = Path(__file__).resolve().parent.parent
 SOURCES = ("flexmbd", "cases", "references", "pyproject.toml", "README.md")     # what the wheel is built from
 FAST = "analytic,fe-linear"             # the cantilever's reference and a closed form: no compilation

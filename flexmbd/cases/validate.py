@@ -4,7 +4,7 @@ between sections, and rejects unknown keys with a "did you mean" hint. Any failu
 `InputError` with one line: ``FILE: dotted.key: what was expected``.
 
 Solver names and the `[solvers.NAME]` tables are checked by the solver registry
-(`solvers.check`), where the solvers are known: loading a case imports no solver.
+(`registry.check`), where the solvers are known: loading a case imports no solver.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from flexmbd.cases.schema import (BEAM, CASE, CHANNEL_KEYS, DERIVED, JOINT_DOFS,
 from flexmbd.fe import modes as fe_modes
 from flexmbd.core.errors import InputError, printable
 from flexmbd.fe.solid import fits_rigid
-from flexmbd.core.resources import CASES as CASES_DIR      # the shipped cases (resources.py)
+from flexmbd.core.resources import CASES as CASES_DIR      # the shipped cases (core/resources.py)
 
 # ---------------------------------------------------------------------------------------------
 # finding and reading
@@ -118,7 +118,7 @@ def _loop_method(d: dict, named: bool, where: str) -> None:
     """A case with a loop joint integrates it with one of LOOP_METHODS: LOOP_METHOD when it names
     no `integrator.method`; another method named is refused. The `[integrator]` table is flexmbd's
     settings (no other solver reads its method), and, as a `[solvers.NAME]` table of a solver not
-    run is checked all the same (`solvers.check`), it is checked whichever solver runs the case."""
+    run is checked all the same (`registry.check`), it is checked whichever solver runs the case."""
     loop = next((name for name, j in d["joints"].items() if j["loop"]), None)
     if loop is None:
         return

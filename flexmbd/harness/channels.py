@@ -21,7 +21,7 @@ and, beside the channels, the deformed-shape snapshots (`shapes`): every compone
 deflection of `report.shape_points` evenly spaced points along each flexible beam, their positions
 in the global frame and the stress at their sections, at the output samples nearest to the
 instants `report.snapshots`, with the global poses of the other bodies there (`poses`), stored
-with the result (`solvers.run`). The global frame comes from the poses a solver reports
+with the result (`registry.run`). The global frame comes from the poses a solver reports
 (`Trajectory.poses`, `placed`).
 
 A beam that is not flexible in a solver's model (declared rigid, or every beam of a rigid-body
@@ -610,7 +610,7 @@ def failure(case, traj: Trajectory) -> tuple[int, results.Status] | None:
     checks while it runs, at each output sample, to stop there instead of integrating a run that
     has already failed. Its beams need only their points and root rotation; a beam `traj` has no
     Beam for is rigid (its deflections zero). The whole rule is applied again to every channel
-    once the run has ended (`solvers.run`)."""
+    once the run has ended (`registry.run`)."""
     bound = bounds(case)
     chans = {name: deflection(traj.beams[c.body], c.at, "xyz".index(c.component))
              for name, c in case.channels.items() if name in bound and c.body in traj.beams}

@@ -14,7 +14,7 @@ size will go: a model that nears a singular configuration (a beam so soft that i
 it take far smaller steps than estimated, which the progress bar then shows.
 
 A solver's own stages are its module's knowledge (`stages(case, t_end, settings)`: the in-house
-integrator's in solver.py, each peer's in its adapter), built from the shared estimates here (the
+integrator's in solvers/inhouse.py, each peer's in its adapter), built from the shared estimates here (the
 FE modes, fixed steps, the key that drives a step count); this module adds the output table every
 solver writes, and a plug-in is estimated by that alone.
 
@@ -112,7 +112,7 @@ def _duration(s: float) -> str:
 def stages(case, solver: str | None, t_end: float | None = None) -> list:
     """Every costly stage of `solver` on `case` up to t_end (default: the case's duration): a
     built-in solver's own, from its module (`stages(case, t_end, settings)`: flexmbd's in
-    solver.py, each peer's in its adapter), and the output table every solver writes (`output`)."""
+    solvers/inhouse.py, each peer's in its adapter), and the output table every solver writes (`output`)."""
     t_end = case.duration if t_end is None else t_end
     if solver is None:
         return modes(case)
@@ -304,7 +304,7 @@ def solid_frequency(b) -> float:
 
 
 def system(case, about: str = "initial") -> list:
-    """`flexmbd modes --system` (linearize.py) beyond the FE modes: the state matrix by central
+    """`flexmbd modes --system` (solvers/linearize.py) beyond the FE modes: the state matrix by central
     differences, 4 evaluations per free coordinate and one more for the mass matrix of the labels
     (`linearize.mass_matrix`; `evaluation` each), with progress shown; its dense eigenproblem, 2n x 2n, no progress (one LAPACK call:
     7e-9 (2n)^3 s, measured with numpy's eig of random 400^2 to 1600^2 matrices on 2 busy cores;

@@ -77,7 +77,7 @@ class Progress:
 class Ticking:
     """A bar for one call that says nothing while it runs (a dense LAPACK eigensolution, which
     releases the GIL): a thread draws the elapsed time against the call's estimate `seconds`
-    (`cost.py`'s) until the `with` block ends."""
+    (`harness/cost.py`'s) until the `with` block ends."""
 
     def __init__(self, seconds: float, label: str, after_s: float = 2.0):
         self.bar = Progress(max(seconds, 1.0), label, after_s=after_s, unit="s (estimated)")

@@ -207,7 +207,7 @@ def misshapen(arrays: dict) -> str:
 class Result:
     """One run. `t` (n,) s; `channels` name -> (n,) array in SI units; a failed run keeps the
     samples computed before it failed. `trajectory` is the solver-neutral trajectory the
-    channels were computed from, handed by a solver's run to `solvers.run` (never stored)."""
+    channels were computed from, handed by a solver's run to `registry.run` (never stored)."""
 
     solver: str
     case: str

@@ -248,7 +248,7 @@ def truncation(fp: float, f_sys) -> str:
 def peak_table(case, results: dict, modes: dict, output_dt: float, tol: float = 0.02,
                others=()) -> list[dict]:
     """Identified spectral peaks of each deflection channel, each matched to the system modes that
-    move its point, `modes[channel]` = [(frequency Hz, label)] (linearize.py): rows (solver,
+    move its point, `modes[channel]` = [(frequency Hz, label)] (solvers/linearize.py): rows (solver,
     channel, f_identified, mode, f_system, difference). Peaks are sought above half the lowest of
     those modes (below lies the forced, quasi-static response). A peak within `tol` of a mode below
     the Nyquist frequency 1 / (2 dt) is named after it; else one within `tol` of the alias of a mode

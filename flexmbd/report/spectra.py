@@ -26,7 +26,7 @@ SYSTEM = {}     # (case name, case hash) -> system_modes(case), once per process
 
 def system_modes(case) -> list:
     """[(frequency Hz, label)] of the case's linearized system about its initial state
-    (linearize.py), computed once per case version. The command line computes them before the
+    (solvers/linearize.py), computed once per case version. The command line computes them before the
     pages are built (`prepare`), where a signal may end the process at once."""
     from flexmbd.solvers import linearize
     key = (case.name, case.sha256)

@@ -721,7 +721,7 @@ def add_cut(mbs, items: dict, case, fbs: dict, j: cases.Joint) -> dict:
 def axial_rules(case, fbs) -> dict:
     """Beam name -> where its quasi-static axial force enters (`channels.axial_rule`): this model
     has no geometric stiffening, so the axial load is always one of its validity measures. A
-    solid: nowhere (its stresses are the modes' own, flexmbd's `solver.trajectory` likewise)."""
+    solid: nowhere (its stresses are the modes' own, flexmbd's `inhouse.trajectory` likewise)."""
     return {n: (False, False) if case.bodies[n].type == "solid" else
             channels.axial_rule(False, bool(case.stress_sections(n)), fb) for n, fb in fbs.items()}
 

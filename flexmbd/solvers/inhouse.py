@@ -1,4 +1,4 @@
-"""`flexmbd`, the in-house solver, behind the same interface as every other solver (solvers.py):
+"""`flexmbd`, the in-house solver, behind the same interface as every other solver (harness/registry.py):
 the case's Model integrated in time, reported as a `channels.Trajectory` of its states. The Model
 is that of the tree the modal solvers model (`case.modelled`: a beam with `segments` is several bodies);
 the trajectory reports every beam of the case whole."""
@@ -164,7 +164,7 @@ def watch(case, model: Model):
     deflection channels of new output samples (`channels.failure`) from the modal coordinates of
     the flexible bodies they name (`shape`); None when there is nothing to check. The failures it
     returns are kept in its `found` (`status_of` reads their cause). A beam split into segments is
-    judged after the run only (`solvers.run`)."""
+    judged after the run only (`registry.run`)."""
     bound = channels.bounds(case)
     bodies = list(dict.fromkeys(c.body for n, c in case.channels.items() if n in bound and c.body in model.bodies))
     if not bodies:

@@ -11,7 +11,7 @@ numbers as floats, with no text round trip.
 
 `build`, `build_frames`, `to_pin_q`, `to_pin_v`, `from_pin_v` convert a rigid flexmbd Model
 itself; they serve the checks of flexmbd's recursive algorithms on given Model arrays
-(tests/test_dynamics.py, tests/test_integrate.py, `flexmbd bench`), not the peer.
+(tests/mbd/test_dynamics.py, tests/mbd/test_integrate.py, `flexmbd bench`), not the peer.
 
 Conventions converted here and nowhere else: Pinocchio's spatial vectors are [linear; angular],
 its quaternions [x, y, z, w] (flexmbd: [w, x, y, z]), its free-flyer configuration

@@ -1,4 +1,4 @@
-"""Writes the mesh files that tests/test_fe_meshfile.py reads, each set from one mesh:
+"""Writes the mesh files that tests/fe/test_fe_meshfile.py reads, each set from one mesh:
 
     .venv/bin/python tests/data/make_block.py        # rewrites the nine files next to this script
 

@@ -75,7 +75,7 @@ def cmd_modes(args) -> int:
 
 
 def system_modes(case, about: str, as_json: bool) -> int:
-    """The assembled system's frequencies, damping and labels (linearize.py), with a progress bar
+    """The assembled system's frequencies, damping and labels (solvers/linearize.py), with a progress bar
     past a couple of seconds."""
     from flexmbd.solvers import linearize
     from flexmbd.mbd.compiled import jit

@@ -2,7 +2,7 @@
 set (the nodes of its cells, facets included) and, for volume groups, an element set. meshio does
 not keep Gmsh's node and element numbers: node_ids are the rows + 1 and the 3-D elements are
 numbered 1, 2, ... in the file's order. meshio already gives hexahedron20 and tetra10 in VTK's
-order, which is fe.mesh's, so no reordering is needed here (tests/test_fe_meshfile.py checks it
+order, which is fe.mesh's, so no reordering is needed here (tests/fe/test_fe_meshfile.py checks it
 against a file in Gmsh's order). No line numbers: a message names the file only."""
 
 from __future__ import annotations

@@ -99,7 +99,7 @@ def cache_dir() -> Path:
 
 
 # numba reads its settings again from the environment whenever a NUMBA_ variable differs from what
-# it read last (a worker started with NUMBA_NUM_THREADS=1: executor.py); a CACHE_DIR set only on
+# it read last (a worker started with NUMBA_NUM_THREADS=1: harness/executor.py); a CACHE_DIR set only on
 # numba.config would then be lost. Set in the environment, it holds through every reload (and for
 # child processes).
 os.environ["NUMBA_CACHE_DIR"] = str(cache_dir())

@@ -22,7 +22,7 @@ Methods (the case's `[integrator] method`):
 A state or acceleration that is not finite, or a velocity beyond DIVERGED (the divergence rule's
 bound on a velocity state), ends the run as failed (`Ended`: why, and when) at the time it
 happened; every output instant reached before it is kept. A caller's `check` of the output
-samples (the divergence rule on the channels: `solver.watch`) ends it too, at the first sample it
+samples (the divergence rule on the channels: `inhouse.watch`) ends it too, at the first sample it
 fails (kept, for the rule after the run to cut), judged as the samples come: after each chunk of
 the compiled integrators, at each sample of the Python loops (adams, rk4).
 """

@@ -21,7 +21,7 @@ DIVERGED = 1e8      # |v| beyond this (rad/s, m/s, modal units) counts as diverg
 
 class Ended(NamedTuple):
     """How a run of the integrators ended: `ok`, or failed for `why` at `t` (s; None: not known).
-    The harness makes it a run's status (`solver.run`)."""
+    The harness makes it a run's status (`inhouse.run`)."""
 
     ok: bool = True
     why: str = ""
