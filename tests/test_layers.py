@@ -147,3 +147,29 @@ def test_loading_a_case_imports_no_solver():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+LONGEST = 80        # lines a function may take, its def to its last line (generated tables aside: none today)
+
+
+def function_lengths() -> list:
+    """(lines, 'module:function') of every function of the package, longest first."""
+    rows = []
+    for rel, p in modules().items():
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                rows.append((node.end_lineno - node.lineno + 1, f"{rel}:{node.name}"))
+    return sorted(rows, reverse=True)
+
+
+def test_no_function_is_longer_than_80_lines():
+    """A function that long does several jobs; the five longest are shown whether or not one is over."""
+    rows = function_lengths()
+    assert rows[0][0] <= LONGEST, rows[:5]
+    assert len(rows) > 500 and rows[-1][0] >= 1
+
+
+def test_the_length_count_sees_a_long_function():
+    source = "def f():\n" + "    x = 1\n" * 90
+    node = ast.parse(source).body[0]
+    assert node.end_lineno - node.lineno + 1 == 91 > LONGEST

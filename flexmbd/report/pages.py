@@ -1,6 +1,18 @@
 """The report's pages: one page per case (`write_case`: figures, spectra, mode shapes, timing,
 accuracy and provenance of its stored results) and the index (`write_index`: every run's verdict,
 links, the latest work-precision run from the benchmark history).
+
+A case page is built in three steps:
+
+1. its table of numbers (`numbers`, a `CasePage` built once): the stored results, the accuracy
+   rows, the system modes and identified peaks, each run's outcome, the timing and provenance
+   rows;
+2. its sections, in page order by construction: `SECTIONS` lists one builder per place on the
+   page, each giving the sections it places there (none when the case has nothing to show there),
+   drawing its figures from the table;
+3. the page's HTML and Markdown, both filled from the same values through the templates of
+   `templates` (prose, section titles, table heads and the page's frame): a value either reads the
+   same in both formats or is given in the form of each (`Both`: an image, a table, a paragraph).
 """
 
 from __future__ import annotations
@@ -9,7 +21,10 @@ import datetime
 import html
 import json
 import re
+from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -18,6 +33,7 @@ from flexmbd.harness import metrics, results, registry
 from flexmbd.core import resources
 from flexmbd.core.files import atomic_write
 from flexmbd.report import accuracy, animation, convergence, fields, figures, loading, shapes, spectra, tables
+from flexmbd.report import templates as T
 
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
@@ -32,13 +48,67 @@ table.matrix td{text-align:center;white-space:nowrap}table.matrix td:first-child
 table.matrix a{color:inherit}.left2 :is(td,th):nth-child(-n+2),.left3 :is(td,th):nth-child(-n+3),
 .left4 :is(td,th):nth-child(-n+4),.left9 :is(td,th){text-align:left}.why{border-left:4px solid #4b1f8f;padding-left:0.6em}""" + tables.icon_css()
 
+FLEXIBLE = "flexmbd"                    # the flexible model set against a rigid one ("Flexible minus rigid")
+RIGID = ("pinocchio", "mujoco")         # the rigid models it is set against, the first that ran
+DEFLECTION = ("deflection",)            # the channel kinds of each channel section
+STRESS = ("stress_vm",)
+ANGLES = ("joint_angle", "energy", "reaction_force", "reaction_moment")
 
-def plain(text: str) -> str:
-    """A page's HTML paragraph as Markdown: <code> as backticks, other tags dropped."""
-    return re.sub(r"<[^>]+>", "", re.sub(r"</?code>", "`", text.replace("</p><p", "</p>\n\n<p")))
+
+class Both(NamedTuple):
+    """A piece of a page in its two formats: the same content as HTML and as Markdown."""
+    html: str
+    md: str
 
 
-def mode_shapes(case, d: Path) -> tuple[str, str] | None:
+def plain(text: str, code: str = "`") -> str:
+    """A page's HTML paragraph as Markdown: <code> as backticks (as `code`), other tags dropped."""
+    return re.sub(r"<[^>]+>", "", re.sub(r"</?code>", code, text.replace("</p><p", "</p>\n\n<p")))
+
+
+def fill(form, **values) -> Both:
+    """The HTML and the Markdown of a template pair (`templates.Form` or `templates.Section`) from
+    one set of values: a `Both` gives each format its own form, any other value reads the same."""
+    pick = lambda k: {n: v[k] if isinstance(v, Both) else v for n, v in values.items()}
+    return Both(form.html.substitute(pick(0)), form.md.substitute(pick(1)))
+
+
+def section(sec: T.Section, **values) -> tuple[str, str, str]:
+    """A page section (title, html, markdown) from its templates (`fill`)."""
+    return (sec.title, *fill(sec, **values))
+
+
+def images(names: list) -> Both:
+    """Figures (their PNG names, beside the page), one after the other."""
+    shown = [fill(T.IMAGE, src=i) for i in names]
+    return Both("".join(s.html for s in shown), "".join(s.md for s in shown))
+
+
+def table(head: list, rows: list[list], left: int = 1) -> Both:
+    """A table of the page (`tables.html_table`, its first `left` columns aligned left; `tables.markdown`)."""
+    return Both(tables.html_table(head, rows, left=left), tables.markdown(head, rows))
+
+
+def paragraph(text: str) -> str:
+    """A paragraph of plain text as HTML (escaped)."""
+    return T.PARAGRAPH.substitute(text=html.escape(text))
+
+
+def retained(case, name: str) -> tuple:
+    """(the reduced body whose modes are drawn for beam `name`, its figure's title, the note on its
+    segments as HTML: '' for an unsplit beam)."""
+    segs = case.segments.get(name, ())
+    if not segs:
+        fb = case.reduced(name)
+        return fb, T.BODY_TITLE.substitute(case=case.name, name=name, boundary=fb.boundary, length=f"{fb.length:g}"), ""
+    fb = case.split.reduced(segs[0])
+    title = T.SEGMENTS_TITLE.substitute(case=case.name, count=len(segs), name=name, root=segs[0],
+                                        boundary=fb.boundary, length=f"{fb.length:g}")
+    return fb, title, T.SEGMENTS_NOTE.substitute(name=html.escape(name), count=len(segs), length=f"{fb.length:g}",
+                                                 root=html.escape(segs[0]))
+
+
+def mode_shapes(case, d: Path) -> Both | None:
     """The "Mode shapes" section (html, markdown) of a case page: one figure per flexible body with
     retained modes (`figures.mode_shapes`, written into d); None when no body has any.
 
@@ -48,33 +118,16 @@ def mode_shapes(case, d: Path) -> tuple[str, str] | None:
     `flexbody.for_case` returns for it) are in no modal solver's model: neither drawn nor computed."""
     figs, notes, bcs = [], [], set()
     for name in [b.name for b in case.tree if b.kind == "beam"]:
-        segs = case.segments.get(name, ())
-        if segs:
-            fb = case.split.reduced(segs[0])
-            title = (f"{case.name}: retained modes of each of the {len(segs)} segments of {name} "
-                     f"({segs[0]} shown; {fb.boundary}, {fb.length:g} m)")
-            notes.append(f"{html.escape(name)} is split into {len(segs)} segments of {fb.length:g} m joined rigidly "
-                         f"(<code>segments = {len(segs)}</code>): the modal solvers give each segment the same "
-                         f"retained modes, drawn here for the root segment {html.escape(segs[0])}.")
-        else:
-            fb = case.reduced(name)
-            title = f"{case.name}: retained modes of {name} ({fb.boundary}, {fb.length:g} m)"
+        fb, title, note = retained(case, name)
+        notes += [note] if note else []
         if fb.n_modes:
             figs.append(figures.mode_shapes(fb, title, d / f"modes_{name}.png"))
             bcs.add(fb.boundary)
     if not figs:
         return None
-    note = ("<p>The retained modes of each flexible body under its boundary condition ("
-            + ", ".join(sorted(bcs)) + "), as the modal solvers reduce it: the node displacements along the undeformed "
-            "beam, transverse y and z (cubic between the nodes), and the axial displacement or the torsion "
-            "angle of a mode led by it, each mode scaled to a largest value of 1 and titled with its frequency. "
-            "These are the body's own modes, not the system's: the system modes (joints and bodies together, "
-            "linearized about the initial state) are those the spectra are matched against, listed by "
-            f"<code>flexmbd modes {html.escape(case.name)} --system</code>.</p>")
-    if notes:
-        note += "<p>" + " ".join(notes) + "</p>"
-    return ("".join(f"<p><img src='{i}' alt='{i}'></p>" for i in figs) + note,
-            "".join(f"![{i}]({i})\n\n" for i in figs) + plain(note) + "\n")
+    note = T.MODES_NOTE.substitute(conditions=", ".join(sorted(bcs)), case=html.escape(case.name))
+    note += T.PARAGRAPH.substitute(text=" ".join(notes)) if notes else ""
+    return fill(T.MODES, images=images(figs), note=Both(note, plain(note)))
 
 
 def timing_rows(res: dict, t_end: float) -> list[list]:
@@ -109,32 +162,28 @@ def defaults_note(case) -> str:
     """One line saying which of the reference and the tolerances are defaults, not the case file's."""
     rep, said = case.report, []
     if "reference" in rep.defaults:
-        said.append(f"the reference {rep.reference} is the default (the first independent solver that runs "
-                    f"the case, in the order {', '.join(registry.REFERENCES)})")
+        said.append(T.DEFAULT_REFERENCE.substitute(reference=rep.reference, order=", ".join(registry.REFERENCES)))
     if "tolerances" in rep.defaults:
-        said.append("the tolerances are the defaults of each channel's kind ("
-                    + ", ".join(f"{k} {v:g}" for k, v in cases.TOLERANCES.items()) + ")")
-    return "Defaults, not the case file's choices: " + "; ".join(said) + " (cases/README.md, [report])."
+        said.append(T.DEFAULT_TOLERANCES.substitute(
+            tolerances=", ".join(f"{k} {v:g}" for k, v in cases.TOLERANCES.items())))
+    return T.DEFAULTS.substitute(said="; ".join(said))
 
 
-def runs_section(case, runs: list) -> tuple[str, str]:
+def runs_section(case, runs: list) -> Both:
     """The "Runs" section (html, markdown) of a case page: each run's verdict (`runs`:
     accuracy.Outcome) with its validity flag, and for each run that diverged or was aborted why
     (its status), with the case's explanation of it where the case gives one
     (report.expected_failures)."""
-    head = ["solver", "verdict"]
-    rows = [[o.solver, o.verdict] for o in runs]
-    why_html, why_md = [], []
+    why = []
     for o in runs:
         if o.verdict.kind not in results.CAUSES:
             continue
-        said = case.report.expected_failures.get(o.solver, "")
-        text = f"**{o.solver}**: {accuracy.status_text(o.status)}."
-        why_html.append(f"<p class='why'><b>{html.escape(o.solver)}</b>: {html.escape(accuracy.status_text(o.status))}."
-                        + (f" {html.escape(' '.join(said.split()))}" if said else "") + "</p>")
-        why_md.append(text + (f" {' '.join(said.split())}" if said else "") + "\n")
-    return (tables.html_table(head, rows, left=2) + "".join(why_html),
-            tables.markdown(head, rows) + ("\n" + "\n".join(why_md) if why_md else ""))
+        said, status = case.report.expected_failures.get(o.solver, ""), accuracy.status_text(o.status)
+        text = " ".join(said.split())
+        why.append(fill(T.WHY, solver=Both(html.escape(o.solver), o.solver), status=Both(html.escape(status), status),
+                        said=Both(f" {html.escape(text)}", f" {text}") if said else ""))
+    return fill(T.RUNS, table=table(T.RUNS_HEAD, [[o.solver, o.verdict] for o in runs], left=2),
+                why=Both("".join(w.html for w in why), "\n" + "\n".join(w.md for w in why) if why else ""))
 
 
 def matrix(runs: list) -> tuple[str, str]:
@@ -166,17 +215,75 @@ def matrix(runs: list) -> tuple[str, str]:
             legend + "\n\n" + tables.markdown(["case"] + names, rows_md))
 
 
-def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True, up: str = "..") -> dict:
-    """One case's page from the results under `out`, written into `stage/CASE/`; it links to the
-    report's index when there is one (`indexed`), and says how to build one otherwise; `up` is the
-    report folder seen from the page's folder (OUT/CASE: '..'):
-    {"accuracy": its accuracy rows, "runs": each run's accuracy.Outcome}."""
+# ---------------------------------------------------------------------------------------------
+# a case page: its table of numbers, its sections in order, its HTML and Markdown
+
+
+@dataclass
+class CasePage:
+    """The table of one case page, built once (`numbers`): where the page goes, its stored results
+    and every number it shows; the sections only draw and format it. The sections that other
+    modules make (shapes, stress field, animation) are made once, where the page first places them."""
+    case: object
+    out: Path               # the report folder, whose results the page shows
+    folder: Path            # the page's folder, its figures beside it
+    up: str                 # the report folder seen from the page's folder
+    indexed: bool           # whether the report has an index to link
+    warn: object
+    res: dict               # solver -> its stored Result
+    ok: dict                # those that ran to the end
+    mods: dict              # solver -> its module (None: an imported result)
+    reference: str
+    ungraded: str           # why nothing is graded ('' when something is)
+    acc: list               # the accuracy rows (`accuracy.rows`)
+    runs: list              # each run's accuracy.Outcome
+    dt: float               # the output step
+    system: list            # (frequency, label) of the system modes
+    frozen: object          # the frozen-time modes (`spectra.frozen_modes`), or None
+    peaks: list             # the identified spectral peaks (`accuracy.peak_table`)
+    rigid: str | None       # the rigid model set against FLEXIBLE, if one ran
+    timing: list            # `timing_rows`
+    provenance: list        # `provenance_rows`
+
+    @property
+    def nyquist(self) -> float:
+        """The Nyquist frequency of the output step: the spectra end there."""
+        return 0.5 / self.dt
+
+    @cached_property
+    def shape(self) -> tuple | None:
+        """The deformed-shape section (`shapes.section`), None when no result holds shapes."""
+        return shapes.section(self.case, figures.drawable(self.res), self.folder, self.reference)
+
+    @cached_property
+    def field(self) -> tuple | None:
+        """The solids' stress-field section (`fields.section`), None when no result holds a field."""
+        return fields.section(self.case, self.ok, self.folder, self.reference)
+
+    @cached_property
+    def movie(self) -> tuple | None:
+        """The animation section (`animation.section`), None when `flexmbd animate` wrote none."""
+        return animation.section(self.out, self.case, self.up)
+
+
+def outcomes(case, res: dict, acc: list) -> list:
+    """Each run's accuracy.Outcome: its verdict, worst channel and its difference (none for the
+    reference), its solve time (NaN when it did not run)."""
+    ref = case.report.reference
+    return [accuracy.Outcome(case.name, s, r.status, accuracy.verdict(r.status, s, ref, acc),
+                             accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s if loading.ran(r) else np.nan,
+                             accuracy.worst_channel(acc, s) if s != ref else "")
+            for s, r in res.items()]
+
+
+def numbers(out: Path, stage: Path, case, names, warn, indexed: bool = True, up: str = "..") -> CasePage:
+    """The table of `case`'s page (`CasePage`) from the results under `out`, the page going to
+    `stage/CASE/`; `warn` is told of results that cannot be used and of a case that grades nothing."""
     names = loading.page_solvers(out, case, names)
     res = loading.load_results(out, case, names, warn)
     ok = {s: r for s, r in res.items() if r.ok}
     mods = {s: registry.module(s) if s in registry.MODULES else None for s in res}     # None: imported
     freqs = spectra.fe_frequencies(case)
-    ref = case.report.reference
     ungraded = accuracy.ungraded(case)
     if ungraded and warn:
         warn(f"warning: {case.path}: nothing graded: {ungraded}")
@@ -187,137 +294,171 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True, 
     frozen = spectra.frozen_modes(case, ok)
     peaks = accuracy.peak_table(case, ok, own, dt,
                                 others=[fine] + ([spectra.frozen_channel_modes(case, frozen[1])] if frozen else []))
-    runs = [accuracy.Outcome(case.name, s, r.status, accuracy.verdict(r.status, s, ref, acc),
-                             accuracy.worst(acc, s) if s != ref else np.nan, r.wall_s if loading.ran(r) else np.nan,
-                             accuracy.worst_channel(acc, s) if s != ref else "")
-            for s, r in res.items()]
-    d = stage / case.name
-    sections = [("Runs", *runs_section(case, runs))]          # (title, html, markdown)
+    return CasePage(case=case, out=out, folder=stage / case.name, up=up, indexed=indexed, warn=warn, res=res, ok=ok,
+                    mods=mods, reference=case.report.reference, ungraded=ungraded, acc=acc,
+                    runs=outcomes(case, res, acc), dt=dt, system=system, frozen=frozen, peaks=peaks,
+                    rigid=next((s for s in RIGID if s in ok), None), timing=timing_rows(res, case.duration),
+                    provenance=provenance_rows(res))
 
-    # channels, grouped as a reader looks for them
-    groups = [("Deflection", ("deflection",)), ("Stress (von Mises at the stress points)", ("stress_vm",)),
-              ("Joint angles, energy and reactions", ("joint_angle", "energy", "reaction_force", "reaction_moment"))]
-    for title, kinds in groups:
-        chans = [n for n, c in case.channels.items() if c.kind in kinds]
-        if not chans:
-            continue
-        shown = lambda n: {s: r for s, r in figures.drawable(res).items() if accuracy.comparable(case, mods[s], n)}
-        imgs = [figures.channel(case, n, shown(n), ref, d / f"{n}.png") for n in chans]
-        sections.append((title, "".join(f"<p><img src='{i}' alt='{i}'></p>" for i in imgs),
-                         "".join(f"![{i}]({i})\n\n" for i in imgs)))
-    shape = shapes.section(case, figures.drawable(res), d, ref)     # the deformed shapes, after the deflections
-    if shape:
-        sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0] == "Deflection"), 0), shape)
-    field = fields.section(case, ok, d, ref)                # a solid's stress field, after its stress channels
-    if field:
-        sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0].startswith("Stress")), len(sections)),
-                        field)
-    movie = animation.section(out, case, up)                # the animation `flexmbd animate` wrote, if any
-    if movie:
-        sections.insert(next((k + 1 for k, sec in enumerate(sections) if sec[0] == "Deformed shape at chosen instants"),
-                             len(sections)), movie)
 
-    # spectra of the deflection channels, with the identified peaks and the system's modes
-    spec = [figures.spectra(case, n, ok, [f for f, _ in system], 0.5 / dt, d / f"fft_{n}.png",
-                            peaks=[p["f_identified"] for p in peaks if p["channel"] == n])
-            for n, c in case.channels.items() if c.kind == "deflection" and system]
-    if spec:
-        head = ["solver", "channel", "identified [Hz]", "system mode", "system [Hz]", "difference"]
-        rows = [[p["solver"], p["channel"], p["f_identified"], p["mode"], p["f_system"], p["difference"]] for p in peaks]
-        high = [(f, lab) for f, lab in system if f > 0.5 / dt]
-        note = ("<p>Hann window, zero-padded 8x; a peak must stand clear of the main lobe and side lobes of "
-                "every larger peak; refined by a parabola through the log-amplitudes. Each peak is named after "
-                "the nearest frequency within 2 % of the system modes that move the channel's point in its "
-                "direction: the case's equations (joint and modal coordinates) linearized about the initial "
-                "state (<code>flexmbd modes CASE --system</code>, docs/formulation.md §10). A peak none of "
-                f"them explains is matched against the same system with {spectra.FINER} times the retained modes per "
-                "beam (labels ending '(N modes)'): such a peak, of a finer solver, is a mode the retained set "
-                "truncates or places too high. Peaks below half "
-                "the lowest of them are the forced, quasi-static response and are not listed. A system whose "
-                "configuration or spin changes much during the run (a swinging double pendulum, a spun-up beam) "
-                "vibrates at shifting frequencies: its peaks are matched last against the system linearized about "
-                "the run's state at evenly spaced instants (free joints at their recorded angles and rates, driven "
-                "ones on their profile, modal coordinates at rest; labels ending 'at t = T s (frozen)'), a "
-                "frozen-time approximation. A vibration whose "
-                "amplitude the swing modulates also shows sidebands at its frequency plus and minus the swing's, "
-                "which no mode explains.</p>")
-        if high:
-            note += (f"<p class='outside'>{len(high)} system mode{'s lie' if len(high) > 1 else ' lies'} above "
-                     f"the Nyquist frequency "
-                     f"{0.5 / dt:.4g} Hz of the {dt * 1e3:.4g} ms output (the lowest: "
-                     + ", ".join(f"{f:.4g} Hz, {html.escape(lab)}" for f, lab in high[:3])
-                     + "); sampled without filtering, they show as aliases at |f - k / dt|, which the table "
-                       "names.</p>")
-        if frozen:
-            shown = [f for f, _ in system if f <= 0.5 / dt]
-            fmax = min(0.5 / dt, 1.15 * max(shown)) if shown else 0.5 / dt
-            spec.append(figures.frozen(case, frozen[0], frozen[1], 0.5 * min(shown or [1.0]), fmax, d / "frozen.png"))
-        sections.append(("FFT spectra and identified frequencies",
-                         "".join(f"<p><img src='{i}' alt='{i}'></p>" for i in spec) + note + tables.html_table(head, rows),
-                         "".join(f"![{i}]({i})\n\n" for i in spec)
-                         + re.sub(r"<[^>]+>", "", note.replace("</p><p", "</p>\n\n<p")) + "\n\n"
-                         + tables.markdown(head, rows)))
+def has(p: CasePage, kinds: tuple) -> bool:
+    """Whether the case has a channel of one of `kinds`: its channel section is on the page."""
+    return any(c.kind in kinds for c in p.case.channels.values())
 
-    # the flexible bodies' retained modes
-    modes_section = mode_shapes(case, d)
-    if modes_section:
-        sections.append(("Mode shapes", *modes_section))
 
-    # what elasticity changes: flexible minus rigid joint angles
-    rigid = next((s for s in ("pinocchio", "mujoco") if s in ok), None)
-    if "flexmbd" in ok and rigid and figures.angle_channels(case):
-        img = figures.elasticity(case, ok["flexmbd"], ok[rigid], rigid, d / "elasticity.png")
-        sections.append(("Flexible minus rigid", f"<p><img src='{img}' alt='{img}'></p>", f"![{img}]({img})\n\n"))
+def channels(p: CasePage, sec: T.Section, kinds: tuple) -> list:
+    """The section of the case's channels of `kinds` (one figure each, of the runs comparable on
+    it), or none when it has no such channel."""
+    chans = [n for n, c in p.case.channels.items() if c.kind in kinds]
+    if not chans:
+        return []
+    drawable = figures.drawable(p.res)
+    imgs = [figures.channel(p.case, n, {s: r for s, r in drawable.items() if accuracy.comparable(p.case, p.mods[s], n)},
+                            p.reference, p.folder / f"{n}.png") for n in chans]
+    return [section(sec, images=images(imgs))]
 
-    # timing
-    head = ["solver", "status", "wall [s] (solve)", "set-up [s]", "compile [s]", "steps", "RHS evals",
-            "wall / simulated s"]
-    rows = timing_rows(res, case.duration)
-    sections.append(("Timing", tables.html_table(head, rows, left=2), tables.markdown(head, rows)))
 
-    # accuracy
-    head, rows = tables.accuracy_rows(acc)
-    note = (f"<p>Nothing graded: {html.escape(ungraded)}.</p>" if ungraded else
-            f"<p>Reference: <b>{html.escape(ref)}</b>. Differences are normalised by the reference's maximum "
-            "magnitude; the result compares the RMS difference with the case's tolerance. Phase-robust measures "
-            "(over many cycles a small frequency difference becomes a large phase difference): dominant "
-            "frequency, RMS difference of the amplitude envelopes and of the slow (low-pass below half the "
-            "lowest natural frequency) parts.</p>")
-    if case.report.defaults:                                # said on the page: not the case file's choice
-        note += f"<p>{html.escape(defaults_note(case))}</p>"
-    notes = case.report.notes.strip()
-    if notes:                                               # the case file's notes on its reference and verdicts
-        note += "".join(f"<p>{html.escape(' '.join(par.split()))}</p>" for par in notes.split("\n\n"))
-    sections.append(("Accuracy", note + tables.html_table(head, rows, left=4),
-                     (defaults_note(case) + "\n\n" if case.report.defaults else "")
-                     + ("\n\n".join(" ".join(par.split()) for par in notes.split("\n\n")) + "\n\n" if notes else "")
-                     + tables.markdown(head, rows)))
+def shape_and_movie(p: CasePage) -> list:
+    """The deformed shapes and after them the animation, when the results hold shapes."""
+    return [s for s in (p.shape, p.shape and p.movie) if s]
 
-    # convergence: each solver against its discretisation, from the case's stored studies
-    conv = convergence.section(case, d, warn)
-    if conv:
-        sections.append(("Convergence", *conv))
 
-    # provenance
-    head = ["solver", "version", "case sha256", "git commit", "date", "machine", "Python, numba", "overrides / source",
-            "settings"]
-    rows = provenance_rows(res)
-    sections.append(("Provenance", tables.html_table(head, rows, left=len(head)), tables.markdown(head, rows)))
+# the sections, one builder per place on the page: each gives the sections it places there
 
-    title = f"{case.name}: {case.title}"
-    build_index = f"no index yet: flexmbd report --no-run --out {out} builds it from the stored results"
-    top_html = f"<a href='{up}/index.html'>index</a>" if indexed else f"<code>{html.escape(build_index)}</code>"
-    top_md = f"[index]({up}/index.md)" if indexed else f"`{build_index}`"
-    page = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
-            f"<style>{CSS}</style></head><body><p>{top_html}</p><h1>{html.escape(title)}</h1>"]
-    md = [f"# {title}\n", top_md + "\n"]
-    for t, h, m in sections:
-        page.append(f"<h2>{html.escape(t)}</h2>{h}")
-        md.append(f"## {t}\n\n{m}")
-    page.append("</body></html>")
-    atomic_write(d / "index.html", "".join(page) + "\n")
-    atomic_write(d / "index.md", "\n".join(md))
-    return {"accuracy": acc, "runs": runs}
+
+def lead(p: CasePage) -> list:
+    """A case without deflection channels opens its page with its deformed shapes and animation."""
+    return [] if has(p, DEFLECTION) else shape_and_movie(p)
+
+
+def runs_part(p: CasePage) -> list:
+    """Each run's verdict and, for a run that did not finish, why (`runs_section`)."""
+    return [(T.RUNS.title, *runs_section(p.case, p.runs))]
+
+
+def deflection_part(p: CasePage) -> list:
+    """The deflection channels, then the deformed shapes and the animation."""
+    return channels(p, T.DEFLECTION, DEFLECTION) + (shape_and_movie(p) if has(p, DEFLECTION) else [])
+
+
+def stress_part(p: CasePage) -> list:
+    """The stress channels, then a solid's stress field."""
+    got = channels(p, T.STRESS, STRESS)
+    return got + [p.field] if got and p.field else got
+
+
+def angles_part(p: CasePage) -> list:
+    """The joint angle, energy and reaction channels; then a stress field the case has no stress
+    channel to follow, and an animation it has no shapes to follow."""
+    rest = (None if has(p, STRESS) else p.field, None if p.shape else p.movie)
+    return channels(p, T.ANGLES, ANGLES) + [s for s in rest if s]
+
+
+def frozen_figure(p: CasePage) -> str:
+    """The frozen-time modes over the run (`figures.frozen`), up to just above the highest system
+    mode below the Nyquist frequency."""
+    shown = [f for f, _ in p.system if f <= p.nyquist]
+    fmax = min(p.nyquist, 1.15 * max(shown)) if shown else p.nyquist
+    return figures.frozen(p.case, p.frozen[0], p.frozen[1], 0.5 * min(shown or [1.0]), fmax, p.folder / "frozen.png")
+
+
+def aliases(p: CasePage) -> str:
+    """The note (HTML) on the system modes above the Nyquist frequency of the output, if any."""
+    high = [(f, lab) for f, lab in p.system if f > p.nyquist]
+    if not high:
+        return ""
+    return T.ALIASES.substitute(count=len(high), lie="s lie" if len(high) > 1 else " lies", nyquist=f"{p.nyquist:.4g}",
+                                output=f"{p.dt * 1e3:.4g}",
+                                lowest=", ".join(f"{f:.4g} Hz, {html.escape(lab)}" for f, lab in high[:3]))
+
+
+def spectra_part(p: CasePage) -> list:
+    """Each deflection channel's spectrum with the identified peaks and the system modes, and the
+    table naming the peaks; none without system modes or deflection channels."""
+    imgs = [figures.spectra(p.case, n, p.ok, [f for f, _ in p.system], p.nyquist, p.folder / f"fft_{n}.png",
+                            peaks=[q["f_identified"] for q in p.peaks if q["channel"] == n])
+            for n, c in p.case.channels.items() if c.kind == "deflection" and p.system]
+    if not imgs:
+        return []
+    imgs += [frozen_figure(p)] if p.frozen else []
+    note = T.SPECTRA_NOTE.substitute(finer=spectra.FINER) + aliases(p)
+    rows = [[q["solver"], q["channel"], q["f_identified"], q["mode"], q["f_system"], q["difference"]] for q in p.peaks]
+    return [section(T.SPECTRA, images=images(imgs), note=Both(note, plain(note, code="")),
+                    table=table(T.PEAKS_HEAD, rows))]
+
+
+def modes_part(p: CasePage) -> list:
+    """The flexible bodies' retained modes (`mode_shapes`)."""
+    got = mode_shapes(p.case, p.folder)
+    return [(T.MODES.title, *got)] if got else []
+
+
+def elasticity_part(p: CasePage) -> list:
+    """What elasticity changes: the flexible model's joint angles minus a rigid model's."""
+    if FLEXIBLE not in p.ok or not p.rigid or not figures.angle_channels(p.case):
+        return []
+    img = figures.elasticity(p.case, p.ok[FLEXIBLE], p.ok[p.rigid], p.rigid, p.folder / "elasticity.png")
+    return [section(T.ELASTICITY, images=images([img]))]
+
+
+def timing_part(p: CasePage) -> list:
+    """Each run's wall times and work (`timing_rows`)."""
+    return [section(T.TIMING, table=table(T.TIMING_HEAD, p.timing, left=2))]
+
+
+def accuracy_part(p: CasePage) -> list:
+    """The accuracy rows, after what they are measured against (HTML only), which of the reference
+    and tolerances are defaults, and the case file's notes on them."""
+    head, rows = tables.accuracy_rows(p.acc)
+    said = defaults_note(p.case) if p.case.report.defaults else ""
+    notes = p.case.report.notes.strip()
+    pars = [" ".join(par.split()) for par in notes.split("\n\n")] if notes else []
+    first = (T.UNGRADED.substitute(ungraded=html.escape(p.ungraded)) if p.ungraded
+             else T.REFERENCE.substitute(reference=html.escape(p.reference)))
+    return [section(T.ACCURACY, lead=first, defaults=Both(paragraph(said), said + "\n\n") if said else "",
+                    notes=Both("".join(map(paragraph, pars)), "\n\n".join(pars) + "\n\n") if pars else "",
+                    table=table(head, rows, left=4))]
+
+
+def convergence_part(p: CasePage) -> list:
+    """Each solver against its discretisation, from the case's stored studies (`convergence.section`)."""
+    got = convergence.section(p.case, p.folder, p.warn)
+    return [section(T.CONVERGENCE, body=Both(*got))] if got else []
+
+
+def provenance_part(p: CasePage) -> list:
+    """Where each result came from (`provenance_rows`)."""
+    return [section(T.PROVENANCE, table=table(T.PROVENANCE_HEAD, p.provenance, left=len(T.PROVENANCE_HEAD)))]
+
+
+SECTIONS = (lead, runs_part, deflection_part, stress_part, angles_part, spectra_part, modes_part, elasticity_part,
+            timing_part, accuracy_part, convergence_part, provenance_part)
+
+
+def page(p: CasePage, sections: list) -> Both:
+    """The whole page (html, markdown): its title, the link to the index (or how to build one), its
+    sections in the order given."""
+    title = T.PAGE_TITLE.substitute(name=p.case.name, title=p.case.title)
+    build = T.BUILD_INDEX.substitute(out=p.out)
+    top = fill(T.INDEX, up=p.up) if p.indexed else fill(T.NO_INDEX, text=Both(html.escape(build), build))
+    parts = [fill(T.SECTION, title=Both(html.escape(t), t), body=Both(h, m)) for t, h, m in sections]
+    return fill(T.PAGE, title=Both(html.escape(title), title), css=CSS, top=top,
+                sections=Both("".join(s.html for s in parts), "".join(s.md for s in parts)))
+
+
+def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True, up: str = "..") -> dict:
+    """One case's page from the results under `out`, written into `stage/CASE/`; it links to the
+    report's index when there is one (`indexed`), and says how to build one otherwise; `up` is the
+    report folder seen from the page's folder (OUT/CASE: '..'):
+    {"accuracy": its accuracy rows, "runs": each run's accuracy.Outcome}.
+
+    Its table (`numbers`), then its sections in the order of `SECTIONS`, then its HTML and
+    Markdown (`page`)."""
+    p = numbers(out, stage, case, names, warn, indexed, up)
+    got = page(p, [s for build in SECTIONS for s in build(p)])
+    atomic_write(p.folder / "index.html", got.html)
+    atomic_write(p.folder / "index.md", got.md)
+    return {"accuracy": p.acc, "runs": p.runs}
 
 
 def seconds(text) -> float | None:
