@@ -91,6 +91,7 @@ class Beam:
     rigid: bool         # declared rigid
     stiffening: bool    # geometric stiffening (docs/formulation.md §4b)
     segments: int       # the modal solvers' flexible segments joined rigidly
+    stress: str = "forces"  # the modal solvers' stress: "forces" (force summation) or "modes" (docs/formulation.md §7c)
     type: str = "beam"
 
     @property
@@ -405,7 +406,7 @@ def _body(name: str, b: dict, materials: dict):
                 modes=Modes(count=m["count"], boundary=m["boundary"],
                             interfaces=None if m["interfaces"] is None else tuple(m["interfaces"]),
                             kinds=None if m["kinds"] is None else tuple(m["kinds"])),
-                rigid=b["rigid"], stiffening=b["stiffening"], segments=b["segments"])
+                rigid=b["rigid"], stiffening=b["stiffening"], segments=b["segments"], stress=b["stress"])
 
 
 def _where(bodies: dict, body: str, at) -> tuple:

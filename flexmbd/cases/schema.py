@@ -56,6 +56,7 @@ BEAM = {
     "rigid": ("bool", False),
     "stiffening": ("bool", True),   # geometric stiffening: the foreshortening of bent nodes (formulation §4b)
     "segments": ("int+", 1),        # modal solvers: N flexible beams of length L / N, joined rigidly
+    "stress": (("forces", "modes"), "forces"),  # modal solvers' stress: force summation or mode displacement (formulation §7c)
 }
 
 MESH = {

@@ -218,6 +218,42 @@ def node_forces(m: np.ndarray, acc: np.ndarray, loads=(), joints=()) -> np.ndarr
     return F
 
 
+def rotary_moments(J: np.ndarray, Pr: np.ndarray, w, al, eta_d, eta_dd) -> np.ndarray:
+    """(n, N, 3) d'Alembert moment of each node's rotary inertia, body frame (docs/formulation.md
+    §7c): -[J_p (al + Phi_r,p eta_dd) + w x J_p (w + Phi_r,p eta_d)], the rate of the node's angular
+    momentum J_p (w + Phi_r,p eta_d) as the kinetic energy of §3 holds it (J_p fixed in the body
+    frame). J (N, 3, 3), Pr (N, 3, nm) the modes' node rotations; w, al (n, 3) the body's angular
+    velocity and acceleration; eta_d, eta_dd (n, nm)."""
+    wp = w[:, None, :] + flexbody.modal_field(Pr, eta_d)                    # (n, N, 3)
+    ap = al[:, None, :] + flexbody.modal_field(Pr, eta_dd)
+    return -(np.einsum("pij,npj->npi", J, ap) + np.cross(w[:, None, :], np.einsum("pij,npj->npi", J, wp)))
+
+
+def section_loads(x0: np.ndarray, r: np.ndarray, F: np.ndarray, T: np.ndarray, x: float) -> np.ndarray:
+    """(n, 6) [moment; force] that the part of a beam beyond the section at x (x0_p > x) exerts
+    on the rest through it, body frame, the moment about the section's node: the force summation
+    of docs/formulation.md §7c. x0 (N, 3) the nodes' undeformed and r (n, N, 3) their deformed
+    positions; F (n, N, 3) the net force on each node (`node_forces`) and T (n, N, 3) its net
+    moment (rotary inertia, the moments of joints on it). A node at the cut counts half, but at
+    the beam's ends, where nothing lies beyond: at the root the sum is the whole body's, the
+    negative of its joint's reaction."""
+    ends = (x0[:, 0].min(), x0[:, 0].max())
+    at = np.isclose(x0[:, 0], x, rtol=0.0, atol=1e-12 * max(abs(ends[1]), 1.0))
+    w = np.where(at, 1.0 if x in ends else 0.5, np.where(x0[:, 0] > x, 1.0, 0.0))
+    s = int(np.argmax(at)) if at.any() else int(np.argmin(np.abs(x0[:, 0] - x)))
+    Fs = np.einsum("p,npi->ni", w, F)
+    Ms = np.einsum("p,npi->ni", w, np.cross(r - r[:, s:s + 1], F) + T)
+    return np.hstack([Ms, Fs])
+
+
+def resultant_strains(loads: np.ndarray, E: float, G: float, sec) -> np.ndarray:
+    """(n, 4) section strains [eps, kappa_y, kappa_z, twist rate] of section resultants loads (n, 6)
+    [T, My, Mz; N, Vy, Vz] (`section_loads`): N / (E A), My / (E Iy), Mz / (E Iz), T / (G J), the
+    section's constitutive law read backwards (docs/formulation.md §7c)."""
+    return np.stack([loads[:, 3] / (E * sec.A), loads[:, 1] / (E * sec.Iy), loads[:, 2] / (E * sec.Iz),
+                     loads[:, 0] / (G * sec.J)], axis=1)
+
+
 def axial_rule(stiffened: bool, stressed: bool, fb: flexbody.FlexBody) -> tuple[bool, bool]:
     """(load, strain): where a modal beam's quasi-static axial force N(x) enters, the one rule of
     every modal solver (docs/formulation.md §7). In a model without geometric stiffening it is a
@@ -229,18 +265,20 @@ def axial_rule(stiffened: bool, stressed: bool, fb: flexbody.FlexBody) -> tuple[
 
 
 def modal_beam(fb: flexbody.FlexBody, eta, mat, sec, points: dict, x0: dict, root, F=None,
-               rule: tuple = (False, False)) -> Beam:
+               rule: tuple = (False, False), summed: dict | None = None) -> Beam:
     """The Beam of a modal beam from its modal coordinates eta (n, nm): the solver's tracked
-    points and root rotation, the modal section strains and validity measures, and, as `rule`
+    points and root rotation, the section strains and validity measures, and, as `rule`
     (`axial_rule`) says, the quasi-static axial force from the node forces F (n, N, 3)
-    (`node_forces`) in the strains and in the measures. mat: the beam's `cases.Material`."""
+    (`node_forces`) in the measures and in the strains. The strains are the modes' (mode
+    displacement) or, given `summed` ({x: (n, 4)}, force summation: `section_loads`), those, which
+    hold the axial force already. mat: the beam's `cases.Material`."""
     load, strain = rule
-    strains = modal_strains(fb, eta)
+    strains = modal_strains(fb, eta) if summed is None else summed
     extent = modal_extent(fb, eta, sec)
     if load:
         extent["axial_load"] = axial_load(axial_force(fb.x0, F, 0.5 * fb.x0[1, 0]), mat.E, sec, fb.length,
                                           fb.boundary)
-    if strain:
+    if strain and summed is None:
         strains = with_axial_strain(strains, {x: axial_force(fb.x0, F, x) for x in strains}, mat.E * sec.A)
     return Beam(length=fb.length, points=points, x0=x0, root=root, strains=strains, extent=extent)
 

@@ -331,6 +331,56 @@ def node_forces(model: Model, ev: Evaluated, i: int, Q, V, cut_loads=()) -> np.n
     return channels.node_forces(fb.m, acc, loads, joints)
 
 
+def node_moments(model: Model, ev: Evaluated, i: int, V, r, cut_wrenches=()) -> np.ndarray:
+    """(n, N, 3) net moment on each node of flexible body i beside its net force (`node_forces`),
+    body frame (docs/formulation.md §7c): its rotary inertia's (`channels.rotary_moments`) and the
+    moments about the node of the joints on it, the child joints' and the cut joints' (their forces
+    are node forces); r (n, N, 3) the deformed node positions. A joint's wrench about the body
+    origin, W = [m; f], puts m - r_p x f at its node p."""
+    fb = model.bodies[model.names[i]]
+    s = slice(model.body_madr[i], model.body_madr[i] + model.body_nm[i])
+    T = channels.rotary_moments(fb.J, fb.Phi[:, :3, :], ev.v[:, i, :3], ev.a[:, i, :3], V[:, s], ev.qdd[:, s])
+    for c in np.flatnonzero(model.parent == i):
+        W = -np.einsum("nji,nj->ni", ev.Xup[:, c], ev.f[:, c])             # onto body i, about its origin
+        p = model.jnt_node[c]
+        T[:, p] += W[:, :3] - np.cross(r[:, p], W[:, 3:])
+    for p, W in cut_wrenches:
+        T[:, p] += W[:, :3] - np.cross(r[:, p], W[:, 3:])
+    return T
+
+
+def cut_node_wrenches(loops: constraints.Loops | None, cuts: list | None, ev: Evaluated, i: int) -> list:
+    """[(node, (n, 6) [moment; force] about body i's origin, body i's frame)]: the cut joints'
+    wrenches (`cut_forces`) on the nodes of flexible body i, whole (`cut_loads` keeps the forces)."""
+    if not loops:
+        return []
+    fb = loops.model.bodies[loops.model.names[i]]
+    Xf = np.swapaxes(np.linalg.inv(ev.X0[:, i]), 1, 2)                    # world -> body i, force vectors
+    out = []
+    for k, c in enumerate(loops.cuts):
+        for side, sign in ((c.C, 1.0), (c.P, -1.0)):
+            if side.body == i and side.Phi is not None:
+                W = np.array([np.concatenate([n + np.cross(x, f), f]) for _, f, n, x in
+                              (cut.wrenches[k] for cut in cuts)])         # (n, 6) about the world origin
+                out.append((fb.node_at(side.x0[0]), sign * np.einsum("nij,nj->ni", Xf, W)))
+    return out
+
+
+def summed_strains(case, model: Model, ev: Evaluated, i: int, Q, V, F, loops=None, cuts=None) -> dict:
+    """{x: (n, 4)} section strains at flexible beam i's stress sections by force summation
+    (docs/formulation.md §7c): the resultants of the part beyond each section (`channels.section_loads`)
+    from its nodes' net forces F (`node_forces`) and moments (`node_moments`), read through the
+    section's stiffness (`channels.resultant_strains`)."""
+    name = model.names[i]
+    fb, body = model.bodies[name], case.modelled.bodies[name]
+    s = slice(model.body_madr[i], model.body_madr[i] + model.body_nm[i])
+    r = fb.x0 + flexbody.modal_field(fb.Phi[:, 3:, :], Q[:, s])
+    T = node_moments(model, ev, i, V, r, cut_node_wrenches(loops, cuts, ev, i))
+    mat, sec = body.material, body.geometry
+    return {float(x): channels.resultant_strains(channels.section_loads(fb.x0, r, F, T, float(x)), mat.E, mat.G, sec)
+            for x in fb.stress_x}
+
+
 def trajectory(case, model: Model, t, Q, V, E=None, loops: constraints.Loops | None = None) -> channels.Trajectory:
     """The channels' view of states Q (n, nq), V (n, nv) at t (n,) of the Model of
     `case.modelled`; E: `energies` if known; loops: the case's cut joints on the model. A beam
@@ -347,7 +397,9 @@ def trajectory(case, model: Model, t, Q, V, E=None, loops: constraints.Loops | N
     rules = {name: (False, False) if seg.bodies[name].type == "solid" else
              channels.axial_rule(seg.bodies[name].stiffening, bool(seg.stress_sections(name)), fb)
              for name, fb in model.bodies.items()}
-    need = asked or any(map(any, rules.values())) or case.segments
+    summed = {name for name in model.bodies if seg.bodies[name].type == "beam" and seg.bodies[name].stress == "forces"
+              and seg.stress_sections(name)}
+    need = asked or any(map(any, rules.values())) or case.segments or summed
     cuts = cut_forces(loops, t, Q, V) if loops and need else None
     ev = evaluate(model, t, Q, V, loops, cuts) if need else None
     traj.reactions = {j: ev.f[:, model.index(seg.joints[j].child)] for j in asked if j in seg.joints}
@@ -362,9 +414,11 @@ def trajectory(case, model: Model, t, Q, V, E=None, loops: constraints.Loops | N
                                                     seg.stress_sections(name), eta)
             continue
         points, x0 = channels.modal_points(fb, channels.points_needed(seg, name), eta)
-        F = node_forces(model, ev, i, Q, V, cut_loads(loops, cuts, ev, i)) if any(rules[name]) else None
+        F = node_forces(model, ev, i, Q, V, cut_loads(loops, cuts, ev, i)) if any(rules[name]) or name in summed \
+            else None
+        strains = summed_strains(case, model, ev, i, Q, V, F, loops, cuts) if name in summed else None
         traj.beams[name] = channels.modal_beam(fb, eta, body.material, body.geometry,
-                                               points, x0, channels.modal_root(fb, eta), F, rules[name])
+                                               points, x0, channels.modal_root(fb, eta), F, rules[name], strains)
     for beam, parts in case.segments.items():
         traj.beams[beam] = joined(case, model, ev, Q, beam, [traj.beams.pop(p) for p in parts])
     traj.poses = poses(case, model, Q, V)

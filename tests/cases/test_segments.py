@@ -97,6 +97,7 @@ def test_channels_of_a_split_beam_follow_its_segments_rigidly_joined():
     exp(Phi_r eta)); stresses are segment 1's modal stresses."""
     case = cases.load("pendulum", ["bodies.beam.elements=30", "bodies.beam.segments=3", "bodies.beam.modes.count=4",
                                    "bodies.beam.stiffening=false",             # the chain below is linear
+                                   "bodies.beam.stress=modes",                 # the segment's modal strains
                                    "channels.mid_deflection={kind = 'deflection', body = 'beam', at = 0.75}",
                                    "channels.mid_x={kind = 'deflection', body = 'beam', at = 0.75, component = 'x'}"])
     m = from_case(case.modelled)

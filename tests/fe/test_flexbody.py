@@ -55,7 +55,7 @@ STRESS_CHANNELS = ['channels.s_far={kind="stress_vm", body="beam", at=0.9, fibre
 def test_stress_sections_and_their_channels():
     """S_strain at each stress section against the FE strain rows there; each stress channel
     against the FE stress recovery at its own section point."""
-    case = cases.load("cantilever_step", STRESS_CHANNELS)
+    case = cases.load("cantilever_step", STRESS_CHANNELS + ["bodies.beam.stress=modes"])     # the modes' strains
     body, mat = case.bodies["beam"], case.materials["steel"]
     assert case.stress_sections("beam") == [0.03, 0.4, 0.9]
     fb = flexbody.for_case(case)["beam"]
