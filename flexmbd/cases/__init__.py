@@ -6,6 +6,9 @@ A `Case` is a file's name, path, content hash and overrides, and its resolved ca
 reads `case.bodies`, `case.joints`, `case.channels`, `case.integrator`, ... (`resolve.Resolved`),
 never the file's dicts, which stay inside this package (`Case.data`). The schema (`schema`) holds
 every key a case may hold, once; `cases/README.md` documents the same keys with units.
+
+It imports the core, the FE package (a body's reduction, a mesh's checks) and the solver's joint
+coordinate counts and loop rank rule (`flexmbd.mbd`); no solver and nothing of the harness.
 """
 
 from __future__ import annotations

@@ -3,7 +3,10 @@ returns its exit status (`status`: one meaning each), `exit_with` ends the proce
 
 `arguments` builds the parser (the shared options declared once, each command's own arguments),
 `commands` holds the commands (cmd_NAME, looked up here when the parser is built), `shared` what
-several of them use, and `stdout` the check of what they print."""
+several of them use, and `stdout` the check of what they print.
+
+It imports every package below it; nothing imports it but `__main__`.
+"""
 
 from __future__ import annotations
 

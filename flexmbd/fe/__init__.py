@@ -15,6 +15,8 @@ DOF order: node ``p`` owns global DOFs ``6 p + k``, ``k = [ux, uy, uz, rx, ry, r
 A solid: `mesh` (the Mesh arrays, the box mesher), `meshfile` (Abaqus, NASTRAN and Gmsh files;
 their readers, one module per format, in `meshfiles`),
 `solid` (isoparametric elements, assembly, clamped-interface modes, interfaces, stress); docs/fe.md.
+
+It imports the core and the version; nothing of the cases, the harness or the solvers.
 """
 
 from flexmbd.fe import assembly, element, mesh, meshfile, modes, section, solid, stress

@@ -8,4 +8,6 @@
 
 The algorithms themselves (`dynamics`, `joints`, `invariants`) are plain functions of the Model
 arrays and a Data, compiled with `jit.njit`, and readable without any of this.
+
+It imports the solver's own modules only; it is the one place numba and llvmlite are imported.
 """
