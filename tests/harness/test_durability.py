@@ -1,0 +1,110 @@
+"""Durability (flexmbd/harness/durability.py) against what it did not compute: the worked example of
+ASTM E1049-85, the published S-N curves' numbers, and closed forms of Miner damage."""
+
+import numpy as np
+import pytest
+
+from flexmbd.harness import durability as d
+
+pytestmark = pytest.mark.kernel_free
+
+ASTM = [-2, 1, -3, 5, -1, 3, -4, 4, -2]      # ASTM E1049-85 (2017), Fig. 6: the rainflow example
+
+
+def by_range(c: d.Cycles) -> dict:
+    """range -> total count."""
+    out = {}
+    for r, n in zip(c.ranges, c.counts):
+        out[float(r)] = out.get(float(r), 0.0) + float(n)
+    return out
+
+
+def test_the_astm_example_counts_as_the_standard_does():
+    """ASTM E1049-85 Table 4: ranges 3, 4, 6, 8 and 9 counted 0.5, 1.5, 0.5, 1.0 and 0.5 times."""
+    assert by_range(d.cycles(ASTM)) == {3.0: 0.5, 4.0: 1.5, 6.0: 0.5, 8.0: 1.0, 9.0: 0.5}
+
+
+def test_the_astm_example_repeated_closes_into_whole_cycles():
+    """As a repeating duty cycle the residue pairs up: one cycle each of 3, 4, 7 and 9, and each
+    cycle's samples are the history's own (the 9 runs between the largest and the smallest)."""
+    c = d.cycles(ASTM, repeat=True)
+    assert by_range(c) == {3.0: 1.0, 4.0: 1.0, 7.0: 1.0, 9.0: 1.0}
+    big = c.ranges == 9.0
+    assert {ASTM[i] for i in np.concatenate([c.starts[big], c.ends[big]])} == {5, -4}
+
+
+def test_a_history_without_reversals_has_no_cycles():
+    assert d.cycles([1.0, 1.0]).counts.sum() == 0.0
+    c = d.cycles([0.0, 2.0, 4.0])                                   # a rise: one half cycle
+    assert (c.ranges.tolist(), c.counts.tolist(), c.starts.tolist(), c.ends.tolist()) == ([4.0], [0.5], [0], [2])
+
+
+def test_the_eurocode_category_71_curve_has_its_published_knees():
+    """EN 1993-1-9 Fig. 7.1 for detail category 71: 2e6 cycles at 71 MPa, the constant-amplitude
+    limit 52.3 MPa at 5e6 and the cut-off 28.7 MPa at 1e8 (the standard's values to 0.1 MPa; here
+    to 0.01 MPa: they are (2/5)^(1/3) 71 = 52.31 and (5/100)^(1/5) 52.31 = 28.73)."""
+    ec = d.CURVES["ec3-71"]
+    assert d.life(ec, [71.0])[0] == pytest.approx(2e6, rel=1e-12)
+    (s1, n1), (s2, n2) = ec.knees()
+    assert (s1, n1) == (pytest.approx(52.3, abs=0.02), pytest.approx(5e6, rel=1e-12))
+    assert (s2, n2) == (pytest.approx(28.7, abs=0.04), pytest.approx(1e8, rel=1e-12))
+    assert abs(s1 - 52.31) < 0.01 and abs(s2 - 28.73) < 0.01
+    assert np.isinf(d.life(ec, [28.0])[0])                          # below the cut-off: no damage
+    assert d.life(ec, [40.0])[0] == pytest.approx(5e6 * (s1 / 40.0) ** 5, rel=1e-12)    # slope 5
+
+
+def test_the_dnv_c_curve_in_air_has_its_published_knee():
+    """DNV-RP-C203 Table 2-1, C in air: log a = 12.592 (m = 3) to 1e7 cycles, where the table
+    gives 73.10 MPa. log a is printed to 3 decimals, which moves the knee by up to 0.028 MPa
+    (0.0005 ln10 / 3 of it): bound 0.03. The curve goes on with slope 5 (log a 16.320) and is
+    continuous there to the same rounding."""
+    c = d.CURVES["dnv-c"]
+    (s, n), = c.knees()
+    assert n == pytest.approx(1e7, rel=1e-12) and s == pytest.approx(73.10, abs=0.03)
+    below = d.life(c, [s * 0.999])[0]
+    assert below == pytest.approx(1e7 / 0.999 ** 5, rel=3e-3) and np.isfinite(d.life(c, [1.0])[0])
+
+
+@pytest.mark.parametrize("cycles_n", [1, 7, 40])
+def test_a_sinusoid_does_n_cycles_of_its_double_amplitude(cycles_n):
+    """A sinusoid of amplitude A over n whole periods: n cycles of 2A, Miner damage n (2A)^m / C on
+    a single-slope curve. From a peak, its 2n half cycles; from zero, as a repeating duty cycle
+    (counted once, its start and end would be half cycles of A). Bound 1e-9: a sum of n equal
+    terms and one power."""
+    A, m = 60.0, 3.0                                        # MPa
+    t = np.linspace(0.0, cycles_n, 64 * cycles_n + 1)
+    curve = d.SNCurve("one slope", "a test", m=(m,), log_a=(12.0,), lower=(0.0,), cutoff=False)
+    for c in (d.cycles(A * np.cos(2 * np.pi * t)), d.cycles(A * np.sin(2 * np.pi * t), repeat=True)):
+        assert c.counts.sum() == pytest.approx(cycles_n, rel=1e-12)
+        assert np.allclose(c.ranges, 2 * A, rtol=1e-12)
+        assert d.damage(c, curve) == pytest.approx(cycles_n * (2 * A) ** m / 1e12, rel=1e-9)
+
+
+def test_scaling_the_stress_scales_damage_by_its_power_and_the_equivalent_range_one_to_one():
+    """Every stress times 1.01: single-slope damage times 1.01^m (to 1e-12), the damage-equivalent
+    range times 1.01; the life ratio a 5 % stress error makes is (1.05)^m: 16 % at m = 3."""
+    rng = np.random.default_rng(3)
+    s = np.cumsum(rng.normal(size=2000)) * 10.0
+    c, c2 = d.cycles(s), d.cycles(1.01 * s)
+    for m in (3.0, 5.0):
+        curve = d.SNCurve("one slope", "a test", m=(m,), log_a=(13.0,), lower=(0.0,), cutoff=False)
+        assert d.damage(c2, curve) / d.damage(c, curve) == pytest.approx(1.01 ** m, rel=1e-12)
+        assert d.equivalent_range(c2, m) / d.equivalent_range(c, m) == pytest.approx(1.01, rel=1e-12)
+    assert 1.05 ** 3 - 1 == pytest.approx(0.158, abs=1e-3)
+
+
+def test_the_equivalent_range_does_the_same_damage_in_its_reference_cycles():
+    c = d.cycles(np.cumsum(np.random.default_rng(4).normal(size=500)))
+    m, n_ref = 4.0, 2e6
+    S = d.equivalent_range(c, m, n_ref)
+    curve = d.SNCurve("one slope", "a test", m=(m,), log_a=(9.0,), lower=(0.0,), cutoff=False)
+    assert n_ref / d.life(curve, [S])[0] == pytest.approx(d.damage(c, curve), rel=1e-12)
+
+
+def test_mean_stress_corrections_raise_tensile_cycles_and_leave_zero_mean_ones():
+    c = d.Cycles(ranges=np.array([100.0, 100.0, 100.0]), means=np.array([0.0, 200.0, -200.0]),
+                 counts=np.ones(3), starts=np.zeros(3, int), ends=np.zeros(3, int))
+    g = d.corrected(c, "goodman", ultimate=400.0)
+    assert g.tolist() == [100.0, 200.0, 100.0]                     # S / (1 - 200 / 400); compression not credited
+    w = d.corrected(c, "walker", gamma=0.5)
+    assert w[0] == pytest.approx(100.0) and w[1] == pytest.approx(2 * 250.0 ** 0.5 * 50.0 ** 0.5) and w[2] == 0.0
