@@ -21,14 +21,15 @@ from flexmbd import version
 from flexmbd.cases import closure
 from flexmbd.cases.resolve import (Beam, Channel, Integrator, Joint, Link, Load, Material, Modes, Point, PointMass,
                                    Report, Resolved, Rigid, Section, is_fixed_base, resolve, segment_name, segment_of)
-from flexmbd.cases.schema import JOINT_COORDS, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS, MAX_SNAPSHOTS, TOLERANCES
+from flexmbd.cases.schema import (JOINT_COORDS, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS, MAX_SNAPSHOTS, STRESS_KINDS,
+                                  TOLERANCES)
 from flexmbd.cases.validate import (CASES_DIR, apply_override, available, check_table, find, hint, parse_toml,
                                     read_text, snapshot_instants, validate)
 
 __all__ = ["Beam", "CASES_DIR", "Case", "Channel", "Integrator", "JOINT_COORDS", "JOINT_DOFS", "Joint", "LARGEST", "Link", "Load",
            "MAX_SHAPE_POINTS", "MAX_SNAPSHOTS", "Material", "Modes", "Point", "PointMass", "Report", "Resolved",
            "Rigid", "Section", "available", "check_table", "find", "hint", "is_fixed_base", "load", "segment_name",
-           "segment_of", "snapshot_instants", "TOLERANCES", "assembly_line"]
+           "segment_of", "snapshot_instants", "STRESS_KINDS", "TOLERANCES", "assembly_line"]
 
 # what a Case reads from its resolved case (`resolve.Resolved`)
 TYPED = ("title", "duration", "gravity", "materials", "bodies", "joints", "loads", "channels", "integrator",

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from flexmbd.fe import flexbody
-from flexmbd.cases.schema import JOINT, JOINT_COORDS, TOLERANCES
+from flexmbd.cases.schema import JOINT, JOINT_COORDS, STRESS_KINDS, TOLERANCES
 from flexmbd.mbd.spatial import rotation_rpy
 
 
@@ -351,8 +351,8 @@ class Resolved:
         """Positions x of a beam's stress channels, sorted, without repeats (FlexBody.stress_x);
         a solid's stress points (3,), sorted, without repeats (FlexBody.S_solid)."""
         if isinstance(self.bodies.get(body), Solid):
-            return sorted({c.where for c in self.channels.values() if c.kind == "stress_vm" and c.body == body})
-        return sorted({c.point.x for c in self.channels.values() if c.kind == "stress_vm" and c.body == body})
+            return sorted({c.where for c in self.channels.values() if c.kind in STRESS_KINDS and c.body == body})
+        return sorted({c.point.x for c in self.channels.values() if c.kind in STRESS_KINDS and c.body == body})
 
     def reduced(self, name: str) -> flexbody.FlexBody:
         """The reduced flexible body `name` (computed once per content, `flexbody.reduce`)."""
@@ -465,7 +465,7 @@ def resolve(data: dict, split: bool = True) -> Resolved:
                          force=tuple(ld["force"]), frame=ld["frame"], profile=read_only(ld["profile"]))
     channels = {n: Channel(name=n, kind=c["kind"], body=c["body"], joint=c["joint"], at=c["at"],
                            component=c["component"], fibre=None if c["fibre"] is None else tuple(c["fibre"]),
-                           point=_channel_point(bodies[c["body"]], c) if c["kind"] in ("deflection", "stress_vm")
+                           point=_channel_point(bodies[c["body"]], c) if c["kind"] in ("deflection", *STRESS_KINDS)
                            else None, where=None if c["point"] is None else tuple(c["point"]))
                 for n, c in data["channels"].items()}
     ig, rep = data["integrator"], data["report"]
@@ -588,6 +588,6 @@ def split_segments(data: dict) -> dict:
         ld["body"], ld["at"] = _place(data, ld["body"], ld["at"])
     chans = copy.deepcopy(data["channels"])
     for c in chans.values():
-        if c["kind"] in ("deflection", "stress_vm"):
+        if c["kind"] in ("deflection", *STRESS_KINDS):
             c["body"], c["at"] = _place(data, c["body"], c["at"])
     return {**copy.deepcopy(data), "bodies": bodies, "joints": joints, "loads": loads, "channels": chans}

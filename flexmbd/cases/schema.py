@@ -150,12 +150,17 @@ LOAD = {
     "profile": (LOAD_PROFILE, {"type": "constant"}),
 }
 
+# the stress channels, each a function of the stresses at one point (docs/durability.md): von Mises
+# (unsigned), the normal stress along the beam's axis or the solid's x axis (signed: tension
+# positive), and von Mises with the sign of the principal stress of largest magnitude
+STRESS_KINDS = ("stress_vm", "stress_normal", "stress_signed_vm")
+
 CHANNEL = {
-    "kind": (("deflection", "stress_vm", "joint_angle", "energy", "reaction_force", "reaction_moment"), REQUIRED),
+    "kind": (("deflection", *STRESS_KINDS, "joint_angle", "energy", "reaction_force", "reaction_moment"), REQUIRED),
     "body": ("str", None),
     "joint": ("str", None),
     "at": ("point", None),              # m along the beam; a solid's interface (deflection)
-    "point": ("vec3", None),            # stress_vm on a solid: a point in the body frame, m
+    "point": ("vec3", None),            # a stress on a solid: a point in the body frame, m
     "component": (("x", "y", "z"), "y"),
     "fibre": ("vec", None),             # stress point (y, z) in the section, m; default outer fibre
 }
@@ -183,7 +188,7 @@ REPORT = {
 # the relative tolerance of each channel kind in a case that gives no report.tolerances (the RMS
 # difference from the reference over the reference's largest magnitude, as a given tolerance):
 # the shipped cases' own choices for their converged references
-TOLERANCES = {"deflection": 0.05, "stress_vm": 0.05, "joint_angle": 0.01, "energy": 0.01,
+TOLERANCES = {"deflection": 0.05, **{k: 0.05 for k in STRESS_KINDS}, "joint_angle": 0.01, "energy": 0.01,
               "reaction_force": 0.05, "reaction_moment": 0.05}
 
 # the deformed-shape snapshots: at most this many instants (one panel each) and shape points per beam
@@ -208,5 +213,6 @@ CASE = {
 JOINT_DOFS = {k: nv for k, (_, nv) in JOINT_COORDS.items()}
 
 # the keys without default that each kind of channel reads (the others must be left out)
-CHANNEL_KEYS = {"deflection": ("body", "at"), "stress_vm": ("body", "at", "fibre", "point"), "joint_angle": ("joint",),
+CHANNEL_KEYS = {"deflection": ("body", "at"), **{k: ("body", "at", "fibre", "point") for k in STRESS_KINDS},
+                "joint_angle": ("joint",),
                 "reaction_force": ("joint",), "reaction_moment": ("joint",), "energy": ()}

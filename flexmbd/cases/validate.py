@@ -17,7 +17,8 @@ from pathlib import Path
 
 from flexmbd.fe import flexbody
 from flexmbd.cases.schema import (BEAM, CASE, CHANNEL_KEYS, DERIVED, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS,
-                                  MAX_SNAPSHOTS, NAME_CHARS, POINT_MASS, POINT_MASS_JOINTS, REQUIRED, RIGID, SOLID)
+                                  MAX_SNAPSHOTS, NAME_CHARS, POINT_MASS, POINT_MASS_JOINTS, REQUIRED, RIGID, SOLID,
+                                  STRESS_KINDS)
 from flexmbd.fe import modes as fe_modes
 from flexmbd.core.errors import InputError, printable
 from flexmbd.fe.solid import fits_rigid
@@ -840,7 +841,7 @@ def _check_channel(name, c, bodies, joints, where):
     for key in ("body", "joint", "at", "fibre"):
         if c[key] is not None and key not in CHANNEL_KEYS[c["kind"]]:
             _fail(where, f"{k}.{key}", f"not used by a {c['kind']} channel")
-    if c["kind"] in ("deflection", "stress_vm"):
+    if c["kind"] in ("deflection", *STRESS_KINDS):
         b = c["body"]
         if b is None:
             _fail(where, f"{k}.body", f"a {c['kind']} channel needs a body")

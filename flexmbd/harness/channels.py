@@ -13,6 +13,10 @@ functions below turn that into channels, the same way for every solver:
                  sigma = E (eps - y kappa_z + z kappa_y), tau = G r(y, z) twist rate; on a
                  solid, the von Mises stress of the stress tensor at the centre of the element
                  that contains the channel's point
+    stress_normal    the normal stress along the beam's axis, sigma (signed, tension positive); on a
+                 solid sigma_xx, along the body's x axis
+    stress_signed_vm von Mises with the sign of the principal stress of largest magnitude (a
+                 rainflow count of it keeps tension and compression apart, docs/durability.md)
     joint_angle  the joint's coordinate (rad; m for a prismatic joint)
     energy       the sum of the energy parts (kinetic, gravity, strain), J
     reaction_*   a component of the force the joint transmits from parent onto child, child frame
@@ -35,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from flexmbd import cases
 from flexmbd.fe import flexbody
 from flexmbd.harness import results
 from flexmbd.cases import closure
@@ -543,6 +548,36 @@ def solid_vm(stresses) -> np.ndarray:
     return solid_von_mises(np.asarray(stresses, dtype=float))
 
 
+def principal_sign(stresses) -> np.ndarray:
+    """(n,) +1 or -1: the sign of the principal stress of largest magnitude of stresses (n, 6)
+    [xx, yy, zz, yz, zx, xy] (+1 where all are zero)."""
+    S = np.asarray(stresses, dtype=float)
+    T = np.stack([np.stack([S[:, 0], S[:, 5], S[:, 4]], -1), np.stack([S[:, 5], S[:, 1], S[:, 3]], -1),
+                  np.stack([S[:, 4], S[:, 3], S[:, 2]], -1)], -2)
+    lam = np.linalg.eigvalsh(T)                                  # ascending
+    return np.where(np.abs(lam[:, 0]) > np.abs(lam[:, -1]), -1.0, 1.0)
+
+
+def beam_stress(kind: str, strains, E: float, G: float, sec, fibre) -> np.ndarray:
+    """(n,) stress channel `kind` (cases.STRESS_KINDS) at a beam's section point from its section
+    strains (n, 4), Pa. The state there is sigma along the axis and the torsional shear tau, whose
+    principal stresses sigma/2 +- sqrt(sigma^2/4 + tau^2) have the larger magnitude on sigma's side."""
+    sigma, tau = section_stresses(strains, E, G, sec, fibre)
+    if kind == "stress_normal":
+        return sigma
+    vm = von_mises(sigma, tau)
+    return np.where(sigma < 0.0, -vm, vm) if kind == "stress_signed_vm" else vm
+
+
+def solid_stress(kind: str, stresses) -> np.ndarray:
+    """(n,) stress channel `kind` from a solid's stresses (n, 6) at an element centre, Pa."""
+    S = np.asarray(stresses, dtype=float)
+    if kind == "stress_normal":
+        return S[:, 0].copy()
+    vm = solid_vm(S)
+    return principal_sign(S) * vm if kind == "stress_signed_vm" else vm
+
+
 def energy(traj: Trajectory) -> np.ndarray:
     """(n,) total energy: the sum of the parts, J."""
     return sum(traj.energy.values())
@@ -553,8 +588,8 @@ def reaction(f, kind: str, component: str) -> np.ndarray:
     return f[:, "xyz".index(component) + (3 if kind == "reaction_force" else 0)].copy()
 
 
-SI_UNITS = {"deflection": "m", "stress_vm": "Pa", "joint_angle": "rad", "energy": "J", "reaction_force": "N",
-            "reaction_moment": "N m"}
+SI_UNITS = {"deflection": "m", "stress_vm": "Pa", "stress_normal": "Pa", "stress_signed_vm": "Pa", "joint_angle": "rad",
+            "energy": "J", "reaction_force": "N", "reaction_moment": "N m"}
 
 
 def unit(case, name: str) -> str:
@@ -565,7 +600,8 @@ def unit(case, name: str) -> str:
     return SI_UNITS[c.kind]
 
 
-KIND_NAMES = {"deflection": "deflection", "stress_vm": "von Mises stress", "joint_angle": "angle",
+KIND_NAMES = {"deflection": "deflection", "stress_vm": "von Mises stress", "stress_normal": "normal stress",
+              "stress_signed_vm": "signed von Mises stress", "joint_angle": "angle",
               "energy": "energy", "reaction_force": "reaction force", "reaction_moment": "reaction moment"}
 
 
@@ -575,7 +611,7 @@ def label(case, name: str) -> str:
     'energy [J]', 'reaction force x at hub [N]'; a body named where the case has more than one
     flexible body."""
     c, u = case.channels[name], unit(case, name)
-    if c.kind in ("deflection", "stress_vm"):
+    if c.kind in ("deflection", *cases.STRESS_KINDS):
         comp = f" {c.component}" if c.kind == "deflection" else ""
         if c.where is not None:                         # a solid's stress point
             at = "(" + ", ".join(f"{v:g}" for v in c.where) + ") m"
@@ -608,7 +644,7 @@ def physical_scale(case, name: str, kinetic_max: float | None = None) -> float:
         return float(kinetic_max) if kinetic_max else gravity_energy(case)
     if kind == "deflection":
         return float(case.bodies[c.body].length)
-    if kind == "stress_vm":
+    if kind in cases.STRESS_KINDS:
         return float(case.bodies[c.body].material.E)
     return 1.0 if kind == "joint_angle" else 0.0
 
@@ -676,9 +712,9 @@ def channels(case, traj: Trajectory) -> dict:
         elif kind == "deflection":
             out[name] = deflection(traj.beams[c.body], c.at, "xyz".index(c.component))
         elif c.where is not None:                                   # a solid: at an element centre
-            out[name] = solid_vm(traj.beams[c.body].stresses[c.where])
+            out[name] = solid_stress(kind, traj.beams[c.body].stresses[c.where])
         else:
             body = case.bodies[c.body]
-            out[name] = stress_vm(traj.beams[c.body].strains[float(c.at)], body.material.E, body.material.G,
-                                  body.geometry, c.fibre)
+            out[name] = beam_stress(kind, traj.beams[c.body].strains[float(c.at)], body.material.E, body.material.G,
+                                    body.geometry, c.fibre)
     return out

@@ -7,10 +7,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from flexmbd import cases
 from flexmbd.harness import channels, metrics
 from flexmbd.harness.results import CAUSES, Status
 
-DEFORMATION = ("deflection", "stress_vm")
+DEFORMATION = ("deflection", *cases.STRESS_KINDS)
 
 
 def comparable(case, solver_module, channel: str) -> bool:

@@ -22,7 +22,7 @@ import numpy as np  # noqa: E402
 from matplotlib import ticker  # noqa: E402
 
 from flexmbd.harness import channels, metrics, registry  # noqa: E402
-from flexmbd import version
+from flexmbd import cases, version  # noqa: E402
 from flexmbd.core.errors import InputError  # noqa: E402
 from flexmbd.core.files import atomic_write, user_cache  # noqa: E402
 
@@ -186,7 +186,7 @@ def save(fig, path: Path) -> str:
 def where(case, name: str) -> str:
     """A channel's title: what, on which body, where."""
     c = case.channels[name]
-    if c.kind in ("deflection", "stress_vm"):
+    if c.kind in ("deflection", *cases.STRESS_KINDS):
         comp = f", {c.component}" if c.kind == "deflection" else ""
         if c.where is not None:                     # a solid's stress point
             point = f"({', '.join(f'{v:g}' for v in c.where)}) m"

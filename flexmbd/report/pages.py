@@ -51,7 +51,7 @@ table.matrix a{color:inherit}.left2 :is(td,th):nth-child(-n+2),.left3 :is(td,th)
 FLEXIBLE = "flexmbd"                    # the flexible model set against a rigid one ("Flexible minus rigid")
 RIGID = ("pinocchio", "mujoco")         # the rigid models it is set against, the first that ran
 DEFLECTION = ("deflection",)            # the channel kinds of each channel section
-STRESS = ("stress_vm",)
+STRESS = cases.STRESS_KINDS
 ANGLES = ("joint_angle", "energy", "reaction_force", "reaction_moment")
 
 

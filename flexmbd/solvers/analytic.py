@@ -16,6 +16,7 @@ import time
 import numpy as np
 from scipy.optimize import brentq
 
+from flexmbd import cases
 from flexmbd.harness import channels, cost
 from flexmbd.solvers import common
 
@@ -41,7 +42,7 @@ def applies(case) -> str:
     if abs(common.gravity_body(case)[0]) > 0:
         return "closed form only for transverse gravity"
     for cname, c in case.channels.items():
-        if c.kind not in ("deflection", "stress_vm") or c.component == "x":
+        if c.kind not in ("deflection", *cases.STRESS_KINDS) or c.component == "x":
             return f"channel {cname!r} has no closed form here"
     return ""
 
@@ -128,7 +129,7 @@ def trajectory(case, name: str, t, eta: dict, bL) -> channels.Trajectory:
         length=L, points={x: np.column_stack([np.full(len(t), x), u(x, 1), u(x, 2)]) for x in xs},
         x0={x: np.array([x, 0.0, 0.0]) for x in xs}, root=np.tile(np.eye(3), (len(t), 1, 1)),
         strains={float(c.at): np.column_stack([zero, -d2(c.at, 2), d2(c.at, 1), zero])
-                 for c in case.channels.values() if c.kind == "stress_vm"})
+                 for c in case.channels.values() if c.kind in cases.STRESS_KINDS})
     return channels.Trajectory(t=t, beams={name: beam})
 
 

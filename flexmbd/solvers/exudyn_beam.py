@@ -530,7 +530,7 @@ def add_sensors(mbs, case, parts: dict, joints: dict) -> dict:
                    "rot": {k: node(n, OV.Rotation) for k, n in enumerate(b["nodes"])},
                    "kappa": {}, "eps": {}}
         for c in case.channels.values():
-            if c.kind == "stress_vm" and c.body == name:
+            if c.kind in cases.STRESS_KINDS and c.body == name:
                 for e in stress_elements(b, c.at):
                     S[name]["kappa"][e] = elem(b["elems"][e], OV.CurvatureLocal)
                     S[name]["eps"][e] = elem(b["elems"][e], OV.StrainLocal)
@@ -592,7 +592,7 @@ def trajectory(case, parts: dict, X: dict, t: np.ndarray) -> channels.Trajectory
         Xb = XB[name]
         traj.beams[name] = beam_shape(case, b, name, Xb, channels.points_needed(case, name))
         traj.beams[name].strains = {float(c.at): strains(c.at, b, Xb) for c in case.channels.values()
-                                    if c.kind == "stress_vm" and c.body == name}
+                                    if c.kind in cases.STRESS_KINDS and c.body == name}
     return traj
 
 

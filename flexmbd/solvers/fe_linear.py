@@ -52,6 +52,7 @@ import scipy.linalg
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
+from flexmbd import cases
 from flexmbd.harness import channels, cost
 from flexmbd.fe import flexbody
 from flexmbd.mbd import profiles
@@ -223,7 +224,7 @@ def trajectory(case, name: str, t, U, nodes, elements, sec) -> channels.Trajecto
     mat = body.material
     node = {x: flexbody.node_index(body.length, body.elements, x) for x in channels.points_needed(case, name)}
     rows = {float(c.at): stress.strain_rows(nodes, elements, mat.E, mat.G, sec, c.at, shear=body.shear)
-            for c in case.channels.values() if c.kind == "stress_vm"}
+            for c in case.channels.values() if c.kind in cases.STRESS_KINDS}
     beam = channels.Beam(length=body.length,
                          points={x: nodes[k] + U[:, 6 * k:6 * k + 3] for x, k in node.items()},
                          x0={x: nodes[k] for x, k in node.items()}, root=np.tile(np.eye(3), (len(t), 1, 1)),

@@ -277,7 +277,7 @@ def trajectory(case, rows: list, t: np.ndarray, s: np.ndarray) -> channels.Traje
     traj.beams[name] = channels.Beam(
         length=body.length, points={x: at(x, X, s) for x in xs}, x0={x: np.array([x, 0.0, 0.0]) for x in xs},
         root=np.tile(np.eye(3), (len(t), 1, 1)),
-        strains={float(c.at): strain(c.at) for c in case.channels.values() if c.kind == "stress_vm"})
+        strains={float(c.at): strain(c.at) for c in case.channels.values() if c.kind in cases.STRESS_KINDS})
     traj.poses = {name: (np.array([r["R"] for r in rows]).reshape(-1, 3, 3),
                          np.array([r["p"] for r in rows]).reshape(-1, 3))}
     return traj
