@@ -449,6 +449,17 @@ def element_at(mesh: fe_mesh.Mesh, x) -> tuple | None:
     return None
 
 
+def point_stress_rows(mesh: fe_mesh.Mesh, E: float, nu: float, x) -> tuple:
+    """(S (6, 3nn), dofs (3nn,)): the stress at point x (3,), mesh coordinates, as rows on the DOFs
+    of the element that holds it (`element_at`), from that element's displacement gradient at the
+    point's natural coordinates (`solid.natural`): the stress at the point asked for, a surface
+    point's included, not at the element's centre (checked against scikit-fem and beam theory in
+    tests/fe/test_fe_solid.py; the stress channels still read the centre: docs/durability.md)."""
+    kind, row = element_at(mesh, x)
+    xi = solid.natural(kind, mesh.nodes[mesh.cells[kind][row]], np.asarray(x, dtype=float))
+    return solid.stress_rows(mesh, E, nu, kind, row, xi=xi)
+
+
 def solid_labels(m: np.ndarray, Pt: np.ndarray) -> np.ndarray:
     """(nm,) a solid's mode labels: 'mode k' and the body axes its motion mostly lies along (each
     axis's share of sum m_p |Phi_t,p|^2 with the node masses m (N,); every axis above a quarter,
@@ -495,7 +506,8 @@ def solid_modes(body, mesh, K, Ms, ref: dict) -> tuple:
 def solid_body(body, stress_points=()) -> FlexBody:
     """Reduce a case solid (`cases.Solid`) to a FlexBody: its mode set (`solid_modes`), orthonormal
     in the consistent mass; `stress_points` (k, 3): body-frame points whose elements' centre
-    stresses the channels need. A frame's mesh (bar elements) reduces by `frame_body`."""
+    stresses the channels need (the stress at the point itself: `point_stress_rows`, not yet the
+    channels'). A frame's mesh (bar elements) reduces by `frame_body`."""
     mesh, mat = solid_mesh(**dataclasses.asdict(body.mesh)), body.material
     if mesh.is_frame:
         return frame_body(body, stress_points)

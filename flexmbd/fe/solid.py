@@ -251,6 +251,21 @@ def centres(mesh: Mesh) -> tuple:
     return np.array(kinds), np.concatenate(rows), np.vstack(xs)
 
 
+def natural(kind: str, X: np.ndarray, x) -> np.ndarray:
+    """(3,) the natural coordinates of point x (3,) in the element whose nodes are at X (nn, 3):
+    Newton's method on x(xi) = N(xi) X from the element's centre, to 1e-12 of the element's size
+    (one step on an undistorted linear element, a few on a quadratic one)."""
+    xi, x = np.array(CENTRE[kind], dtype=float), np.asarray(x, dtype=float)
+    size = float(np.ptp(X, axis=0).max())
+    for _ in range(30):
+        N, dN = shape(kind, xi)
+        r = N[0] @ X - x
+        if np.linalg.norm(r) <= 1e-12 * size:
+            return xi
+        xi = xi - np.linalg.solve(X.T @ dN[0], r)
+    raise ValueError(f"the point {x.tolist()} has no natural coordinates in its {kind} element")
+
+
 def stress_rows(mesh: Mesh, E: float, nu: float, kind: str, row: int, xi=None) -> tuple:
     """The stress at natural point xi (default: the centre) of element `row` of cells[kind] as
     rows acting on the element's DOFs: (S (6, 3nn), dofs (3nn,)), sigma = S u[dofs]."""
