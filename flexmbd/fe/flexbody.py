@@ -21,7 +21,7 @@ need of it is kept here as plain arrays, in the body frame (beam along +x from t
     Mx0, MPt (N, 3), (N, 3, nm)  a body with a consistent mass (a solid): Ms x0 and Ms Phi_t, the
                           mass-weighted fields its invariants are summed from (`invariants.mass_sums`;
                           m is then Ms 1); empty (0, 3), (0, 3, nm) for a lumped body
-    S_solid (ns, 6, nm)   a solid's modal stresses at the centres of its stress elements, Voigt
+    S_solid (ns, 6, nm)   a solid's modal stresses at its stress points (`point_stress_rows`), Voigt
                           [xx, yy, zz, yz, zx, xy], Pa per unit modal coordinate; (0, 6, nm) for a beam
 
 A solid (`solid_body`) is held the same way: its nodes are the mesh's, after one node per
@@ -454,7 +454,7 @@ def point_stress_rows(mesh: fe_mesh.Mesh, E: float, nu: float, x) -> tuple:
     of the element that holds it (`element_at`), from that element's displacement gradient at the
     point's natural coordinates (`solid.natural`): the stress at the point asked for, a surface
     point's included, not at the element's centre (checked against scikit-fem and beam theory in
-    tests/fe/test_fe_solid.py; the stress channels still read the centre: docs/durability.md)."""
+    tests/fe/test_fe_solid.py)."""
     kind, row = element_at(mesh, x)
     xi = solid.natural(kind, mesh.nodes[mesh.cells[kind][row]], np.asarray(x, dtype=float))
     return solid.stress_rows(mesh, E, nu, kind, row, xi=xi)
@@ -505,9 +505,8 @@ def solid_modes(body, mesh, K, Ms, ref: dict) -> tuple:
 
 def solid_body(body, stress_points=()) -> FlexBody:
     """Reduce a case solid (`cases.Solid`) to a FlexBody: its mode set (`solid_modes`), orthonormal
-    in the consistent mass; `stress_points` (k, 3): body-frame points whose elements' centre
-    stresses the channels need (the stress at the point itself: `point_stress_rows`, not yet the
-    channels'). A frame's mesh (bar elements) reduces by `frame_body`."""
+    in the consistent mass; `stress_points` (k, 3): body-frame points whose stresses the channels
+    need (`point_stress_rows`). A frame's mesh (bar elements) reduces by `frame_body`."""
     mesh, mat = solid_mesh(**dataclasses.asdict(body.mesh)), body.material
     if mesh.is_frame:
         return frame_body(body, stress_points)
@@ -532,8 +531,7 @@ def solid_body(body, stress_points=()) -> FlexBody:
     m = pad(np.asarray(Ms.sum(axis=1)).ravel())
     S = []
     for p in stress_points:
-        kind, row = element_at(mesh, np.asarray(p, dtype=float) + origin)
-        rows, dofs = solid.stress_rows(mesh, mat.E, mat.nu, kind, row)
+        rows, dofs = point_stress_rows(mesh, mat.E, mat.nu, np.asarray(p, dtype=float) + origin)
         S.append(rows @ Phi3[dofs])
     Km = modal_stiffness(K, Phi3)
     return FlexBody(

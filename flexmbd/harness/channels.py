@@ -11,8 +11,8 @@ functions below turn that into channels, the same way for every solver:
                  undeformed offset from the root node: (R^T (r_p - r_0))_axis - (x0_p - x0_0)_axis
     stress_vm    von Mises stress sqrt(sigma^2 + 3 tau^2) at the section point (y, z), with
                  sigma = E (eps - y kappa_z + z kappa_y), tau = G r(y, z) twist rate; on a
-                 solid, the von Mises stress of the stress tensor at the centre of the element
-                 that contains the channel's point
+                 solid, the von Mises stress of the stress tensor at the channel's point, from
+                 the displacement gradient there of the element that holds it
     stress_normal    the normal stress along the beam's axis, sigma (signed, tension positive); on a
                  solid sigma_xx, along the body's x axis
     stress_signed_vm von Mises with the sign of the principal stress of largest magnitude (a
@@ -62,7 +62,7 @@ class Beam:
     extent  {name: (n,)}     a modal solver's measures of its linear validity (`modal_extent`)
     origin                   the key of the root point: 0.0 on a beam; a solid's frame interface
     stresses {p: (n, 6)}     a solid's stresses [xx, yy, zz, yz, zx, xy] (Pa, body frame) at the
-                             centres of the elements holding its stress points p (3,) (`modal_solid`)
+                             stress points p (3,) themselves (`modal_solid`, `flexbody.point_stress_rows`)
 
 A solid is reported as a Beam too: its points are its interfaces' reference points (keyed by the
 interface's name, the root its frame interface's), its root rotation that interface's.
@@ -544,7 +544,7 @@ def stress_vm(strains, E: float, G: float, sec, fibre) -> np.ndarray:
 
 
 def solid_vm(stresses) -> np.ndarray:
-    """(n,) von Mises stress of a solid's stresses (n, 6) at an element centre, Pa."""
+    """(n,) von Mises stress of a solid's stresses (n, 6) at a point, Pa."""
     return solid_von_mises(np.asarray(stresses, dtype=float))
 
 
@@ -570,7 +570,7 @@ def beam_stress(kind: str, strains, E: float, G: float, sec, fibre) -> np.ndarra
 
 
 def solid_stress(kind: str, stresses) -> np.ndarray:
-    """(n,) stress channel `kind` from a solid's stresses (n, 6) at an element centre, Pa."""
+    """(n,) stress channel `kind` from a solid's stresses (n, 6) at a point, Pa."""
     S = np.asarray(stresses, dtype=float)
     if kind == "stress_normal":
         return S[:, 0].copy()
@@ -711,7 +711,7 @@ def channels(case, traj: Trajectory) -> dict:
             out[name] = np.zeros(n)
         elif kind == "deflection":
             out[name] = deflection(traj.beams[c.body], c.at, "xyz".index(c.component))
-        elif c.where is not None:                                   # a solid: at an element centre
+        elif c.where is not None:                                   # a solid: at its point
             out[name] = solid_stress(kind, traj.beams[c.body].stresses[c.where])
         else:
             body = case.bodies[c.body]

@@ -304,8 +304,7 @@ def run_solid(case, name: str, t_end, settings, t_start: float):
     points = {k: ref[k] - origin + (u[:, dofs[k]] @ fit[k].T)[:, 3:] for k in keys}
     stresses = {}
     for p in case.stress_sections(name):
-        kind, row = flexbody.element_at(mesh, np.asarray(p) + origin)
-        S, d = solid.stress_rows(mesh, mat.E, mat.nu, kind, row)
+        S, d = flexbody.point_stress_rows(mesh, mat.E, mat.nu, np.asarray(p) + origin)
         stresses[p] = u[:, d] @ S.T
     faces, owners = solid.boundary_faces(mesh)
     elements, inverse = np.unique(owners, return_inverse=True)
