@@ -190,8 +190,7 @@ def where(case, name: str) -> str:
         comp = f", {c.component}" if c.kind == "deflection" else ""
         if c.where is not None:                     # a solid's stress point
             point = f"({', '.join(f'{v:g}' for v in c.where)}) m"
-            at = f"the fibre {point} of the nearest bar" if case.bodies[c.body].is_frame else \
-                f"the element holding {point}"
+            at = f"the fibre {point} of the nearest bar" if case.bodies[c.body].is_frame else f"the point {point}"
         else:
             at = f"interface {c.at}" if isinstance(c.at, str) else f"x = {c.at:g} m"
         return f"{case.name}: {name} ({c.kind}{comp}) of {c.body} at {at}"
