@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import re
-import time
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +23,6 @@ from flexmbd.harness import channels, cost, executor, metrics, results, registry
 from flexmbd.core import files
 from flexmbd.core.errors import InputError
 from flexmbd.core.files import atomic_write
-from flexmbd.harness.progress import job, jobs_done
 from flexmbd.harness.results import Result
 
 DEFAULT_TOLERANCE = 1e-3          # channels without a tolerance in the case file

@@ -29,11 +29,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flexmbd import cases, version
+from flexmbd import version
 from flexmbd.harness import channels, cost, metrics, results, registry
 from flexmbd.core.errors import InputError
 from flexmbd.core.files import atomic_write
-from flexmbd.report import accuracy, loading
+from flexmbd.report import loading
 from flexmbd.version import __version__
 
 # metric -> what it is (docs/studies.md); the two differences are RMS over the reference's
