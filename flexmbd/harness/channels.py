@@ -251,6 +251,14 @@ def section_loads(x0: np.ndarray, r: np.ndarray, F: np.ndarray, T: np.ndarray, x
     return np.hstack([Ms, Fs])
 
 
+def summed_strains(fb: flexbody.FlexBody, r: np.ndarray, F: np.ndarray, T: np.ndarray, mat, sec) -> dict:
+    """{x: (n, 4)} section strains at a modal beam's stress sections by force summation: the outer
+    part's resultants (`section_loads`) read through the section's stiffness (`resultant_strains`).
+    r, F, T (n, N, 3): the deformed node positions and net node forces and moments, body frame;
+    mat: the beam's `cases.Material`."""
+    return {float(x): resultant_strains(section_loads(fb.x0, r, F, T, float(x)), mat.E, mat.G, sec) for x in fb.stress_x}
+
+
 def resultant_strains(loads: np.ndarray, E: float, G: float, sec) -> np.ndarray:
     """(n, 4) section strains [eps, kappa_y, kappa_z, twist rate] of section resultants loads (n, 6)
     [T, My, Mz; N, Vy, Vz] (`section_loads`): N / (E A), My / (E Iy), Mz / (E Iz), T / (G J), the

@@ -1037,9 +1037,7 @@ def summed_strains(case, fb, name: str, Xb: dict, F: np.ndarray, joints: dict) -
     for jn, m in Xb.get("m", {}).items():
         T[:, case.joints[jn].node] -= joint_force(m, joints[jn][1], R)
     body = case.bodies[name]
-    return {float(x): channels.resultant_strains(channels.section_loads(fb.x0, r, F, T, float(x)),
-                                                 body.material.E, body.material.G, body.geometry)
-            for x in fb.stress_x}
+    return channels.summed_strains(fb, r, F, T, body.material, body.geometry)
 
 
 def cut_forces(case, X: dict) -> dict:

@@ -376,9 +376,7 @@ def summed_strains(case, model: Model, ev: Evaluated, i: int, Q, V, F, loops=Non
     s = slice(model.body_madr[i], model.body_madr[i] + model.body_nm[i])
     r = fb.x0 + flexbody.modal_field(fb.Phi[:, 3:, :], Q[:, s])
     T = node_moments(model, ev, i, V, r, cut_node_wrenches(loops, cuts, ev, i))
-    mat, sec = body.material, body.geometry
-    return {float(x): channels.resultant_strains(channels.section_loads(fb.x0, r, F, T, float(x)), mat.E, mat.G, sec)
-            for x in fb.stress_x}
+    return channels.summed_strains(fb, r, F, T, body.material, body.geometry)
 
 
 def trajectory(case, model: Model, t, Q, V, E=None, loops: constraints.Loops | None = None) -> channels.Trajectory:
