@@ -306,7 +306,13 @@ class Worker:
         theirs.close()
 
     def send(self, t: Task) -> None:
-        self.conn.send(t)
+        """Hand the worker a task. A worker killed after its last answer has closed its end: the
+        task is not delivered, and its death is then seen as any other's (`receive` None, the job
+        run again) rather than as this process's broken pipe."""
+        try:
+            self.conn.send(t)
+        except (BrokenPipeError, ConnectionResetError):
+            pass
 
     def receive(self) -> tuple[Result, float] | None:
         """The worker's answer (`timed`: the Result and the run's own time), or None when it died
