@@ -1,12 +1,12 @@
 """flexmbd: a validation and benchmarking harness for flexible multibody dynamics.
 
-The Python API (docs/api.md): `load_case`, `run`, `compare`, `verdicts`, `system_modes` and
-`units`, returning pandas objects whose `attrs["units"]` names every column's unit. Importing
+The Python API (docs/api.md): `load_case`, `run`, `compare`, `verdicts`, `durability`,
+`system_modes` and `units`, returning pandas objects whose `attrs["units"]` names every column's unit. Importing
 flexmbd is cheap; solvers and their compiled kernels load on first use."""
 
 from __future__ import annotations
 
-__all__ = ["load_case", "run", "compare", "verdicts", "system_modes", "units", "__version__"]
+__all__ = ["load_case", "run", "compare", "verdicts", "durability", "system_modes", "units", "__version__"]
 
 
 def load_case(name_or_path, overrides=()):
@@ -127,6 +127,41 @@ def verdicts(compared):
     df = pd.DataFrame(compared.attrs["runs"], columns=["solver", "verdict", "text", "status", "worst_rms", "wall_s"])
     df = df.set_index("solver")
     df.attrs["units"] = {"worst_rms": "1", "wall_s": "s"}
+    return df
+
+
+def durability(case, solvers=None, t_end: float | None = None):
+    """The fatigue count of a case with a `[durability]` table (docs/durability.md): the solvers
+    (default: the case's report list, with its reference) run as `compare` runs them, and for each
+    signed stress channel and solver that gives it, its rainflow cycles, largest range, S_eq at
+    m = 3 and 5, Palmgren-Miner damage per repeat, life, and against the reference: S_eq and
+    damage ratios, the damage ratio the S_eq ratio predicts, the band the RMS stress difference
+    predicts and the verdict on S_eq. A DataFrame (`harness.durability.COLUMNS`) with
+    `attrs["units"]`, `attrs["cycles"]` {solver: DataFrame of its cycles} and `attrs["curve"]`."""
+    import numpy as np
+    import pandas as pd
+
+    from flexmbd.core.errors import InputError
+    from flexmbd.harness import durability as fatigue
+    from flexmbd.harness import registry
+    from flexmbd.report import loading
+    case = _case(case)
+    st = fatigue.settings(case)
+    if st is None:
+        raise InputError(f"{case.path}: durability: the case has no [durability] table (cases/README.md)")
+    names = loading.with_reference(case, list(solvers or case.report.solvers or registry.NAMES))
+    for n in names:
+        registry.check_name(n, "solvers")
+    runs = {}
+    for n in names:
+        r = registry.run(case, n, t_end)
+        if r.ok and all(c in r.channels and np.isfinite(r.channels[c]).all() for c in st.channels):
+            runs[n] = (r.t, r.channels)
+    rows, cycles = fatigue.table(st, runs, case.report.reference)
+    df = pd.DataFrame(rows, columns=[k for k, _ in fatigue.COLUMNS])
+    df.attrs.update({"case": case.name, "reference": case.report.reference, "curve": st.curve.name,
+                     "units": {k: u for k, u in fatigue.COLUMNS if u},
+                     "cycles": {n: pd.DataFrame(c) for n, c in cycles.items()}})
     return df
 
 

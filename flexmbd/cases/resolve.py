@@ -75,6 +75,7 @@ class Modes:
     boundary: str       # "clamped-free", "hinged-hinged", "free-free", "craig-bampton"
     interfaces: tuple | None    # craig-bampton: interface positions along the beam, m
     kinds: tuple | None = None  # the kinds (`fe.modes.FAMILIES`) of the modes kept; None: any
+    static: tuple | None = None     # positions along the beam (m) of its static correction modes
 
 
 @dataclass(frozen=True)
@@ -316,6 +317,7 @@ class Resolved:
                                     # held by the case and by its `split`
     split: Resolved | None = field(default=None, repr=False, compare=False)     # None: this one
     loops: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))   # name -> Joint: the cut joints
+    durability: MappingProxyType | None = None      # the [durability] table as checked (None: none)
 
     @property
     def modelled(self) -> Resolved:
@@ -405,7 +407,8 @@ def _body(name: str, b: dict, materials: dict):
                 section=Section(**b["section"]), damping_ratio=b["damping_ratio"], mass=b["mass"], shear=b["shear"],
                 modes=Modes(count=m["count"], boundary=m["boundary"],
                             interfaces=None if m["interfaces"] is None else tuple(m["interfaces"]),
-                            kinds=None if m["kinds"] is None else tuple(m["kinds"])),
+                            kinds=None if m["kinds"] is None else tuple(m["kinds"]),
+                            static=None if m["static"] is None else tuple(m["static"])),
                 rigid=b["rigid"], stiffening=b["stiffening"], segments=b["segments"], stress=b["stress"])
 
 
@@ -487,7 +490,7 @@ def resolve(data: dict, split: bool = True) -> Resolved:
         segments=MappingProxyType(segments), whole=MappingProxyType(whole),
         split=None if expanded is data else dataclasses.replace(resolve(expanded, split=False),
                                                                 whole=MappingProxyType(whole)),
-        loops=MappingProxyType(loops))
+        loops=MappingProxyType(loops), durability=None if data["durability"] is None else read_only(data["durability"]))
 
 
 def tolerances(given: dict | None, chans: dict) -> dict:

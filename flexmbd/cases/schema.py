@@ -41,6 +41,7 @@ MODES = {
     "boundary": (("clamped-free", "hinged-hinged", "free-free", "craig-bampton"), "clamped-free"),
     "interfaces": ("vec", None),    # craig-bampton: interface positions along the beam, m
     "kinds": ("strings", None),     # keep the lowest `count` modes of these kinds (fe.modes.FAMILIES); None: any
+    "static": ("vec", None),        # static correction modes at these positions along the beam (each segment), m
 }
 
 BEAM = {
@@ -191,6 +192,28 @@ REPORT = {
 TOLERANCES = {"deflection": 0.05, **{k: 0.05 for k in STRESS_KINDS}, "joint_angle": 0.01, "energy": 0.01,
               "reaction_force": 0.05, "reaction_moment": 0.05}
 
+# a case's own S-N curve (docs/durability.md): N = 10^log_a S^-m on each segment, S in MPa, the
+# highest ranges first, segment k down to the range lower[k] (the last one's lower: 0 goes on)
+CURVE = {
+    "name": ("line", "the case's own S-N curve"),
+    "m": ("floats", REQUIRED),          # slopes, one per segment
+    "log_a": ("floats", REQUIRED),      # log10 of each segment's constant, S in MPa
+    "lower": ("floats", REQUIRED),      # MPa: each segment's lowest range
+    "cutoff": ("bool", False),          # no damage below the last segment's lower range
+}
+
+# a case's fatigue count of its signed stress channels (docs/durability.md, cases/README.md)
+DURABILITY = {
+    "channels": ("strings", REQUIRED),  # signed stress channels (stress_normal, stress_signed_vm)
+    "curve": ("curve", "dnv-c"),        # a name of harness.durability.CURVES or a CURVE table
+    "correction": (("none", "goodman", "walker"), "none"),
+    "ultimate": ("float+", None),       # Pa: the material's ultimate strength (goodman)
+    "gamma": ("float+", 0.5),           # walker's exponent
+    "residue": (("half", "repeat"), "half"),    # the residue as half cycles, or the history repeated
+    "discard": ("float0+", 0.0),        # s: the start-up left out of the count
+    "tolerance": ("float+", 0.05),      # verdict: |S_eq / S_eq of the reference - 1| at most this
+}
+
 # the deformed-shape snapshots: at most this many instants (one panel each) and shape points per beam
 MAX_SNAPSHOTS = 12
 MAX_SHAPE_POINTS = 101
@@ -207,6 +230,7 @@ CASE = {
     "integrator": (INTEGRATOR, {}),
     "solvers": ("solver_settings", {}),
     "report": (REPORT, {}),
+    "durability": (DURABILITY, None),
 }
 
 

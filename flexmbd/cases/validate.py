@@ -16,7 +16,7 @@ import tomllib
 from pathlib import Path
 
 from flexmbd.fe import flexbody
-from flexmbd.cases.schema import (BEAM, CASE, CHANNEL_KEYS, DERIVED, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS,
+from flexmbd.cases.schema import (BEAM, CASE, CHANNEL_KEYS, CURVE, DERIVED, JOINT_DOFS, LARGEST, MAX_SHAPE_POINTS,
                                   MAX_SNAPSHOTS, NAME_CHARS, POINT_MASS, POINT_MASS_JOINTS, REQUIRED, RIGID, SOLID,
                                   STRESS_KINDS)
 from flexmbd.fe import modes as fe_modes
@@ -309,7 +309,25 @@ KINDS = {"body": lambda v, where, key: _check_body(v, where, key),
          "line": _text(True), "bool": _bool, **{k: _numbers(k) for k in ("vec3", "vec", "floats", "inertia")},
          "point": _point, "solver": _solver, "solvers": _words("solver names"),
          "tolerances": _table_of("float+", "channel = relative tolerance"),
-         "explanations": _table_of("str", "solver = explanation"), "solver_settings": _solver_settings}
+         "explanations": _table_of("str", "solver = explanation"), "solver_settings": _solver_settings,
+         "curve": lambda v, where, key: _check_curve(v, where, key)}
+
+
+def _check_curve(v, where, key):
+    """An S-N curve: a name (checked against the curves known, `durability.check`) or a CURVE
+    table of segments with positive slopes, one constant and one lower range each, highest first."""
+    if isinstance(v, str):
+        return v
+    if not isinstance(v, dict):
+        _fail(where, key, f"expected a curve's name or a table (m, log_a, lower), got {v!r}")
+    c = check_table(v, CURVE, where, key + ".")
+    if min(c["m"]) <= 0:
+        _fail(where, f"{key}.m", f"slopes must be positive, got {c['m']}")
+    if not len(c["m"]) == len(c["log_a"]) == len(c["lower"]):
+        _fail(where, key, "m, log_a and lower need one value per segment")
+    if min(c["lower"]) < 0 or c["lower"] != sorted(c["lower"], reverse=True):
+        _fail(where, f"{key}.lower", f"expected ranges >= 0, highest first, got {c['lower']}")
+    return c
 
 
 def _check_body(v, where, key):
@@ -400,6 +418,37 @@ def _check_references(d: dict, where: str) -> None:
     if rep["solvers"] and rep["reference"] is not None and rep["reference"] not in rep["solvers"]:
         _fail(where, "report.reference", f"{rep['reference']!r} is not among report.solvers {rep['solvers']}")
     _check_snapshots(d, where)
+    _check_durability(d, where)
+
+
+# the stress channels with a sign, which a rainflow count can read (von Mises folds each compressive
+# half cycle into a tensile one)
+SIGNED = ("stress_normal", "stress_signed_vm")
+
+
+def _check_durability(d, where):
+    """A `[durability]` table's channels (signed stress channels of the case, each once), its
+    discarded start-up (shorter than the run) and its mean-stress correction's material value."""
+    dur = d["durability"]
+    if dur is None:
+        return
+    if not dur["channels"]:
+        _fail(where, "durability.channels", "expected at least one signed stress channel")
+    for name in dur["channels"]:
+        c = d["channels"].get(name)
+        if c is None:
+            _fail(where, "durability.channels", f"no channel {name!r}{hint(name, d['channels'])}")
+        if c["kind"] not in SIGNED:
+            _fail(where, "durability.channels", f"{name!r} is a {c['kind']} channel, not a signed stress "
+                  f"({' or '.join(SIGNED)}): von Mises has no sign, and counted it folds each compressive half "
+                  "cycle into a tensile one")
+        if dur["channels"].count(name) > 1:
+            _fail(where, "durability.channels", f"{name!r} listed twice")
+    if dur["discard"] >= d["duration"]:
+        _fail(where, "durability.discard", f"{dur['discard']:g} s discards the whole run of {d['duration']:g} s")
+    if (dur["correction"] == "goodman") != (dur["ultimate"] is not None):
+        _fail(where, "durability.ultimate", "the Goodman correction needs the material's ultimate strength (Pa)"
+              if dur["ultimate"] is None else f"only read by correction = \"goodman\", not {dur['correction']!r}")
 
 
 def _check_integrator(d, where):
@@ -522,8 +571,25 @@ def _check_beam(b, d, where, k):
                 _fail(where, f"{k}.modes.interfaces", f"position {x} m lies outside {what} [0, {length}]")
     elif m["interfaces"] is not None:
         _fail(where, f"{k}.modes.interfaces", "only used with boundary = \"craig-bampton\"")
+    if m["static"] is not None:
+        _check_static(m, length, elements, n, where, f"{k}.modes.static")
     if m["kinds"] is not None:
         _check_kinds(m, elements, mesh, where, f"{k}.modes.kinds")
+
+
+def _check_static(m, length, elements, n, where, key):
+    """Static correction positions: a clamped-free or hinged-hinged mode set (whose supports hold
+    the beam still under a load), on the beam (each segment if n > 1), at a node the supports leave
+    free to move, each once."""
+    if m["boundary"] not in ("clamped-free", "hinged-hinged"):
+        _fail(where, key, f"static correction needs boundary = \"clamped-free\" or \"hinged-hinged\", got {m['boundary']!r}")
+    what = "each segment" if n > 1 else "the beam"
+    nodes = {flexbody.node_index(length, elements, x) for x in m["static"]}
+    for x in m["static"]:
+        if not 0.0 <= x <= length or flexbody.node_index(length, elements, x) == 0:
+            _fail(where, key, f"position {x} m lies outside {what} (0, {length}] or on its root node, which is held")
+    if len(nodes) < len(m["static"]):
+        _fail(where, key, f"two positions fall on the same node of the {elements}-element mesh")
 
 
 def _check_kinds(m, elements, mesh, where, key):

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from flexmbd import cases
-from flexmbd.harness import cost, registry
+from flexmbd.harness import cost, durability, registry
 
 
 def _case(name: str, overrides=()) -> cases.Case:
@@ -16,6 +16,7 @@ def _case(name: str, overrides=()) -> cases.Case:
     that names no reference solver gets its default (`registry.graded`)."""
     case = cases.load(name, overrides)
     registry.check(case)
+    durability.check(case)
     return registry.graded(case)
 
 

@@ -172,11 +172,42 @@ def mode_set(beam, K, M, M_lumped, nodes: np.ndarray):
     if m.boundary in ("clamped-free", "hinged-hinged"):
         fixed = modes.boundary_dofs(m.boundary, nodes.shape[0])
         freq, Phi = of_kinds(lambda n: modes.normal_modes(K, M, fixed, n), m.count, m.kinds, K.shape[0] - fixed.size)
+        if m.static:
+            at = [node_index(beam.length, beam.elements, x) for x in m.static]
+            freq_s, Psi = static_correction(K, M, fixed, Phi, at, m.kinds)
+            freq, Phi = np.concatenate([freq, freq_s]), np.hstack([Phi, Psi])
         if M is M_lumped:
             return freq, Phi
     else:
         Phi = reference_node(K, M, nodes, floating_modes(beam, K, M))[:, : m.count]
     return in_node_masses(K, M_lumped, Phi)
+
+
+def static_correction(K, M, fixed, Phi: np.ndarray, at, kinds=None):
+    """(freq (k,), Psi (6N, k)): static correction modes at the nodes `at` (docs/formulation.md
+    §7d): the static deflections under a unit load on each free DOF of those nodes of the kinds
+    (`fe.modes.FAMILIES`; None: every kind), the supports `fixed` holding the beam, made
+    M-orthogonal to the retained normal modes Phi (6N, nm; M-orthonormal) and then M-orthonormal
+    and K-diagonal among themselves. Phi^T K Psi = 0 follows (K Phi = M Phi Lambda), so the normal
+    modes and their frequencies are kept exactly; a load at those nodes is then represented
+    statically exactly by the combined set."""
+    kinds = kinds or tuple(modes.FAMILIES)
+    dofs = sorted(set(6 * p + k for p in at for kind in kinds for k in modes.FAMILIES[kind]) - set(fixed))
+    Psi = modes.static_modes(K, fixed, dofs)
+    Psi = Psi - Phi @ (Phi.T @ (M @ Psi))
+    return modes.orthonormalize(K, M, Psi)
+
+
+def mode_labels(beam, Phi_fe: np.ndarray) -> list:
+    """The label of each retained mode (`fe.modes.mode_labels`): the last ones, as many as a beam's
+    static correction adds (above every retained normal mode in frequency), are labelled by family
+    as 'bending xy static 1'."""
+    n_static = Phi_fe.shape[1] - beam.modes.count
+    labels = modes.mode_labels(Phi_fe[:, : beam.modes.count])
+    if n_static > 0:
+        tail = modes.mode_labels(Phi_fe[:, beam.modes.count:])
+        labels += [" static ".join(t.rpartition(" ")[::2]) for t in tail]
+    return labels
 
 
 def of_kinds(lowest, count: int, kinds, most: int):
@@ -278,7 +309,7 @@ def build(beam, stress_points=()) -> FlexBody:
     nm = Phi_fe.shape[1]
     return FlexBody(
         name=beam.name, length=beam.length, x0=nodes, m=m, J=J, Phi=spatial_blocks(Phi_fe),
-        freq_hz=np.asarray(freq), labels=np.array(modes.mode_labels(Phi_fe) if nm else [], dtype=str), Km=Km, Cm=Cm,
+        freq_hz=np.asarray(freq), labels=np.array(mode_labels(beam, Phi_fe) if nm else [], dtype=str), Km=Km, Cm=Cm,
         boundary=beam.modes.boundary, stress_x=np.array(xs, dtype=float),
         S_strain=np.array(S).reshape(len(xs), 4, nm), D=foreshortening(nodes, elements, Phi_fe))
 

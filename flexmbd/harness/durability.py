@@ -161,3 +161,144 @@ def equivalent_range(c: Cycles, m: float, n_ref: float = 2e6, scale: float = 1.0
     the same damage in n_ref cycles on a single-slope curve of slope m. It scales one to one with
     the stresses, so its ratio between two solvers is their stress error as it reaches the life."""
     return float((np.sum(c.counts * (c.ranges * scale) ** m) / n_ref) ** (1.0 / m))
+
+
+# ---------------------------------------------------------------------------------------------
+# a case's fatigue count (its [durability] table, cases/README.md)
+
+MPA = 1e-6          # the stress channels are in Pa; ranges, S_eq and curves in MPa
+SLOPES = (3.0, 5.0)  # the slopes of the damage-equivalent ranges tabulated
+
+
+@dataclass(frozen=True)
+class Settings:
+    """A case's `[durability]` table, its curve resolved."""
+
+    channels: tuple
+    curve: SNCurve
+    correction: str     # "none", "goodman", "walker"
+    ultimate: float     # MPa (goodman; inf otherwise)
+    gamma: float        # walker
+    repeat: bool        # the residue closed as the history repeats (else half cycles)
+    discard: float      # s: the start-up left out
+    tolerance: float    # on |S_eq / S_eq of the reference - 1|
+
+
+def check(case) -> None:
+    """The case's curve name is one of CURVES (InputError naming the file and key)."""
+    dur = case.durability
+    if dur is not None and isinstance(dur["curve"], str) and dur["curve"] not in CURVES:
+        from flexmbd.core.errors import InputError
+        raise InputError(f"{case.path}: durability.curve: unknown curve {dur['curve']!r} (expected one of "
+                         f"{', '.join(CURVES)}, or a table m, log_a, lower)")
+
+
+def settings(case) -> Settings | None:
+    """The case's `[durability]` table as Settings (None: the case has none)."""
+    check(case)
+    dur = case.durability
+    if dur is None:
+        return None
+    c = dur["curve"]
+    curve = CURVES[c] if isinstance(c, str) else SNCurve(
+        name=c["name"], source="the case file", m=tuple(c["m"]), log_a=tuple(c["log_a"]), lower=tuple(c["lower"]),
+        cutoff=c["cutoff"])
+    return Settings(channels=tuple(dur["channels"]), curve=curve, correction=dur["correction"],
+                    ultimate=np.inf if dur["ultimate"] is None else dur["ultimate"] * MPA, gamma=dur["gamma"],
+                    repeat=dur["residue"] == "repeat", discard=dur["discard"], tolerance=dur["tolerance"])
+
+
+def counted(t, s, st: Settings) -> tuple[Cycles, float]:
+    """(the cycles of the history s (n,) Pa at times t (n,) s after the start-up, ranges in MPa
+    corrected for the mean as the settings say; the counted span, s: one repeat of the duty cycle)."""
+    keep = np.asarray(t) >= st.discard
+    tk = np.asarray(t)[keep]
+    c = cycles(np.asarray(s)[keep] * MPA, repeat=st.repeat)
+    first = int(np.argmax(keep))
+    S = corrected(c, st.correction, st.ultimate, st.gamma)
+    return Cycles(S, c.means, c.counts, c.starts + first, c.ends + first), float(tk[-1] - tk[0])
+
+
+def segments_of(curve: SNCurve, S) -> set:
+    """The curve's segments (0, 1, ...; len(m): below a cut-off) that hold the ranges S, MPa."""
+    upper, out = np.inf, set()
+    for k, low in enumerate(curve.lower):
+        if np.any((S >= low) & (S < upper)):
+            out.add(k)
+        upper = low
+    if np.any(S < upper):
+        out.add(len(curve.m) if curve.cutoff else len(curve.m) - 1)
+    return out
+
+
+def summary(c: Cycles, span: float, curve: SNCurve) -> dict:
+    """One history's count: cycles, largest range (MPa), S_eq at SLOPES (MPa), damage per repeat,
+    life in repeats and hours, and the curve segments its ranges lie on."""
+    D = float(np.sum(c.counts / life(curve, c.ranges))) if c.counts.size else 0.0
+    return {"c": c, "cycles": float(c.counts.sum()), "largest_MPa": float(c.ranges.max()) if c.ranges.size else 0.0,
+            **{f"seq{m:g}_MPa": equivalent_range(c, m) for m in SLOPES}, "damage": D,
+            "life_repeats": 1.0 / D if D > 0 else np.inf, "life_h": span / D / 3600.0 if D > 0 else np.inf,
+            "segments": segments_of(curve, c.ranges)}
+
+
+def relative(row: dict, ref: dict, curve: SNCurve, rms: float, tolerance: float) -> dict:
+    """A solver's count (`summary`, with its Cycles as `c`) against the reference's: S_eq and
+    damage ratios; the damage ratio its S_eq ratio predicts, (S_eq / S_eq,ref)^m at the slope m of
+    the one segment both counts lie on (NaN and `mixed` where they lie on several or a cycle falls
+    below a cut-off, which makes damage jump); the band (1 -/+ rms)^m that the channel's RMS stress
+    difference predicts; and the verdict on S_eq at SLOPES."""
+    seg = row["segments"] | ref["segments"]
+    one = len(seg) == 1 and min(seg) < len(curve.m)
+    m = curve.m[min(seg)] if one else curve.m[0]
+    ratio = {f"seq{s:g}_ratio": row[f"seq{s:g}_MPa"] / ref[f"seq{s:g}_MPa"] if ref[f"seq{s:g}_MPa"] > 0 else np.nan
+             for s in SLOPES}
+    s_ref = equivalent_range(ref["c"], m)
+    predicted = (equivalent_range(row["c"], m) / s_ref) ** m if one and s_ref > 0 else np.nan
+    worst = max(abs(v - 1.0) for v in ratio.values())
+    return {**ratio, "damage_ratio": row["damage"] / ref["damage"] if ref["damage"] > 0 else np.nan,
+            "slope": m, "predicted_ratio": predicted, "mixed": not one, "rms": rms,
+            "band_low": max(1.0 - rms, 0.0) ** m, "band_high": (1.0 + rms) ** m,
+            "verdict": "pass" if worst <= tolerance else "fail"}
+
+
+# the columns of a case's durability table (`table`), with their units ("1": a ratio; "" none)
+COLUMNS = (("channel", ""), ("solver", ""), ("cycles", "1"), ("largest_MPa", "MPa"), ("seq3_MPa", "MPa"),
+           ("seq5_MPa", "MPa"), ("damage", "1"), ("life_repeats", "1"), ("life_h", "h"), ("seq3_ratio", "1"),
+           ("seq5_ratio", "1"), ("damage_ratio", "1"), ("slope", "1"), ("predicted_ratio", "1"), ("mixed", ""),
+           ("rms", "1"), ("band_low", "1"), ("band_high", "1"), ("verdict", ""))
+
+
+def rms_difference(t, s, t_ref, s_ref, start: float) -> float:
+    """The RMS difference of s from the reference (interpolated to t) over t >= start, over the
+    reference's largest magnitude there: the accuracy table's measure on the counted span."""
+    keep = np.asarray(t) >= start
+    ref = np.interp(np.asarray(t)[keep], t_ref, s_ref)
+    top = np.abs(np.asarray(s_ref)[np.asarray(t_ref) >= start]).max()
+    return float(np.sqrt(np.mean((np.asarray(s)[keep] - ref) ** 2)) / top) if top > 0 else np.nan
+
+
+def table(st: Settings, runs: dict, reference: str | None) -> tuple[list, dict]:
+    """(rows, cycles): a case's count per channel and solver, and each solver's cycles. runs:
+    {solver: (t (n,) s, {channel: (n,) Pa})} of the runs that give the channels; rows: dicts of
+    COLUMNS, the ratios against `reference` (NaN, verdict '' for it or without it); cycles:
+    {solver: [dicts channel, range_MPa, mean_MPa, count, t_start, t_end]} (the cycle table)."""
+    rows, cyc = [], {}
+    for name in st.channels:
+        counts = {}
+        for solver, (t, ch) in runs.items():
+            c, span = counted(t, ch[name], st)
+            counts[solver] = summary(c, span, st.curve)
+            cyc.setdefault(solver, []).extend(
+                {"channel": name, "range_MPa": r, "mean_MPa": mu, "count": n, "t_start": t[i], "t_end": t[j]}
+                for r, mu, n, i, j in zip(c.ranges, c.means, c.counts, c.starts, c.ends))
+        ref = counts.get(reference)
+        for solver, row in counts.items():
+            rel = {k: np.nan for k, _ in COLUMNS[9:]} | {"mixed": False, "verdict": ""}
+            if ref is not None and solver != reference:
+                t, ch = runs[solver]
+                t_ref, ch_ref = runs[reference]
+                rms = rms_difference(t, ch[name], t_ref, ch_ref[name], st.discard)
+                rel = relative(row, ref, st.curve, rms, st.tolerance)
+            rows.append({"channel": name, "solver": solver, **{k: v for k, v in row.items() if k in dict(COLUMNS)},
+                         **rel})
+    return rows, cyc

@@ -245,8 +245,9 @@ def damping_resolution(B: np.ndarray, lam: np.ndarray, left: np.ndarray, right: 
     different scales make the unbalanced bound 1e4-1e7 times too wide). A ratio -Re lam / |lam|
     below it is round-off."""
     tiny = np.finfo(float).tiny
-    kappa = 1.0 / np.maximum(np.abs(np.einsum("ik,ik->k", left.conj(), right)), tiny)
-    return kappa * np.finfo(float).eps * np.linalg.norm(B) / np.maximum(np.abs(lam), tiny)
+    with np.errstate(over="ignore"):        # an eigenvalue at 0 or a defective one resolves nothing: inf
+        kappa = 1.0 / np.maximum(np.abs(np.einsum("ik,ik->k", left.conj(), right)), tiny)
+        return kappa * np.finfo(float).eps * np.linalg.norm(B) / np.maximum(np.abs(lam), tiny)
 
 
 def system_modes(model: Model, q, v, t: float = 0.0, bar=None, loops: constraints.Loops | None = None) -> list:

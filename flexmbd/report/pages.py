@@ -32,7 +32,8 @@ from flexmbd import cases
 from flexmbd.harness import metrics, results, registry
 from flexmbd.core import resources
 from flexmbd.core.files import atomic_write
-from flexmbd.report import accuracy, animation, convergence, fields, figures, loading, shapes, spectra, tables
+from flexmbd.report import (accuracy, animation, convergence, durability, fields, figures, loading, shapes, spectra,
+                            tables)
 from flexmbd.report import templates as T
 
 
@@ -420,6 +421,33 @@ def accuracy_part(p: CasePage) -> list:
                     table=table(head, rows, left=4))]
 
 
+def durability_part(p: CasePage) -> list:
+    """The fatigue count of a case with a `[durability]` table (`report.durability`): what it
+    counts, its table, its figure, and the table and every run's cycles as files beside the page."""
+    got = durability.counts(p.case, p.ok)
+    if got is None:
+        return []
+    st, rows, cyc = got
+    if not rows:
+        return []
+    img = durability.figure(p.case, st, rows, cyc, p.folder / "durability.png")
+    atomic_write(p.folder / "durability.csv", durability.csv_text(rows))
+    atomic_write(p.folder / "durability.tex", durability.latex(p.case, st, rows))
+    listed = durability.write_cycles(p.folder, cyc)
+    lead = (f"Rainflow count (ASTM E1049-85, exact) of {', '.join(st.channels)} after {st.discard:g} s, the residue "
+            f"{'closed as the history repeats' if st.repeat else 'as half cycles'}; {st.curve.name} "
+            f"({st.curve.source}); mean-stress correction: {st.correction}. Damage is Palmgren-Miner per repeat of "
+            f"the counted span; S_eq = (sum n S^m / 2e6)^(1/m). Verdict: |S_eq / S_eq of the reference - 1| within "
+            f"{st.tolerance:g} at m = 3 and 5. The predicted damage ratio is (S_eq ratio)^m at the slope of the one "
+            f"curve segment that holds every cycle; the band is (1 -/+ e)^m with e the RMS stress difference over "
+            f"the counted span.")
+    files_ = ["durability.csv", "durability.tex", *listed]
+    links = Both("<p>" + ", ".join(f"<a href='{f}'>{f}</a>" for f in files_) + "</p>",
+                 ", ".join(f"[{f}]({f})" for f in files_))
+    return [section(T.DURABILITY, lead=Both(paragraph(lead), lead), images=images([img]), files=links,
+                    table=table(durability.HEAD, [durability.cells(r) for r in rows], left=2))]
+
+
 def convergence_part(p: CasePage) -> list:
     """Each solver against its discretisation, from the case's stored studies (`convergence.section`)."""
     got = convergence.section(p.case, p.folder, p.warn)
@@ -432,7 +460,7 @@ def provenance_part(p: CasePage) -> list:
 
 
 SECTIONS = (lead, runs_part, deflection_part, stress_part, angles_part, spectra_part, modes_part, elasticity_part,
-            timing_part, accuracy_part, convergence_part, provenance_part)
+            timing_part, accuracy_part, durability_part, convergence_part, provenance_part)
 
 
 def page(p: CasePage, sections: list) -> Both:

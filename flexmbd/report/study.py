@@ -214,6 +214,14 @@ def stages(st: Study, load) -> list:
                        memory=points * POINT_B + rows * ROW_B, seconds=runs * RUN_S + values * VALUE_S + rows * ROW_S)]
 
 
+def _same(v, want) -> bool:
+    """A table's value of a varied key is the value `want` (a number, a word, or a list such as
+    positions along a beam); a missing value is none."""
+    if isinstance(want, list) or isinstance(v, (list, tuple, np.ndarray)):
+        return isinstance(v, (list, tuple, np.ndarray)) and list(v) == list(want)
+    return bool(v == want) if not pd.isna(v) else False
+
+
 def values(st: Study, overrides) -> dict:
     """The varied keys' values (TOML values) at the point of `overrides` (one of `grid`'s)."""
     given = dict(o.partition("=")[::2] for o in overrides)
@@ -398,7 +406,7 @@ def figures(st: Study, df: pd.DataFrame, where: Path) -> list:
             others = np.ones(len(df), dtype=bool)
             for k in keys:
                 if k != key:
-                    others &= (df[k] == finest[k]).fillna(False).to_numpy(dtype=bool)
+                    others &= df[k].map(lambda v, want=finest[k]: _same(v, want)).to_numpy(dtype=bool)
             for metric in DRAWN:
                 sel = df[(df["case"] == case) & (df["metric"] == metric) & others]
                 sel = sel[sel["value"].astype(float) > 0]          # finite: on a log scale (the finest point: 0)

@@ -49,7 +49,7 @@ WHY = Form(Template("<p class='why'><b>$solver</b>: $status.$said</p>"), Templat
 # the sections, in the order of the page (`pages.SECTIONS` places them)
 RUNS = Section("Runs", *same("$table$why"))
 DEFLECTION = Section("Deflection", *same("$images"))
-STRESS = Section("Stress (von Mises at the stress points)", *same("$images"))
+STRESS = Section("Stress at the stress points", *same("$images"))
 ANGLES = Section("Joint angles, energy and reactions", *same("$images"))
 SPECTRA = Section("FFT spectra and identified frequencies", Template("$images$note$table"),
                   Template("$images$note\n\n$table"))
@@ -57,6 +57,7 @@ MODES = Section("Mode shapes", Template("$images$note"), Template("$images$note\
 ELASTICITY = Section("Flexible minus rigid", *same("$images"))
 TIMING = Section("Timing", *same("$table"))
 ACCURACY = Section("Accuracy", Template("$lead$defaults$notes$table"), Template("$defaults$notes$table"))
+DURABILITY = Section("Durability", Template("$lead$table$images$files"), Template("$lead\n\n$table\n$images$files\n"))
 CONVERGENCE = Section("Convergence", *same("$body"))
 PROVENANCE = Section("Provenance", *same("$table"))
 

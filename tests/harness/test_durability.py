@@ -2,6 +2,8 @@
 they did not compute: the worked example of
 ASTM E1049-85, the published S-N curves' numbers, and closed forms of Miner damage."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -142,3 +144,80 @@ def test_the_sign_of_a_solid_s_stress_is_its_largest_principal_stress_s():
     vm = channels.solid_vm(S)
     assert np.allclose(channels.solid_stress("stress_signed_vm", S), [vm[0], -vm[1], -vm[2], vm[3]])
     assert channels.solid_stress("stress_normal", S).tolist() == [100.0, -100.0, 10.0, 0.0]
+
+
+# ---------------------------------------------------------------------------------------------
+# a case's fatigue count (`table`, `settings`) and its [durability] table's input
+
+def settings(curve="dnv-c", discard=0.0, tolerance=0.05) -> d.Settings:
+    return d.Settings(("s",), d.CURVES[curve], "none", np.inf, 0.5, False, discard, tolerance)
+
+
+def sine(amplitude_mpa: float, periods: int = 20, n: int = 4001):
+    """(t, s): a sinusoid in Pa of `amplitude_mpa` over `periods` periods of 1 s, from its peak."""
+    t = np.linspace(0.0, float(periods), n)
+    return t, amplitude_mpa * 1e6 * np.cos(2 * np.pi * t)
+
+
+@pytest.mark.parametrize("factor, verdict", [(1.01, "pass"), (1.06, "fail")])
+def test_a_scaled_history_has_its_scale_as_s_eq_ratio_and_its_power_as_damage_ratio(factor, verdict):
+    """Two runs of one sinusoid, one scaled: S_eq's ratio is the scale at both slopes, damage's
+    its power m = 5 (every range, 20 MPa, below DNV C's knee at 73 MPa: one segment), the damage
+    ratio predicted from S_eq equals the computed one to 1e-12 (both are sums of the same powers),
+    and the S_eq verdict holds the 5 % tolerance."""
+    t, s = sine(10.0)
+    rows, cyc = d.table(settings(), {"ref": (t, {"s": s}), "other": (t, {"s": factor * s})}, "ref")
+    other = next(r for r in rows if r["solver"] == "other")
+    assert abs(other["seq3_ratio"] / factor - 1) < 1e-12 and abs(other["seq5_ratio"] / factor - 1) < 1e-12
+    assert abs(other["damage_ratio"] / factor ** 5 - 1) < 1e-12
+    assert abs(other["predicted_ratio"] / other["damage_ratio"] - 1) < 1e-12 and not other["mixed"]
+    assert other["slope"] == 5.0 and other["verdict"] == verdict
+    # RMS of (f - 1) s over max |s|: (f - 1) / sqrt 2 over whole periods (the 4001 samples hold
+    # both ends: a bias of 1 / 4000)
+    assert other["rms"] == pytest.approx((factor - 1) / np.sqrt(2), rel=1e-3)
+    assert other["band_low"] < 1 < other["band_high"]
+    ref = next(r for r in rows if r["solver"] == "ref")
+    assert ref["cycles"] == 20 and ref["largest_MPa"] == pytest.approx(20.0, rel=1e-9) and ref["verdict"] == ""
+    assert len(cyc["ref"]) == len(cyc["other"]) and {c["channel"] for c in cyc["ref"]} == {"s"}
+
+
+def test_cycles_that_straddle_the_cut_off_make_no_prediction():
+    """Ranges on both sides of Eurocode 3 category 71's cut-off (28.7 MPa): damage jumps as a
+    cycle crosses it, so the S_eq ratio predicts nothing (mixed, NaN)."""
+    t, s = sine(14.0)                                            # 28 MPa: just below the cut-off
+    rows, _ = d.table(settings("ec3-71"), {"ref": (t, {"s": s}), "other": (t, {"s": 1.04 * s})}, "ref")
+    other = next(r for r in rows if r["solver"] == "other")
+    assert other["mixed"] and np.isnan(other["predicted_ratio"])
+    assert next(r for r in rows if r["solver"] == "ref")["damage"] == 0.0 and np.isnan(other["damage_ratio"])
+
+
+def test_the_start_up_is_discarded_and_each_cycle_keeps_its_times():
+    """discard = 5 s of a 20-period history: 15 cycles, each starting and ending after 5 s."""
+    t, s = sine(10.0)
+    rows, cyc = d.table(settings(discard=5.0), {"ref": (t, {"s": s})}, "ref")
+    assert rows[0]["cycles"] == 15
+    assert min(c["t_start"] for c in cyc["ref"]) >= 5.0 and max(c["t_end"] for c in cyc["ref"]) <= 20.0
+    assert rows[0]["life_h"] == pytest.approx(15.0 / rows[0]["damage"] / 3600.0, rel=1e-12)
+
+
+BAD = [
+    ('durability.curve="ec3-70"', "durability.curve", "unknown curve 'ec3-70'"),
+    ('durability.curve={m = [-3.0], log_a = [12.0], lower = [0.0]}', "durability.curve.m", "slopes must be positive"),
+    ('durability.channels=["stress_vm"]', "durability.channels", "von Mises has no sign"),
+    ('durability.channels=["nothing"]', "durability.channels", "no channel 'nothing'"),
+    ("durability.discard=3.0", "durability.discard", "discards the whole run"),
+    ('durability.correction="goodman"', "durability.ultimate", "ultimate strength"),
+]
+
+
+CASE = str(Path(__file__).resolve().parents[1] / "data" / "pendulum_durability.toml")
+
+
+@pytest.mark.parametrize("override, key, why", BAD)
+def test_bad_durability_input_is_one_line_naming_the_key(override, key, why, capsys, tmp_path):
+    """Each is refused before any run: exit 2, one line on stderr naming the case file and the key."""
+    from flexmbd import cli
+    assert cli.main(["run", CASE, "--solver", "flexmbd", "--set", override, "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"pendulum_durability.toml: {key}: " in err[0] and why in err[0], err
+    assert not any(tmp_path.iterdir())

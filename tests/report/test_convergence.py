@@ -31,7 +31,8 @@ def test_the_case_s_own_value_is_read_from_the_resolved_case():
     assert convergence.own_value(typed, "materials.steel.E") == case.bodies["beam"].material.E
     assert convergence.own_value(typed, "gravity") == [0.0, -9.81, 0.0]
     assert convergence.own_value(typed, "bodies.beam.modes") == {"count": 12, "boundary": "clamped-free",
-                                                                 "interfaces": None, "kinds": None}
+                                                                 "interfaces": None, "kinds": None,
+                                                                     "static": None}
     assert convergence.own_value(typed, "integrator.method") == case.integrator.method
     for key in ("nope", "bodies.nope.elements", "bodies.beam.nope", "bodies.beam.elements.x"):
         assert convergence.own_value(typed, key) is None, key
