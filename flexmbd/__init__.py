@@ -138,26 +138,21 @@ def durability(case, solvers=None, t_end: float | None = None):
     damage ratios, the damage ratio the S_eq ratio predicts, the band the RMS stress difference
     predicts and the verdict on S_eq. A DataFrame (`harness.durability.COLUMNS`) with
     `attrs["units"]`, `attrs["cycles"]` {solver: DataFrame of its cycles} and `attrs["curve"]`."""
-    import numpy as np
     import pandas as pd
 
     from flexmbd.core.errors import InputError
     from flexmbd.harness import durability as fatigue
     from flexmbd.harness import registry
+    from flexmbd.report import durability as section
     from flexmbd.report import loading
     case = _case(case)
-    st = fatigue.settings(case)
-    if st is None:
+    if fatigue.settings(case) is None:
         raise InputError(f"{case.path}: durability: the case has no [durability] table (cases/README.md)")
     names = loading.with_reference(case, list(solvers or case.report.solvers or registry.NAMES))
     for n in names:
         registry.check_name(n, "solvers")
-    runs = {}
-    for n in names:
-        r = registry.run(case, n, t_end)
-        if r.ok and all(c in r.channels and np.isfinite(r.channels[c]).all() for c in st.channels):
-            runs[n] = (r.t, r.channels)
-    rows, cycles = fatigue.table(st, runs, case.report.reference)
+    res = {n: registry.run(case, n, t_end) for n in names}
+    st, rows, cycles = section.counts(case, {n: r for n, r in res.items() if r.ok})
     df = pd.DataFrame(rows, columns=[k for k, _ in fatigue.COLUMNS])
     df.attrs.update({"case": case.name, "reference": case.report.reference, "curve": st.curve.name,
                      "units": {k: u for k, u in fatigue.COLUMNS if u},
