@@ -83,7 +83,7 @@ def ran():
 def test_every_column_of_a_run_has_its_unit(ran):
     import flexmbd
     case, (df, _) = ran
-    want = {"t": "s", "joint_angle": "rad", "tip_deflection": "m", "stress_vm": "Pa", "energy": "J"}
+    want = {"t": "s", "joint_angle": "rad", "tip_deflection": "m", "stress_vm": "Pa", "stress_normal": "Pa", "energy": "J"}
     assert flexmbd.units(df) == df.attrs["units"] == want == flexmbd.units(case) == flexmbd.units("pendulum")
     assert [flexmbd.units(df[c]) for c in df.columns] == [want[c] for c in df.columns]
     assert flexmbd.units(df[["energy"]]) == {"t": "s", "energy": "J"}          # a selection keeps its own

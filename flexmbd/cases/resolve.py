@@ -252,6 +252,7 @@ class Channel:
     fibre: tuple | None  # stress point (y, z) in the section, m (None: the outer fibre)
     point: Point | None  # deflection and stress: at, snapped (a solid's deflection: its interface)
     where: tuple | None = None  # a solid's stress: the point (3,) in the body frame, m
+    direction: tuple | None = None  # a solid's stress_normal: the unit direction (3,), body frame (None: x)
 
 
 @dataclass(frozen=True)
@@ -412,6 +413,11 @@ def _body(name: str, b: dict, materials: dict):
                 rigid=b["rigid"], stiffening=b["stiffening"], segments=b["segments"], stress=b["stress"])
 
 
+def _unit(v) -> tuple | None:
+    """v (3,) scaled to unit length; None stays None."""
+    return None if v is None else tuple(float(x) / math.hypot(*v) for x in v)
+
+
 def _where(bodies: dict, body: str, at) -> tuple:
     """(Point or None, offset (3,)) of a position `at` on `body` (along a beam, or a point)."""
     b = bodies.get(body)
@@ -469,7 +475,8 @@ def resolve(data: dict, split: bool = True) -> Resolved:
     channels = {n: Channel(name=n, kind=c["kind"], body=c["body"], joint=c["joint"], at=c["at"],
                            component=c["component"], fibre=None if c["fibre"] is None else tuple(c["fibre"]),
                            point=_channel_point(bodies[c["body"]], c) if c["kind"] in ("deflection", *STRESS_KINDS)
-                           else None, where=None if c["point"] is None else tuple(c["point"]))
+                           else None, where=None if c["point"] is None else tuple(c["point"]),
+                           direction=_unit(c["direction"]))
                 for n, c in data["channels"].items()}
     ig, rep = data["integrator"], data["report"]
     parts = splits(data)

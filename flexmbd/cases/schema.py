@@ -164,6 +164,7 @@ CHANNEL = {
     "point": ("vec3", None),            # a stress on a solid: a point in the body frame, m
     "component": (("x", "y", "z"), "y"),
     "fibre": ("vec", None),             # stress point (y, z) in the section, m; default outer fibre
+    "direction": ("vec3", None),        # stress_normal on a solid: the direction (body frame); default x
 }
 
 INTEGRATOR = {
@@ -238,5 +239,6 @@ JOINT_DOFS = {k: nv for k, (_, nv) in JOINT_COORDS.items()}
 
 # the keys without default that each kind of channel reads (the others must be left out)
 CHANNEL_KEYS = {"deflection": ("body", "at"), **{k: ("body", "at", "fibre", "point") for k in STRESS_KINDS},
+                "stress_normal": ("body", "at", "fibre", "point", "direction"),
                 "joint_angle": ("joint",),
                 "reaction_force": ("joint",), "reaction_moment": ("joint",), "energy": ()}

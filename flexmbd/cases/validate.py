@@ -870,6 +870,8 @@ def _check_solid_channel(c, body, where, k):
         _fail(where, f"{k}.at", "a solid's stress is at a point: give point = [x, y, z] (m, body frame)")
     if c["point"] is None:
         _fail(where, f"{k}.point", "needs a point [x, y, z] in m, body frame, inside the solid")
+    if c["direction"] is not None and not any(abs(v) > 0 for v in c["direction"]):
+        _fail(where, f"{k}.direction", "a direction [x, y, z] of nonzero length (body frame)")
     mesh = flexbody.solid_mesh(**body["mesh"])
     frame = body["interfaces"][body["frame"]]
     origin = flexbody.reference_point(mesh, frame["set"], frame["point"])
@@ -904,7 +906,7 @@ def _check_channel(name, c, bodies, joints, where):
     k = f"channels.{name}"
     if name == "t":
         _fail(where, k, "'t' is the time column of a result; expected another channel name")
-    for key in ("body", "joint", "at", "fibre"):
+    for key in ("body", "joint", "at", "fibre", "direction"):
         if c[key] is not None and key not in CHANNEL_KEYS[c["kind"]]:
             _fail(where, f"{k}.{key}", f"not used by a {c['kind']} channel")
     if c["kind"] in ("deflection", *STRESS_KINDS):
@@ -921,6 +923,8 @@ def _check_channel(name, c, bodies, joints, where):
             return
         if c["point"] is not None:
             _fail(where, f"{k}.point", "a stress point [x, y, z] is for a solid; on a beam give `at` (m) and `fibre`")
+        if c["direction"] is not None:
+            _fail(where, f"{k}.direction", "a beam's normal stress is along its axis; a direction is for a solid")
         if c["at"] is None:
             _fail(where, f"{k}.at", "needs a position along the beam (m)")
         if not isinstance(c["at"], (int, float)):

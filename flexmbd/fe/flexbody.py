@@ -480,6 +480,25 @@ def element_at(mesh: fe_mesh.Mesh, x) -> tuple | None:
     return None
 
 
+@functools.lru_cache(maxsize=256)
+def point_place(body, p: tuple) -> str:
+    """Where a case solid's stress point p (3,), body frame, m, lies: 'inside', 'on the +y face',
+    'on the +x+y edge', 'on the +x+y-z corner' (the body axes along which a step of 1e-6 of the
+    mesh's extent leaves every element, `element_at`), or 'outside'; '' on a frame (bar elements:
+    its points are fibres of a section)."""
+    mesh = solid_mesh(**dataclasses.asdict(body.mesh))
+    if mesh.is_frame:
+        return ""
+    f = body.interfaces[body.frame]
+    x = np.asarray(p, dtype=float) + reference_point(mesh, f.set, f.point)
+    if element_at(mesh, x) is None:
+        return "outside"
+    h = 1e-6 * float(np.ptp(mesh.nodes, axis=0).max())
+    out = [f"{sign}{'xyz'[a]}" for a in range(3) for sign, d in (("+", h), ("-", -h))
+           if element_at(mesh, x + d * np.eye(3)[a]) is None]
+    return "inside" if not out else f"on the {''.join(out)} {('face', 'edge', 'corner')[min(len(out), 3) - 1]}"
+
+
 def point_stress_rows(mesh: fe_mesh.Mesh, E: float, nu: float, x) -> tuple:
     """(S (6, 3nn), dofs (3nn,)): the stress at point x (3,), mesh coordinates, as rows on the DOFs
     of the element that holds it (`element_at`), from that element's displacement gradient at the

@@ -14,7 +14,7 @@ functions below turn that into channels, the same way for every solver:
                  solid, the von Mises stress of the stress tensor at the channel's point, from
                  the displacement gradient there of the element that holds it
     stress_normal    the normal stress along the beam's axis, sigma (signed, tension positive); on a
-                 solid sigma_xx, along the body's x axis
+                 solid e^T sigma e along the channel's `direction` e (default the body's x axis)
     stress_signed_vm von Mises with the sign of the principal stress of largest magnitude (a
                  rainflow count of it keeps tension and compression apart, docs/durability.md)
     joint_angle  the joint's coordinate (rad; m for a prismatic joint)
@@ -577,11 +577,16 @@ def beam_stress(kind: str, strains, E: float, G: float, sec, fibre) -> np.ndarra
     return np.where(sigma < 0.0, -vm, vm) if kind == "stress_signed_vm" else vm
 
 
-def solid_stress(kind: str, stresses) -> np.ndarray:
-    """(n,) stress channel `kind` from a solid's stresses (n, 6) at a point, Pa."""
+def solid_stress(kind: str, stresses, direction=None) -> np.ndarray:
+    """(n,) stress channel `kind` from a solid's stresses (n, 6) at a point, Pa ([xx, yy, zz, yz,
+    zx, xy]); stress_normal along the unit `direction` (3,), body frame: e^T sigma e (None: x,
+    sigma_xx)."""
     S = np.asarray(stresses, dtype=float)
     if kind == "stress_normal":
-        return S[:, 0].copy()
+        if direction is None:
+            return S[:, 0].copy()
+        e = np.asarray(direction, dtype=float)
+        return S[:, :3] @ e ** 2 + 2.0 * S[:, 3:] @ np.array([e[1] * e[2], e[2] * e[0], e[0] * e[1]])
     vm = solid_vm(S)
     return principal_sign(S) * vm if kind == "stress_signed_vm" else vm
 
@@ -617,17 +622,20 @@ def label(case, name: str) -> str:
     """Channel `name` as a reader names it, with its SI unit (`unit`): 'deflection y at 8 m [m]',
     'von Mises stress at 0.05 m [Pa]', 'angle of hub [rad]' ('position' for a prismatic joint),
     'energy [J]', 'reaction force x at hub [N]'; a body named where the case has more than one
-    flexible body."""
+    flexible body; a solid's point with where it lies ('normal stress at (0.03, 0.0075, 0) m, on
+    the +y face [Pa]', `flexbody.point_place`)."""
     c, u = case.channels[name], unit(case, name)
     if c.kind in ("deflection", *cases.STRESS_KINDS):
         comp = f" {c.component}" if c.kind == "deflection" else ""
-        if c.where is not None:                         # a solid's stress point
-            at = "(" + ", ".join(f"{v:g}" for v in c.where) + ") m"
+        if c.where is not None:                         # a solid's stress point, and where it lies
+            place = flexbody.point_place(case.bodies[c.body], tuple(c.where))
+            at = "(" + ", ".join(f"{v:g}" for v in c.where) + ") m" + (f", {place}" if place else "")
         else:
             at = str(c.at) if isinstance(c.at, str) else f"{c.at:g} m"
         flexible = [b for b in case.bodies.values() if b.type in ("beam", "solid")]
         of = f" of {c.body}" if len(flexible) > 1 else ""
-        return f"{KIND_NAMES[c.kind]}{comp}{of} at {at} [{u}]"
+        along = "" if c.direction is None else " along (" + ", ".join(f"{v:.3g}" for v in c.direction) + ")"
+        return f"{KIND_NAMES[c.kind]}{comp}{along}{of} at {at} [{u}]"
     if c.kind == "joint_angle":
         return f"{'position' if u == 'm' else 'angle'} of {c.joint} [{u}]"
     if c.kind in ("reaction_force", "reaction_moment"):
@@ -720,7 +728,7 @@ def channels(case, traj: Trajectory) -> dict:
         elif kind == "deflection":
             out[name] = deflection(traj.beams[c.body], c.at, "xyz".index(c.component))
         elif c.where is not None:                                   # a solid: at its point
-            out[name] = solid_stress(kind, traj.beams[c.body].stresses[c.where])
+            out[name] = solid_stress(kind, traj.beams[c.body].stresses[c.where], c.direction)
         else:
             body = case.bodies[c.body]
             out[name] = beam_stress(kind, traj.beams[c.body].strains[float(c.at)], body.material.E, body.material.G,

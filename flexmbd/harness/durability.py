@@ -93,6 +93,18 @@ def eurocode3(category: float) -> SNCurve:
                    lower=(d, cut), cutoff=True)
 
 
+def eurocode9(category: float, m1: float) -> SNCurve:
+    """The EN 1999-1-3 (Eurocode 9, aluminium) curve Delta sigma_C - m1 (its range at 2e6 cycles, MPa,
+    and its slope): slope m1 to the constant-amplitude limit at 5e6 cycles, slope m2 = m1 + 2 to
+    the cut-off at 1e8, no damage below it (EN 1999-1-3 §6.2.1, Figure 6.1)."""
+    m2 = m1 + 2.0
+    d = (2.0 / 5.0) ** (1.0 / m1) * category                # constant-amplitude fatigue limit, 5e6 cycles
+    cut = (5.0 / 100.0) ** (1.0 / m2) * d                   # cut-off limit, 1e8 cycles
+    return SNCurve(name=f"EC9 curve {category:g}-{m1:g}", source="EN 1999-1-3:2007, 6.2.1, Figure 6.1",
+                   m=(m1, m2), log_a=(np.log10(2e6 * category ** m1), np.log10(5e6 * d ** m2)),
+                   lower=(d, cut), cutoff=True)
+
+
 def dnv(name: str, m1: float, log_a1: float, log_a2: float, m2: float = 5.0) -> SNCurve:
     """A DNV-RP-C203 curve in air: slope m1 (log a1) to 1e7 cycles, then slope m2 (log a2), which
     goes on (no cut-off in a variable-amplitude history), DNV-RP-C203 (2021) Table 2-1."""
@@ -105,6 +117,7 @@ CURVES = {
     "ec3-160": eurocode3(160.0), "ec3-90": eurocode3(90.0), "ec3-71": eurocode3(71.0), "ec3-36": eurocode3(36.0),
     "dnv-b1": dnv("B1", 4.0, 15.117, 17.146), "dnv-c": dnv("C", 3.0, 12.592, 16.320),
     "dnv-d": dnv("D", 3.0, 12.164, 15.606), "dnv-f": dnv("F", 3.0, 11.855, 15.091),
+    "ec9-71-7": eurocode9(71.0, 7.0), "ec9-40-4.3": eurocode9(40.0, 4.3),
 }
 
 

@@ -29,7 +29,7 @@ from pathlib import Path
 from flexmbd.core import files
 from flexmbd.harness import results, registry
 from flexmbd import version
-from flexmbd.report import accuracy, convergence, loading, pages, spectra, tables
+from flexmbd.report import accuracy, convergence, durability, loading, pages, spectra, tables
 
 RECORD = "page.json"        # in OUT/CASE/: the page's key and what it gave the index
 DRAWERS = os.cpu_count() or 1   # processes drawing pages during a report's runs, at most
@@ -70,7 +70,7 @@ def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None, reu
            drawn=None) -> tuple[list, list]:
     """Every case page, the reviewer tables and the index into `stage`: (accuracy rows, runs).
     `drawn`: case name -> (what its page gave, its warnings) of the pages already in `stage`."""
-    all_acc, runs = [], []
+    all_acc, runs, fatigue = [], [], []
     drawn = drawn or {}
     for k, case in enumerate(chosen_cases, 1):
         shown = loading.jobs(case, names)
@@ -92,10 +92,11 @@ def _write(out: Path, stage: Path, chosen_cases, names, warn, progress=None, reu
             files.atomic_write(stage / case.name / RECORD, record(key, got, said))
         all_acc += got["accuracy"]
         runs += got["runs"]
+        fatigue += got.get("durability", [])
     if progress:
         progress(len(chosen_cases) + 1, len(chosen_cases) + 1, "index and reviewer tables")
     tables.write_accuracy(stage, all_acc, runs)
-    pages.write_index(out, stage, runs, warn)
+    pages.write_index(out, stage, runs, warn, durability.write_index(stage, fatigue))
     return all_acc, runs
 
 
@@ -249,7 +250,8 @@ def record(key: str, got: dict, said: list) -> str:
     """The page's record (RECORD): its key, accuracy rows, runs' outcomes and warnings, as JSON."""
     runs = [{"case": o.case, "solver": o.solver, "status": [o.status.kind, o.status.why, o.status.t, o.status.cause],
              "verdict": list(o.verdict), "worst": o.worst, "wall_s": o.wall_s, "channel": o.channel} for o in got["runs"]]
-    return files.json_text({"key": key, "accuracy": got["accuracy"], "runs": runs, "warnings": said}) + "\n"
+    return files.json_text({"key": key, "accuracy": got["accuracy"], "runs": runs, "warnings": said,
+                            "durability": got.get("durability", [])}) + "\n"
 
 
 def reused(out: Path, stage: Path, case, key: str, warn) -> dict | None:
@@ -263,7 +265,8 @@ def reused(out: Path, stage: Path, case, key: str, warn) -> dict | None:
     try:
         runs = [accuracy.Outcome(o["case"], o["solver"], results.Status(*o["status"]), accuracy.Verdict(*o["verdict"]),
                                  nan(o["worst"]), nan(o["wall_s"]), o.get("channel", "")) for o in rec["runs"]]
-        got = {"accuracy": [{k: nan(v) for k, v in row.items()} for row in rec["accuracy"]], "runs": runs}
+        got = {"accuracy": [{k: nan(v) for k, v in row.items()} for row in rec["accuracy"]], "runs": runs,
+               "durability": [{k: nan(v) for k, v in row.items()} for row in rec.get("durability", [])]}
     except (OSError, ValueError, KeyError, TypeError):
         return None
     shutil.copytree(Path(out) / case.name, stage / case.name)

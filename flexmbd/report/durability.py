@@ -16,7 +16,9 @@ import numpy as np
 
 from flexmbd.core.files import atomic_write, make_dir
 from flexmbd.harness import durability as fatigue
+from flexmbd.harness import registry
 from flexmbd.report import tables
+from flexmbd.report.accuracy import comparable
 
 HEAD = ["channel", "solver", "cycles", "largest range [MPa]", "S_eq m=3 [MPa]", "S_eq m=5 [MPa]", "damage / repeat",
         "life [repeats]", "life [h]", "S_eq / ref m=3", "S_eq / ref m=5", "damage / ref", "(S_eq / ref)^m",
@@ -27,12 +29,14 @@ KEYS = ["channel", "solver", "cycles", "largest_MPa", "seq3_MPa", "seq5_MPa", "d
 
 def counts(case, ok: dict) -> tuple[fatigue.Settings, list, dict] | None:
     """(settings, rows, cycles) of `harness.durability.table` over the runs in `ok` (solver ->
-    Result) that give every counted channel; None without a `[durability]` table."""
+    Result) that give every counted channel and whose model has it (`accuracy.comparable`: a rigid
+    peer's zero stress is never counted); None without a `[durability]` table."""
     st = fatigue.settings(case)
     if st is None:
         return None
     runs = {s: (r.t, r.channels) for s, r in ok.items()
-            if all(c in r.channels and np.isfinite(r.channels[c]).all() for c in st.channels)}
+            if all(c in r.channels and np.isfinite(r.channels[c]).all()
+                   and comparable(case, registry.module(s), c) for c in st.channels)}
     rows, cyc = fatigue.table(st, runs, case.report.reference)
     return st, rows, cyc
 
@@ -47,18 +51,20 @@ def cells(r: dict) -> list:
     return out + [band, r["verdict"] or "reference"]
 
 
-def csv_text(rows: list) -> str:
-    """The table as CSV, full precision, a header row of `harness.durability.COLUMNS` with units."""
+def csv_text(rows: list, lead: tuple = ()) -> str:
+    """The table as CSV, full precision, a header row of `harness.durability.COLUMNS` with units,
+    after the columns `lead` (text)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow([f"{k} [{u}]" if u and u != "1" else k for k, u in fatigue.COLUMNS])
+    w.writerow([*lead, *(f"{k} [{u}]" if u and u != "1" else k for k, u in fatigue.COLUMNS)])
     for r in rows:
-        w.writerow(["" if isinstance(r[k], float) and not np.isfinite(r[k]) else r[k] for k, _ in fatigue.COLUMNS])
+        w.writerow([*(r[k] for k in lead),
+                    *("" if isinstance(r[k], float) and not np.isfinite(r[k]) else r[k] for k, _ in fatigue.COLUMNS)])
     return buf.getvalue()
 
 
-def latex(case, st: fatigue.Settings, rows: list) -> str:
-    """The table as an \\input-able booktabs table (`tables.latex_table`)."""
+def latex(name: str, reference: str | None, curve: str, source: str, rows: list) -> str:
+    """Case `name`'s table as an \\input-able booktabs table (`tables.latex_table`)."""
     keys = ["channel", "solver", "cycles", "seq3_MPa", "seq5_MPa", "damage", "seq3_ratio", "seq5_ratio",
             "damage_ratio", "predicted_ratio"]
     head = ["channel", "solver", "cycles", "$S_{eq,3}$ [MPa]", "$S_{eq,5}$ [MPa]", "damage", "$S_{eq,3}$ ratio",
@@ -66,12 +72,54 @@ def latex(case, st: fatigue.Settings, rows: list) -> str:
     body = [[tables.tex(str(r[k])) if k in ("channel", "solver") else tables.tex_number(r[k]) for k in keys]
             + [tables.tex(r["verdict"] or "reference")] for r in rows]
     return tables.latex_table(
-        f"{tables.tex(case.name)}: fatigue count against {tables.tex(case.report.reference or 'no reference')} "
-        f"on {tables.tex(st.curve.name)} ({tables.tex(st.curve.source)}): rainflow cycles per repeat, "
+        f"{tables.tex(name)}: fatigue count against {tables.tex(reference or 'no reference')} "
+        f"on {tables.tex(curve)} ({tables.tex(source)}): rainflow cycles per repeat, "
         "damage-equivalent stress ranges at slopes 3 and 5 (2e6 cycles), Palmgren-Miner damage per repeat, "
         "their ratios to the reference's and the damage ratio the S_eq ratio predicts at the slope of the "
-        "curve's segment that holds the cycles.", f"tab:durability:{case.name}",
+        "curve's segment that holds the cycles.", f"tab:durability:{name}",
         head, list("ll") + ["r"] * (len(head) - 3) + ["l"], body)
+
+
+# the report's durability tables (`write_index`): every case's rows, with its case, reference and curve
+INDEX_KEYS = ("case", "reference", "curve", "source")
+
+
+def index_rows(case, got) -> list:
+    """A case's rows (`counts`: (settings, rows, cycles), or None) for the report's tables, each
+    with the case, its reference and its curve's name and source (`INDEX_KEYS`)."""
+    if got is None:
+        return []
+    st, rows, _ = got
+    return [{"case": case.name, "reference": case.report.reference or "", "curve": st.curve.name,
+             "source": st.curve.source, **r} for r in rows]
+
+
+def write_index(stage: Path, rows: list) -> list:
+    """reports/durability.csv (every case's rows, full precision, `INDEX_KEYS` first), durability.md
+    and durability.tex (one \\input-able table per case, also one to a file: tex/durability_CASE.tex)
+    from `index_rows` of every case; nothing when no case counts fatigue. Returns the files written."""
+    if not rows:
+        return []
+    atomic_write(stage / "durability.csv", csv_text(rows, INDEX_KEYS))
+    first = {r["case"]: r for r in reversed(rows)}                    # each case's first row
+    names = list(dict.fromkeys(r["case"] for r in rows))
+    md = [f"## {n}\n\nAgainst {first[n]['reference'] or 'no reference'}, on {first[n]['curve']} "
+          f"({first[n]['source']}).\n\n" + tables.markdown(HEAD, [cells(r) for r in rows if r["case"] == n])
+          for n in names]
+    atomic_write(stage / "durability.md", "# Fatigue count against each case's reference solver\n\n"
+                 "Per signed stress channel and solver (docs/durability.md): rainflow cycles per repeat of the "
+                 "counted span, the largest range, the damage-equivalent ranges S_eq at m = 3 and 5 (2e6 cycles), "
+                 "Palmgren-Miner damage per repeat, life, their ratios to the reference's, the damage ratio the "
+                 "S_eq ratio predicts and the band the RMS stress difference predicts; the verdict is on S_eq.\n\n"
+                 + "\n".join(md))
+    per = {n: latex(n, first[n]["reference"], first[n]["curve"], first[n]["source"],
+                    [r for r in rows if r["case"] == n]) for n in names}
+    atomic_write(stage / "durability.tex", "% flexmbd durability tables: \\input{durability.tex} into a document "
+                 "with booktabs\n\n" + "\n".join(per.values()))
+    make_dir(stage / "tex")
+    for n, text in per.items():
+        atomic_write(stage / "tex" / f"durability_{n}.tex", text)
+    return ["durability.csv", "durability.md", "durability.tex"]
 
 
 def write_cycles(folder: Path, cyc: dict) -> list:

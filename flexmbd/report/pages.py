@@ -252,6 +252,11 @@ class CasePage:
         return 0.5 / self.dt
 
     @cached_property
+    def fatigue(self) -> tuple | None:
+        """The fatigue count of a case with a `[durability]` table (`durability.counts`), else None."""
+        return durability.counts(self.case, self.ok)
+
+    @cached_property
     def shape(self) -> tuple | None:
         """The deformed-shape section (`shapes.section`), None when no result holds shapes."""
         return shapes.section(self.case, figures.drawable(self.res), self.folder, self.reference)
@@ -424,7 +429,7 @@ def accuracy_part(p: CasePage) -> list:
 def durability_part(p: CasePage) -> list:
     """The fatigue count of a case with a `[durability]` table (`report.durability`): what it
     counts, its table, its figure, and the table and every run's cycles as files beside the page."""
-    got = durability.counts(p.case, p.ok)
+    got = p.fatigue
     if got is None:
         return []
     st, rows, cyc = got
@@ -432,7 +437,8 @@ def durability_part(p: CasePage) -> list:
         return []
     img = durability.figure(p.case, st, rows, cyc, p.folder / "durability.png")
     atomic_write(p.folder / "durability.csv", durability.csv_text(rows))
-    atomic_write(p.folder / "durability.tex", durability.latex(p.case, st, rows))
+    atomic_write(p.folder / "durability.tex", durability.latex(p.case.name, p.case.report.reference, st.curve.name,
+                                                               st.curve.source, rows))
     listed = durability.write_cycles(p.folder, cyc)
     lead = (f"Rainflow count (ASTM E1049-85, exact) of {', '.join(st.channels)} after {st.discard:g} s, the residue "
             f"{'closed as the history repeats' if st.repeat else 'as half cycles'}; {st.curve.name} "
@@ -478,7 +484,8 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True, 
     """One case's page from the results under `out`, written into `stage/CASE/`; it links to the
     report's index when there is one (`indexed`), and says how to build one otherwise; `up` is the
     report folder seen from the page's folder (OUT/CASE: '..'):
-    {"accuracy": its accuracy rows, "runs": each run's accuracy.Outcome}.
+    {"accuracy": its accuracy rows, "runs": each run's accuracy.Outcome, "durability": its fatigue
+    count's rows for the report's tables (`durability.index_rows`)}.
 
     Its table (`numbers`), then its sections in the order of `SECTIONS`, then its HTML and
     Markdown (`page`)."""
@@ -486,7 +493,7 @@ def write_case(out: Path, stage: Path, case, names, warn, indexed: bool = True, 
     got = page(p, [s for build in SECTIONS for s in build(p)])
     atomic_write(p.folder / "index.html", got.html)
     atomic_write(p.folder / "index.md", got.md)
-    return {"accuracy": p.acc, "runs": p.runs}
+    return {"accuracy": p.acc, "runs": p.runs, "durability": durability.index_rows(p.case, p.fatigue)}
 
 
 def seconds(text) -> float | None:
@@ -564,10 +571,11 @@ def bench_section(stage: Path, warn=None) -> tuple[str, str]:
             f"## Work and precision\n\n![{img}]({img})\n\n{plain(caption)}\n")
 
 
-def write_index(out: Path, stage: Path, runs: list, warn=None) -> None:
+def write_index(out: Path, stage: Path, runs: list, warn=None, fatigue: list = ()) -> None:
     """The report's index (index.html, index.md) into `stage`: the summary line, the case x solver
-    matrix of verdicts (`matrix`), the table of every run (`runs`: accuracy.Outcome), links to every case page and the reviewer tables, and the
-    latest work-precision run (`bench_section`)."""
+    matrix of verdicts (`matrix`), the table of every run (`runs`: accuracy.Outcome), links to every
+    case page and the reviewer tables (`fatigue`: the durability tables written beside them, if
+    any), and the latest work-precision run (`bench_section`)."""
     head = ["case", "solver", "verdict", "worst channel", "its RMS diff / max|ref|", "wall [s]"]
     summary = [[o.case, o.solver, o.verdict, o.channel, o.worst, o.wall_s] for o in runs]
     line = accuracy.summary([o.verdict for o in runs])
@@ -581,7 +589,7 @@ def write_index(out: Path, stage: Path, runs: list, warn=None) -> None:
              f"the channels it has: not on deflection, stress, or a flexible case's energy, whose strain part it "
              f"cannot hold). Generated {when}, commit "
              f"{results.git_commit() or 'unknown'}. Reviewer tables: ")
-    pages = ["accuracy.csv", "accuracy.md", "accuracy.tex"]
+    pages = ["accuracy.csv", "accuracy.md", "accuracy.tex", *fatigue]
     bench_html, bench_md = bench_section(stage, warn)
     grid_html, grid_md = matrix(runs)
     page = (f"<!doctype html><html><head><meta charset='utf-8'><title>flexmbd report</title><style>{CSS}</style>"

@@ -133,6 +133,14 @@ BAD = [
     ("fibre-outside-circle", C.replace('shape = "rectangle", b = 0.01, h = 0.015, h_axis = "y"', 'shape = "circle", d = 0.012'),
      None, ["channels.stress_vm.fibre=[0.005, 0.005]"], "analytic", ["channels.stress_vm.fibre", "circle"]),
     ("fibre-one-number", C, None, ["channels.stress_vm.fibre=[0.001]"], "analytic", ["channels.stress_vm.fibre", "[y, z]"]),
+    # a normal stress's direction: a solid's, of nonzero length
+    ("direction-on-a-beam", C, None, ['channels.sn={kind="stress_normal", body="beam", at=0.03, direction=[0, 1, 0]}'],
+     "analytic", ["channels.sn.direction", "along its axis"]),
+    ("direction-zero", (cases.CASES_DIR / "cantilever_solid.toml").read_text(), None,
+     ['channels.sn={kind="stress_normal", body="beam", point=[0.03, 0.0075, 0.0], direction=[0, 0, 0]}'],
+     "flexmbd", ["channels.sn.direction", "nonzero length"]),
+    ("direction-on-von-mises", C, None, ["channels.stress_vm.direction=[1, 0, 0]"], "analytic",
+     ["channels.stress_vm.direction", "not used by a stress_vm channel"]),
     # absurd magnitudes
     ("E-1e308", C, None, ["materials.steel.E=1e308"], "analytic", ["materials.steel.E", "at most 1e+100"]),
     ("E-rho-overflowing-frequency", C, None, ["materials.steel.E=1e100", "materials.steel.rho=1e-100"], "analytic",

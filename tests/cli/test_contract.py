@@ -430,7 +430,7 @@ def test_twenty_thousand_deflection_channels_are_refused(tmp_path, capsys):
     path.write_text(PENDULUM.replace("output_dt = 5e-4", "output_dt = 1e-3") + _channels(20000, "deflection"))
     out = tmp_path / "out"
     code = main(["run", str(path), "--solver", "flexmbd", "--out", str(out)])
-    line = _refused(code, capsys.readouterr().err, ["many.toml", "channels:", "20004 channels at 2001 output samples",
+    line = _refused(code, capsys.readouterr().err, ["many.toml", "channels:", "20005 channels at 2001 output samples",
                                                     "beyond the limit of 10 s without progress shown", "--allow-large"])
     assert float(line.split("takes about ")[1].split(" s")[0]) > 60, line
     assert not out.exists()
@@ -438,13 +438,13 @@ def test_twenty_thousand_deflection_channels_are_refused(tmp_path, capsys):
 
 def test_two_thousand_stress_channels_are_refused_as_their_values(tmp_path):
     """The output stage grows with channels x samples, whatever the channels' kind, and its key
-    is `channels` once they outweigh the states of a sample: 2004 x 4001 values, about 25 s."""
+    is `channels` once they outweigh the states of a sample: 2005 x 4001 values, about 25 s."""
     path = tmp_path / "stress.toml"
     path.write_text(PENDULUM + _channels(2000, "stress_vm"))
     few, many = cases.load("pendulum"), cases.load(str(path))
     small, large = cost.output(few, few.duration), cost.output(many, many.duration)
     assert small.key == "integrator.output_dt" and not cost.excess(small)
-    assert large.key == "channels" and "2004 channels at 4001 output samples" in large.what
+    assert large.key == "channels" and "2005 channels at 4001 output samples" in large.what
     assert 10 < large.seconds < 100 and "without progress shown" in cost.excess(large), large
 
 

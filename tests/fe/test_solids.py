@@ -237,3 +237,35 @@ def test_cantilever_solid_s_surface_is_read_at_its_point():
     assert r.ok, r.status
     assert r.channels["top"].mean() == pytest.approx(47.04e6, rel=0.03)
     assert r.channels["stress_vm"].mean() > 40e6
+
+
+@pytest.mark.parametrize("point, place", [((0.03, 0.0075, 0.0), "on the +y face"), ((0.03, 0.0, 0.0), "inside"),
+                                          ((0.06, 0.0075, 0.005), "on the +y+z edge"),
+                                          ((0.0, -0.0075, -0.005), "on the -x-y-z corner")])
+def test_a_solid_stress_point_says_where_it_lies(point, place):
+    """cantilever_solid's box (x from the clamp 0 to 1.5 m, |y| <= h/2 = 7.5 mm, |z| <= 5 mm): the
+    channel's title tells a surface point from an inner one (`flexbody.point_place`)."""
+    from flexmbd.fe import flexbody
+    from flexmbd.harness import channels
+    case = cases.load("cantilever_solid", [f'channels.p={{kind="stress_normal", body="beam", point={list(point)}}}'])
+    assert flexbody.point_place(case.bodies["beam"], point) == place
+    assert channels.label(case, "p").endswith(f"m, {place} [Pa]")
+
+
+def test_a_solid_s_normal_stress_along_a_direction_is_the_stress_tensor_s_projection():
+    """stress_normal with a direction e: e^T sigma e of the point's stress tensor (Voigt order xx,
+    yy, zz, yz, zx, xy): at 45 degrees in x-y, (sigma_xx + sigma_yy) / 2 + sigma_xy; along x,
+    sigma_xx; along any other direction the product with the full symmetric matrix (round-off:
+    1e-13 of stresses of one order of magnitude); the case's direction is made a unit vector."""
+    from flexmbd.harness import channels
+    S = np.array([[40e6, -3e6, 1e6, 0.5e6, -2e6, 7e6]])
+    e = np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)
+    assert channels.solid_stress("stress_normal", S, tuple(e))[0] == pytest.approx(0.5 * (40e6 - 3e6) + 7e6, rel=1e-14)
+    assert channels.solid_stress("stress_normal", S, (1.0, 0.0, 0.0))[0] == channels.solid_stress("stress_normal", S)[0]
+    sym = np.array([[40e6, 7e6, -2e6], [7e6, -3e6, 0.5e6], [-2e6, 0.5e6, 1e6]])
+    for d in ([0.2, -0.5, 0.84], [0.0, 0.0, 1.0]):
+        d = np.array(d) / np.linalg.norm(d)
+        assert channels.solid_stress("stress_normal", S, tuple(d))[0] == pytest.approx(d @ sym @ d, rel=1e-13)
+    case = cases.load("cantilever_solid", ['channels.d={kind="stress_normal", body="beam", point=[0.03, 0.0075, 0], '
+                                           'direction=[2, 0, 0]}'])
+    assert case.channels["d"].direction == (1.0, 0.0, 0.0)                  # made a unit vector

@@ -56,6 +56,22 @@ def test_the_eurocode_category_71_curve_has_its_published_knees():
     assert d.life(ec, [40.0])[0] == pytest.approx(5e6 * (s1 / 40.0) ** 5, rel=1e-12)    # slope 5
 
 
+@pytest.mark.parametrize("name, category, m1", [("ec9-71-7", 71.0, 7.0), ("ec9-40-4.3", 40.0, 4.3)])
+def test_an_eurocode_9_curve_has_its_slopes_and_knees(name, category, m1):
+    """EN 1999-1-3 §6.2.1 (aluminium): 2e6 cycles at the category, slope m1 to 5e6 cycles, m1 + 2
+    to the cut-off at 1e8, no damage below it; the curve continuous at both knees (to 1e-12, the
+    rounding of powers of numbers of order 1e8)."""
+    ec = d.CURVES[name]
+    assert ec.m == (m1, m1 + 2.0) and ec.cutoff
+    assert d.life(ec, [category])[0] == pytest.approx(2e6, rel=1e-12)
+    (s1, n1), (s2, n2) = ec.knees()
+    assert s1 == pytest.approx(category * 0.4 ** (1 / m1), rel=1e-12) and n1 == pytest.approx(5e6, rel=1e-12)
+    assert s2 == pytest.approx(s1 * 0.05 ** (1 / (m1 + 2)), rel=1e-12) and n2 == pytest.approx(1e8, rel=1e-12)
+    assert d.life(ec, [s1 * (1 - 1e-13)])[0] == pytest.approx(5e6, rel=1e-11)       # continuous at the knee
+    assert d.life(ec, [0.5 * (s1 + s2)])[0] == pytest.approx(5e6 * (s1 / (0.5 * (s1 + s2))) ** (m1 + 2), rel=1e-12)
+    assert np.isinf(d.life(ec, [s2 * 0.999])[0])
+
+
 def test_the_dnv_c_curve_in_air_has_its_published_knee():
     """DNV-RP-C203 Table 2-1, C in air: log a = 12.592 (m = 3) to 1e7 cycles, where the table
     gives 73.10 MPa. log a is printed to 3 decimals, which moves the knee by up to 0.028 MPa

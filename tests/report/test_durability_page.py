@@ -42,3 +42,33 @@ def test_the_case_page_shows_the_count_and_stores_each_run_s_cycles(tmp_path):
     rows = list(csv.DictReader((page / "durability.csv").open()))
     assert [r["solver"] for r in rows] == ["exudyn-beam", "flexmbd"]
     assert "\\begin{tabular}" in (page / "durability.tex").read_text()
+
+
+def test_the_report_s_durability_tables_hold_every_case_s_rows(tmp_path):
+    """durability.write_index: one CSV of every case's rows with the case, reference and curve
+    first (full precision: the rows' own numbers), Markdown and LaTeX with one table per case, and
+    each case's LaTeX table also on its own; nothing at all when no case counts fatigue. Two
+    synthetic cases: sinusoids of 10 and 10.5 MPa amplitude counted on the case's curve."""
+    from flexmbd import cases
+    from flexmbd.harness import durability as fatigue
+    from flexmbd.report import durability
+    assert durability.write_index(tmp_path, []) == [] and not any(tmp_path.iterdir())
+    case = cases.load(CASE)
+    st = fatigue.settings(case)
+    t = np.linspace(0.0, 1.0, 2001)
+    runs = {s: (t, {"stress_normal": a * 1e6 * np.sin(2 * np.pi * 10 * t)})
+            for s, a in (("exudyn-beam", 10.0), ("flexmbd", 10.5))}
+    rows, _ = fatigue.table(st, runs, "exudyn-beam")
+    got = (case, (st, rows, {}))
+    index = durability.index_rows(*got) + [dict(r, case="other") for r in durability.index_rows(*got)]
+    written = durability.write_index(tmp_path, index)
+    assert written == ["durability.csv", "durability.md", "durability.tex"]
+    table = list(csv.DictReader((tmp_path / "durability.csv").open()))
+    assert [(r["case"], r["solver"]) for r in table] == [(n, s) for n in ("pendulum_durability", "other")
+                                                         for s in ("exudyn-beam", "flexmbd")]
+    assert table[0]["reference"] == "exudyn-beam" and table[0]["curve"] == "DNV C in air"
+    assert float(table[1]["seq5_ratio"]) == rows[1]["seq5_ratio"] == pytest.approx(1.05, rel=1e-9)
+    md, tex = (tmp_path / "durability.md").read_text(), (tmp_path / "durability.tex").read_text()
+    assert md.count("## ") == 2 and "| stress_normal | flexmbd |" in md
+    assert tex.count("\\begin{tabular}") == 2 and "tab:durability:other" in tex
+    assert (tmp_path / "tex" / "durability_other.tex").read_text() in tex
