@@ -93,6 +93,7 @@ class Beam:
     stiffening: bool    # geometric stiffening (docs/formulation.md §4b)
     segments: int       # the modal solvers' flexible segments joined rigidly
     stress: str = "forces"  # the modal solvers' stress: "forces" (force summation) or "modes" (docs/formulation.md §7c)
+    stiffness_damping: float = 0.0  # s: beta of the material damping C = beta K (docs/formulation.md §5b)
     type: str = "beam"
 
     @property
@@ -405,7 +406,8 @@ def _body(name: str, b: dict, materials: dict):
                      damping_ratio=b["damping_ratio"])
     m = b["modes"]
     return Beam(name=name, material=materials[b["material"]], length=b["length"], elements=b["elements"],
-                section=Section(**b["section"]), damping_ratio=b["damping_ratio"], mass=b["mass"], shear=b["shear"],
+                section=Section(**b["section"]), damping_ratio=b["damping_ratio"],
+                stiffness_damping=b["stiffness_damping"], mass=b["mass"], shear=b["shear"],
                 modes=Modes(count=m["count"], boundary=m["boundary"],
                             interfaces=None if m["interfaces"] is None else tuple(m["interfaces"]),
                             kinds=None if m["kinds"] is None else tuple(m["kinds"]),

@@ -52,6 +52,7 @@ BEAM = {
     "section": (SECTION, REQUIRED),
     "modes": (MODES, REQUIRED),
     "damping_ratio": ("float0+", 0.0),
+    "stiffness_damping": ("float0+", 0.0),  # s: material damping sigma = E (eps + beta eps'), C = beta K (formulation §5b)
     "mass": (("lumped", "consistent"), "lumped"),
     "shear": ("bool", False),
     "rigid": ("bool", False),

@@ -300,7 +300,7 @@ def build(beam, stress_points=()) -> FlexBody:
     # constant modal stiffness and damping
     Km = modal_stiffness(K, Phi_fe)
     omega = 2.0 * np.pi * np.asarray(freq)
-    Cm = np.diag(2.0 * beam.damping_ratio * omega)
+    Cm = np.diag(2.0 * beam.damping_ratio * omega) + beam.stiffness_damping * Km   # modal, and material (C = beta K)
 
     # modal strain recovery
     E, G = beam.material.E, shear_modulus(beam.material)

@@ -246,27 +246,32 @@ def segments_of(curve: SNCurve, S) -> set:
 
 def summary(c: Cycles, span: float, curve: SNCurve) -> dict:
     """One history's count: cycles, largest range (MPa), S_eq at SLOPES (MPa), damage per repeat,
-    life in repeats and hours, and the curve segments its ranges lie on."""
+    life in repeats and hours."""
     D = float(np.sum(c.counts / life(curve, c.ranges))) if c.counts.size else 0.0
     return {"c": c, "cycles": float(c.counts.sum()), "largest_MPa": float(c.ranges.max()) if c.ranges.size else 0.0,
             **{f"seq{m:g}_MPa": equivalent_range(c, m) for m in SLOPES}, "damage": D,
-            "life_repeats": 1.0 / D if D > 0 else np.inf, "life_h": span / D / 3600.0 if D > 0 else np.inf,
-            "segments": segments_of(curve, c.ranges)}
+            "life_repeats": 1.0 / D if D > 0 else np.inf, "life_h": span / D / 3600.0 if D > 0 else np.inf}
 
 
 def relative(row: dict, ref: dict, curve: SNCurve, rms: float, tolerance: float) -> dict:
     """A solver's count (`summary`, with its Cycles as `c`) against the reference's: S_eq and
     damage ratios; the damage ratio its S_eq ratio predicts, (S_eq / S_eq,ref)^m at the slope m of
-    the one segment both counts lie on (NaN and `mixed` where they lie on several or a cycle falls
-    below a cut-off, which makes damage jump); the band (1 -/+ rms)^m that the channel's RMS stress
-    difference predicts; and the verdict on S_eq at SLOPES."""
-    seg = row["segments"] | ref["segments"]
-    one = len(seg) == 1 and min(seg) < len(curve.m)
+    the one segment that holds the damaging cycles of both counts, S_eq over those cycles (the
+    cycles below a cut-off, which do no damage in either count, left out); NaN and `mixed` where
+    the damaging cycles lie on several segments or a cycle of either count lies within the
+    tolerance of the cut-off, where a stress error can move it across and make damage jump; the
+    band (1 -/+ rms)^m that the channel's RMS stress difference predicts; and the verdict on S_eq
+    at SLOPES."""
+    cut = curve.lower[-1] if curve.cutoff else 0.0
+    near = lambda c: bool(np.any(np.abs(c.ranges - cut) <= tolerance * cut))        # could cross the cut-off
+    hurt = lambda c: Cycles(*(a[c.ranges >= cut] for a in (c.ranges, c.means, c.counts, c.starts, c.ends)))
+    seg = segments_of(curve, hurt(row["c"]).ranges) | segments_of(curve, hurt(ref["c"]).ranges)
+    one = len(seg) == 1 and min(seg) < len(curve.m) and not (near(row["c"]) or near(ref["c"]))
     m = curve.m[min(seg)] if one else curve.m[0]
     ratio = {f"seq{s:g}_ratio": row[f"seq{s:g}_MPa"] / ref[f"seq{s:g}_MPa"] if ref[f"seq{s:g}_MPa"] > 0 else np.nan
              for s in SLOPES}
-    s_ref = equivalent_range(ref["c"], m)
-    predicted = (equivalent_range(row["c"], m) / s_ref) ** m if one and s_ref > 0 else np.nan
+    s_ref = equivalent_range(hurt(ref["c"]), m)
+    predicted = (equivalent_range(hurt(row["c"]), m) / s_ref) ** m if one and s_ref > 0 else np.nan
     worst = max(abs(v - 1.0) for v in ratio.values())
     return {**ratio, "damage_ratio": row["damage"] / ref["damage"] if ref["damage"] > 0 else np.nan,
             "slope": m, "predicted_ratio": predicted, "mixed": not one, "rms": rms,

@@ -23,6 +23,9 @@
                       modes, on a revolute joint under gravity) meshed at about 5,000 and 50,000 DOFs, with
                       the time and peak memory of each reduction: the run time does not depend on the mesh
     compile_s         first compilation of what a dopri5 run uses (empty cache, in a subprocess) and a cached load
+    duty_cycle        the 50-revolution slider-crank (slider_crank_duty): each solver over its settings, the
+                      S_eq (m = 5) of the rod's midpoint stress, its difference from the solver's own converged
+                      S_eq and from the reference's, and the fastest setting within 1 % of its own converged S_eq
 
 Wall times are solve-only (`Result.wall_s`) for both solvers. Nothing here asserts a time.
 """
@@ -40,6 +43,7 @@ import numpy as np
 
 from flexmbd import cases
 from flexmbd.harness import metrics, results, registry
+from flexmbd.harness import durability as fatigue
 from flexmbd.solvers.build import from_case
 from flexmbd.core.errors import InputError
 from flexmbd.core.files import json_text
@@ -346,6 +350,51 @@ def against_reference(rows: list[dict], targets=(1e-3, 1e-4)) -> list[dict]:
 
 
 # ---------------------------------------------------------------------------------------------
+# the duty cycle: a long history's fatigue count at each solver's settings
+
+DUTY = "slider_crank_duty"
+# each solver's settings, coarse to fine, the last its converged run: flexmbd's dopri5 tolerance
+# (the case's: 1e-8), the Exudyn adapters' generalized-alpha step (the case's: 2.5e-5 s)
+DUTY_SETTINGS = {
+    "flexmbd": [(f"rtol={r:g}", [f"integrator.rtol={r}", f"integrator.atol={r / 10}"]) for r in (1e-4, 1e-6, 1e-8, 1e-10)],
+    **{s: [(f"dt={dt:g}", [f"solvers.{s}.dt={dt}"]) for dt in (1e-4, 5e-5, 2.5e-5, 1.25e-5)]
+       for s in ("exudyn-beam", "exudyn-ffrf")}}
+DUTY_TARGET = 0.01          # |S_eq / its converged S_eq - 1| the fastest setting must meet
+
+
+def duty_cycle(progress=None, settings=DUTY_SETTINGS, name: str = DUTY) -> dict:
+    """Each solver of `settings` on case `name` at each of its settings: rows {solver, setting,
+    seq3_MPa, seq5_MPa, wall_s, error (|S_eq,5 / the solver's converged S_eq,5 - 1|), error_reference
+    (against the reference's converged run)}; and per solver its fastest setting within
+    DUTY_TARGET of its own converged S_eq (`fastest`: nan when none)."""
+    rows = []
+    for solver, grid in settings.items():
+        for setting, over in grid:
+            case = cases.load(name, over)
+            st = fatigue.settings(case)
+            r = registry.run(case, solver)
+            got = (fatigue.summary(*fatigue.counted(r.t, r.channels[st.channels[0]], st), st.curve)
+                   if r.ok else {"seq3_MPa": np.nan, "seq5_MPa": np.nan})
+            rows.append({"case": name, "solver": solver, "setting": setting, "seq3_MPa": got["seq3_MPa"],
+                         "seq5_MPa": got["seq5_MPa"], "wall_s": r.wall_s, "status": str(r.status)})
+            if progress:
+                progress({**rows[-1], "scheme": "duty cycle", "error": np.nan})
+    ref = cases.load(name).report.reference
+    last = {s: [r for r in rows if r["solver"] == s][-1]["seq5_MPa"] for s in settings}
+    for r in rows:
+        r["error"] = abs(r["seq5_MPa"] / last[r["solver"]] - 1.0)
+        r["error_reference"] = abs(r["seq5_MPa"] / last[ref] - 1.0) if ref in last else np.nan
+    fastest = []
+    for s in settings:
+        ok = [r for r in rows if r["solver"] == s and finite(r["error"]) and r["error"] <= DUTY_TARGET]
+        best = min(ok, key=lambda r: r["wall_s"]) if ok else None
+        fastest.append({"solver": s, "setting": best["setting"] if best else "",
+                        "wall_s": best["wall_s"] if best else np.nan, "seq5_MPa": best["seq5_MPa"] if best else np.nan,
+                        "converged_seq5_MPa": last[s], "error_reference": best["error_reference"] if best else np.nan})
+    return {"case": name, "reference": ref, "target": DUTY_TARGET, "rows": rows, "fastest": fastest}
+
+
+# ---------------------------------------------------------------------------------------------
 # the command
 
 
@@ -358,6 +407,8 @@ def run(quick: bool = False, with_work_precision: bool = True, progress=None, st
     ns = (1, 4, 8) if quick else (1, 2, 4, 8, 16, 32, 64)
     out["flexible_chain"], out["flexible_chain_exponent"] = flexible_chain(ns)
     out["solid_mesh"] = solid_mesh({"5k": SOLID_MESHES["5k"]} if quick else SOLID_MESHES)
+    if not quick:                                       # minutes: 12 runs of 50 revolutions
+        out["duty_cycle"] = duty_cycle(progress)
     if with_work_precision:
         names = ["cantilever_step"] if quick else ["cantilever_step", "pendulum", "double_pendulum"]
         if quick:
@@ -398,6 +449,21 @@ def plots(result: dict, folder: Path) -> list[str]:
     ax.grid(alpha=0.3, which="both")
     ax.legend()
     names.append(figures.save(fig, folder / "scaling.png"))
+    duty = result.get("duty_cycle")
+    if duty:                                            # S_eq's difference from the converged one against the time
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for s in dict.fromkeys(r["solver"] for r in duty["rows"]):
+            pts = [r for r in duty["rows"] if r["solver"] == s and finite(r["error"]) and r["error"] > 0]
+            ax.loglog([r["wall_s"] for r in pts], [r["error"] for r in pts], "o-", label=s)
+            for r in pts:
+                ax.annotate(r["setting"], (r["wall_s"], r["error"]), fontsize=7)
+        ax.axhline(duty["target"], ls="--", color="k", lw=0.8, label=f"{duty['target']:.0%}")
+        ax.set_xlabel("solve wall time [s]")
+        ax.set_ylabel("|S_eq / its converged S_eq - 1| (m = 5)")
+        ax.set_title(f"{duty['case']}: the fatigue count's convergence", fontsize=10)
+        ax.grid(alpha=0.3, which="both")
+        ax.legend()
+        names.append(figures.save(fig, folder / "duty_cycle.png"))
     page = ("<!doctype html><html><head><meta charset='utf-8'><title>flexmbd bench</title></head><body>"
             "<p><a href='../index.html'>report</a></p><h1>flexmbd bench</h1>"
             + "".join(f"<p><img src='{n}' alt='{n}'></p>" for n in names)

@@ -43,10 +43,11 @@ def counts(case, ok: dict) -> tuple[fatigue.Settings, list, dict] | None:
 
 def cells(r: dict) -> list:
     """A row of the table: its numbers (`tables.fmt`), the band, and the verdict with `mixed`'s
-    flag: the prediction is not made where the cycles lie on two segments or below a cut-off."""
+    flag: the prediction is not made where the damaging cycles lie on two segments or a cycle lies
+    within the tolerance of a cut-off (`harness.durability.relative`)."""
     out = [tables.fmt(r[k]) for k in KEYS]
     if r["mixed"]:
-        out[KEYS.index("predicted_ratio")] = "cycles on two segments or below the cut-off"
+        out[KEYS.index("predicted_ratio")] = "cycles on two segments or at the cut-off"
     band = "" if not np.isfinite(r["band_low"]) else f"{tables.fmt(r['band_low'])} .. {tables.fmt(r['band_high'])}"
     return out + [band, r["verdict"] or "reference"]
 
@@ -67,16 +68,18 @@ def latex(name: str, reference: str | None, curve: str, source: str, rows: list)
     """Case `name`'s table as an \\input-able booktabs table (`tables.latex_table`)."""
     keys = ["channel", "solver", "cycles", "seq3_MPa", "seq5_MPa", "damage", "seq3_ratio", "seq5_ratio",
             "damage_ratio", "predicted_ratio"]
-    head = ["channel", "solver", "cycles", "$S_{eq,3}$ [MPa]", "$S_{eq,5}$ [MPa]", "damage", "$S_{eq,3}$ ratio",
-            "$S_{eq,5}$ ratio", "damage ratio", "predicted", "verdict"]
+    head = ["channel", "solver", "cycles", "$S_3$ [MPa]", "$S_5$ [MPa]", "$D$", "$S_3/S_3^r$", "$S_5/S_5^r$",
+            "$D/D^r$", "pred.", "verdict"]
     body = [[tables.tex(str(r[k])) if k in ("channel", "solver") else tables.tex_number(r[k]) for k in keys]
             + [tables.tex(r["verdict"] or "reference")] for r in rows]
     return tables.latex_table(
         f"{tables.tex(name)}: fatigue count against {tables.tex(reference or 'no reference')} "
-        f"on {tables.tex(curve)} ({tables.tex(source)}): rainflow cycles per repeat, "
-        "damage-equivalent stress ranges at slopes 3 and 5 (2e6 cycles), Palmgren-Miner damage per repeat, "
-        "their ratios to the reference's and the damage ratio the S_eq ratio predicts at the slope of the "
-        "curve's segment that holds the cycles.", f"tab:durability:{name}",
+        f"on {tables.tex(curve)} ({tables.tex(source)}): rainflow cycles per repeat; $S_3$, $S_5$ the "
+        "damage-equivalent stress ranges at slopes 3 and 5 (2e6 cycles); $D$ the Palmgren-Miner damage per "
+        "repeat; their ratios to the reference's ($^r$); pred.: the damage ratio the ratio of the "
+        "damage-equivalent ranges predicts, $(S_m/S_m^r)^m$ at the slope $m$ of the curve's segment that holds "
+        "the damaging cycles (-- where they lie on two segments or a cycle lies at the cut-off); the verdict "
+        "is on $S_3$ and $S_5$.", f"tab:durability:{name}",
         head, list("ll") + ["r"] * (len(head) - 3) + ["l"], body)
 
 
@@ -149,13 +152,16 @@ def figure(case, st: fatigue.Settings, rows: list, cyc: dict, path: Path) -> str
     S = np.geomspace(min(min(tops, default=1.0) * 0.05, min(st.curve.lower[-1] or np.inf, 1e9) * 0.5),
                      max(tops, default=1.0) * 3, 300)
     a.loglog(fatigue.life(st.curve, S), S, "k-", lw=2, label=st.curve.name)
+    widths = {s: 3.0 - 1.6 * k / max(len(cyc) - 1, 1) for k, s in enumerate(cyc)}   # wide to thin: overlaps show
     for solver, got in cyc.items():
-        for ch in st.channels:
+        for j, ch in enumerate(st.channels):
             rng = np.array([r["range_MPa"] for r in got if r["channel"] == ch])
             n = np.array([r["count"] for r in got if r["channel"] == ch])
             if rng.size:
                 order = np.argsort(rng)[::-1]
-                a.loglog(np.cumsum(n[order]), rng[order], drawstyle="steps-post", label=f"{solver}: {ch}")
+                look = {**figures.style(solver, among=list(cyc)), "ls": ("-", "--", ":", "-.")[j % 4]}
+                a.loglog(np.cumsum(n[order]), rng[order], drawstyle="steps-post", lw=widths[solver],
+                         label=f"{solver}: {ch}", **look)
     a.set_ylim(max(tops, default=1.0) * 1e-3, max(tops, default=1.0) * 3)
     a.set_xlabel("cycles (per repeat: exceedance; S-N: to failure)")
     a.set_ylabel("stress range [MPa]")
@@ -163,11 +169,12 @@ def figure(case, st: fatigue.Settings, rows: list, cyc: dict, path: Path) -> str
     a.set_title("Exceedance spectra on the S-N curve", fontsize=9)
     graded = [r for r in rows if r["verdict"]]
     x = np.arange(len(graded))
-    b.bar(x, [r["damage_ratio"] for r in graded], color="C0", label="damage ratio")
+    b.bar(x, [r["damage_ratio"] - 1.0 for r in graded], bottom=1.0, color="C0", label="damage ratio")   # from 1
     for k, r in enumerate(graded):
         b.plot([k, k], [r["band_low"], r["band_high"]], "k-", lw=3, alpha=0.4)
         b.plot(k, r["predicted_ratio"], "r_", ms=14)
     b.axhline(1.0, color="grey", lw=0.8)
+    b.margins(y=0.15)
     b.set_xticks(x, [f"{r['solver']}\n{r['channel']}" for r in graded], fontsize=7)
     b.set_ylabel("damage / reference's")
     b.set_title("Damage ratio (bar), from the S_eq ratio (red), RMS band (grey)", fontsize=9)

@@ -445,8 +445,9 @@ def durability_part(p: CasePage) -> list:
             f"({st.curve.source}); mean-stress correction: {st.correction}. Damage is Palmgren-Miner per repeat of "
             f"the counted span; S_eq = (sum n S^m / 2e6)^(1/m). Verdict: |S_eq / S_eq of the reference - 1| within "
             f"{st.tolerance:g} at m = 3 and 5. The predicted damage ratio is (S_eq ratio)^m at the slope of the one "
-            f"curve segment that holds every cycle; the band is (1 -/+ e)^m with e the RMS stress difference over "
-            f"the counted span.")
+            f"curve segment that holds every damaging cycle, S_eq over those cycles (none is predicted where they lie "
+            f"on two segments or a cycle lies within the tolerance of a cut-off); the band is (1 -/+ e)^m with e the "
+            f"RMS stress difference over the counted span.")
     files_ = ["durability.csv", "durability.tex", *listed]
     links = Both("<p>" + ", ".join(f"<a href='{f}'>{f}</a>" for f in files_) + "</p>",
                  ", ".join(f"[{f}]({f})" for f in files_))

@@ -31,6 +31,7 @@ import pandas as pd
 
 from flexmbd import version
 from flexmbd.harness import channels, cost, metrics, results, registry
+from flexmbd.harness import durability as fatigue
 from flexmbd.core.errors import InputError
 from flexmbd.core.files import atomic_write
 from flexmbd.report import loading
@@ -41,8 +42,13 @@ from flexmbd.version import __version__
 METRICS = {"rms_vs_reference": "RMS difference from the case's reference solver at the same point",
            "rms_vs_finest": "RMS difference from the same solver at the finest point (the last of the grid)",
            "max_abs": "largest magnitude over the run", "mean": "time mean", "final": "value at the last instant"}
-DRAWN = ("rms_vs_reference", "rms_vs_finest")      # metrics drawn against each varied key
-LABEL = {"rms_vs_reference": "RMS difference from the reference", "rms_vs_finest": "RMS difference from the finest point"}
+# and, for a channel the case's [durability] table counts, its fatigue count (docs/durability.md)
+FATIGUE = {"seq3_MPa": "damage-equivalent stress range at slope 3 (2e6 cycles), MPa",
+           "seq5_MPa": "damage-equivalent stress range at slope 5 (2e6 cycles), MPa",
+           "damage": "Palmgren-Miner damage per repeat of the counted span on the case's curve"}
+DRAWN = ("rms_vs_reference", "rms_vs_finest", "seq5_MPa")      # metrics drawn against each varied key
+LABEL = {"rms_vs_reference": "RMS difference from the reference", "rms_vs_finest": "RMS difference from the finest point",
+         "seq5_MPa": "S_eq at m = 5 [MPa]"}
 
 
 @dataclass(frozen=True)
@@ -339,16 +345,21 @@ def _value(text: str):
 
 
 def _metrics(case, ch: str, r, ref, finest) -> dict:
-    """METRICS of channel `ch` of the run r; NaN where the run, its reference or its finest point
-    has no usable value. `ref`: the reference's Result at the same point (None for the reference
+    """METRICS of channel `ch` of the run r, and FATIGUE where the case's [durability] table counts
+    it; NaN where the run, its reference or its finest point has no usable value. `ref`: the reference's Result at the same point (None for the reference
     itself); `finest`: the same solver's Result at the finest point."""
-    nan = {m: np.nan for m in METRICS}
+    st = fatigue.settings(case)
+    counted = st is not None and ch in st.channels
+    nan = {m: np.nan for m in (*METRICS, *(FATIGUE if counted else ()))}
     if not r.ok or ch not in r.channels or not len(r.t):
         return nan
     y = np.asarray(r.channels[ch], dtype=float)
     got = {"max_abs": float(np.max(np.abs(y))), "mean": float(np.mean(y)), "final": float(y[-1]),
            "rms_vs_reference": _rms(case, ch, ref, r), "rms_vs_finest": _rms(case, ch, finest, r)}
-    return {m: got[m] for m in METRICS}
+    if counted and np.isfinite(y).all() and r.t[-1] > st.discard:
+        row = fatigue.summary(*fatigue.counted(r.t, y, st), st.curve)
+        got |= {m: row[m] for m in FATIGUE}
+    return {m: got.get(m, np.nan) for m in nan}
 
 
 @np.errstate(over="ignore")
@@ -409,7 +420,8 @@ def figures(st: Study, df: pd.DataFrame, where: Path) -> list:
                     others &= df[k].map(lambda v, want=finest[k]: _same(v, want)).to_numpy(dtype=bool)
             for metric in DRAWN:
                 sel = df[(df["case"] == case) & (df["metric"] == metric) & others]
-                sel = sel[sel["value"].astype(float) > 0]          # finite: on a log scale (the finest point: 0)
+                sel = sel[(sel["value"].astype(float) > 0)          # finite: on a log scale (the finest point: 0)
+                          & sel[key].notna().to_numpy(dtype=bool)]     # a reference run once has no key (its S_eq)
                 if sel.empty:
                     continue
                 names.append(figs.save(figure(sel, case, key, metric), where / f"{case}__{key}__{metric}.png"))
@@ -446,7 +458,7 @@ def figure(sel: pd.DataFrame, case: str, key: str, metric: str, reference: str |
             x = pts[key].to_numpy() if numeric else [order.index(v) for v in pts[key]]
             ax.plot(x, pts["value"].to_numpy(dtype=float), lw=1.2, label=figs.label(s, reference=reference),
                     **{**figs.style(s, len(x), among=every), "markevery": 1})
-        tol = part["tolerance"].iloc[0]
+        tol = part["tolerance"].iloc[0] if metric.startswith("rms") else np.nan     # a tolerance is on an RMS difference
         if np.isfinite(tol):
             ax.axhline(tol, ls="--", lw=0.8, color="k", label="tolerance")
         ax.set_yscale("log")

@@ -2,7 +2,8 @@
 
 The continuous cantilever's modes (1 + cos(bL) cosh(bL) = 0) are summed for the undamped (or
 modally damped) response to loads switched on at t0 and then held:
-    w(x, t) = sum_n psi_n(x) eta_n(t),   eta_n'' + 2 zeta w_n eta_n' + w_n^2 eta_n = psi_n(a) P H(t - t0)
+    w(x, t) = sum_n psi_n(x) eta_n(t),   eta_n'' + 2 zeta_n w_n eta_n' + w_n^2 eta_n = psi_n(a) P H(t - t0)
+with zeta_n = zeta + beta w_n / 2 (modal damping zeta, material damping beta: C = beta K)
 with psi_n mass-normalised (int rho A psi_n^2 dx = 1). Bending in the two planes is superposed;
 stress at the fibre (y, z) is sigma = -E (y w_y'' + z w_z''), von Mises |sigma| (no torsion or
 axial force under transverse loads through the axis). Also: frequencies of clamped-free and
@@ -109,11 +110,20 @@ def cantilever_shapes(bL: float, x: np.ndarray, L: float):
 
 
 def modal_response(t, w, zeta, t0):
-    """Response eta(t) / (static value) of a mode to a unit step at t0: 1 - e^{-zw t}(cos + ...)."""
+    """Response eta(t) / (static value) of a mode to a unit step at t0 (zeta: scalar or per mode):
+    underdamped 1 - e^{-zw t}(cos w_d t + z w / w_d sin w_d t); overdamped (z > 1, a mode that
+    material damping beta w / 2 makes so) 1 - [(1 + z/s) e^{(-z+s) w t} + (1 - z/s) e^{(-z-s) w t}] / 2,
+    s = sqrt(z^2 - 1), both exponents negative (no overflow)."""
     tau = np.clip(t - t0, 0.0, None)
-    wd = w * np.sqrt(1.0 - zeta ** 2)
-    h = 1.0 - np.exp(-zeta * w * tau) * (np.cos(wd * tau) + zeta * w / wd * np.sin(wd * tau))
-    return h * (t >= t0)
+    zeta = np.broadcast_to(np.asarray(zeta, dtype=float), np.shape(w))
+    under = zeta < 1.0
+    z_u = np.where(under, zeta, 0.0)
+    wd = w * np.sqrt(1.0 - z_u ** 2)
+    h_u = 1.0 - np.exp(-z_u * w * tau) * (np.cos(wd * tau) + z_u * w / wd * np.sin(wd * tau))
+    z_o = np.where(under, 2.0, zeta)
+    s = np.sqrt(z_o ** 2 - 1.0)
+    h_o = 1.0 - 0.5 * ((1 + z_o / s) * np.exp((-z_o + s) * w * tau) + (1 - z_o / s) * np.exp((-z_o - s) * w * tau))
+    return np.where(under, h_u, h_o) * (t >= t0)
 
 
 def trajectory(case, name: str, t, eta: dict, bL) -> channels.Trajectory:
@@ -140,7 +150,7 @@ def run(case, t_end, settings):
     body = case.bodies[name]
     sec = body.geometry
     E, rho, A, L = body.material.E, body.material.rho, sec.A, body.length
-    zeta = body.damping_ratio
+    beta = body.stiffness_damping                       # material damping: zeta_n = zeta + beta w_n / 2
     n = settings.get("modes", SETTINGS["modes"][1])
     bL = clamped_free_roots(n)
     t = common.sample_times(case, t_end)
@@ -154,6 +164,7 @@ def run(case, t_end, settings):
     for axis, I in ((1, sec.Iz), (2, sec.Iy)):
         w = (bL / L) ** 2 * np.sqrt(E * I / (rho * A))
         norm = 1.0 / np.sqrt(rho * A * L)
+        zeta = body.damping_ratio + 0.5 * beta * w
         resp = np.zeros((t.size, n))
         for ld in case.loads.values():
             P = common.body_force(case, ld)[axis]

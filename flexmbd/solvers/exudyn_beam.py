@@ -117,7 +117,8 @@ def applies(case) -> str:
         return f"planar beam model only (3-D beams are not built yet): {why}"
     for name, b in case.bodies.items():
         if flexible(b) and b.damping_ratio > 0:
-            return f"body {name!r}: modal damping has no counterpart in the beam elements"
+            return (f"body {name!r}: modal damping has no counterpart in the beam elements (material damping, "
+                    f"stiffness_damping, has)")
     for jn, j in case.joints.items():
         if j.type not in ("revolute", "fixed", "prismatic"):
             return f"joint {jn!r}: only revolute (pin), prismatic and fixed joints"
@@ -164,8 +165,10 @@ def section_constants(body: cases.Beam) -> dict:
     sec, mat = body.geometry, body.material
     E, G, rho = mat.E, mat.G, mat.rho
     k = 0.9 if body.section.shape == "circle" else 5.0 / 6.0
+    beta = body.stiffness_damping                       # material damping: each section force beta times its rate's stiffness
     return {"massPerLength": rho * sec.A, "crossSectionInertia": rho * sec.Iz,
             "bendingStiffness": E * sec.Iz, "axialStiffness": E * sec.A, "shearStiffness": k * G * sec.A,
+            "bendingDamping": beta * E * sec.Iz, "axialDamping": beta * E * sec.A, "shearDamping": beta * k * G * sec.A,
             "E": E, "cy": sec.cy, "Iz": sec.Iz, "A": sec.A}
 
 
@@ -343,7 +346,8 @@ def add_beam(mbs, body: cases.Beam, n: int, angle: float, origin, w: float = 0.0
     elems = [mbs.AddObject(eii.ObjectBeamGeometricallyExact2D(
         nodeNumbers=[nodes[i], nodes[i + 1]], length=l, massPerLength=k["massPerLength"],
         crossSectionInertia=k["crossSectionInertia"], bendingStiffness=k["bendingStiffness"],
-        axialStiffness=k["axialStiffness"], shearStiffness=k["shearStiffness"],
+        axialStiffness=k["axialStiffness"], shearStiffness=k["shearStiffness"], bendingDamping=k["bendingDamping"],
+        axialDamping=k["axialDamping"], shearDamping=k["shearDamping"],
         visualization=eii.VObjectBeamGeometricallyExact2D(show=False))) for i in range(n)]
     return {"kind": "beam", "nodes": nodes, "elems": elems, "l": l, "k": k, "angle0": angle}
 

@@ -94,6 +94,8 @@ def applies(case) -> str:
         return "rectangular sections only (box section of the rod)"
     if body.damping_ratio > 0:
         return "modal damping has no counterpart in the rod"
+    if body.stiffness_damping > 0:
+        return "material damping (stiffness_damping) is not modelled in the rod"
     return ""
 
 

@@ -207,6 +207,19 @@ def test_cycles_that_straddle_the_cut_off_make_no_prediction():
     assert next(r for r in rows if r["solver"] == "ref")["damage"] == 0.0 and np.isnan(other["damage_ratio"])
 
 
+def test_ripples_far_below_the_cut_off_leave_the_prediction_to_the_damaging_cycles():
+    """100 MPa cycles (slope 3 on Eurocode 3 category 71) with 1 MPa ripples between them, far
+    below the cut-off in both counts: they do no damage in either, so the S_eq ratio over the
+    damaging cycles predicts the damage ratio, 1.03^3, to 1e-12."""
+    t = np.linspace(0.0, 10.0, 20001)
+    s = 50e6 * np.cos(2 * np.pi * t) + 0.5e6 * np.sin(2 * np.pi * 37 * t)     # from a peak to a peak
+    rows, _ = d.table(settings("ec3-71"), {"ref": (t, {"s": s}), "other": (t, {"s": 1.03 * s})}, "ref")
+    other = next(r for r in rows if r["solver"] == "other")
+    assert not other["mixed"] and other["slope"] == 3.0
+    assert other["damage_ratio"] == pytest.approx(1.03 ** 3, rel=1e-12)
+    assert other["predicted_ratio"] == pytest.approx(other["damage_ratio"], rel=1e-12)
+
+
 def test_the_start_up_is_discarded_and_each_cycle_keeps_its_times():
     """discard = 5 s of a 20-period history: 15 cycles, each starting and ending after 5 s."""
     t, s = sine(10.0)

@@ -83,7 +83,7 @@ def test_a_pendulum_study_gives_the_same_table_bitwise_on_the_pool_and_on_a_dask
     assert pool.equals(dask)
     assert all(column_bytes(pool[c]) == column_bytes(dask[c]) for c in pool.columns)   # the table holds no times
     ok = pool[pool["status"] == "ok"]
-    assert len(ok) == len(pool) == 9 * 2 * 5 * 5                    # points x solvers x channels x metrics
+    assert len(ok) == len(pool) == 9 * 2 * (5 * 5 + 3)              # points x solvers x (channels x metrics + S_eq 3, 5, damage)
     final = ok[(ok["metric"] == "final") & (ok["channel"] == "tip_deflection")]
     assert final.groupby("solver")["value"].nunique().to_dict() == {"exudyn-ffrf": 9, "flexmbd": 3}
 

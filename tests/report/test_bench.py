@@ -1,6 +1,7 @@
 """The bench's pieces on small sizes (the full run is `flexmbd bench`; no time is asserted here)."""
 
 import numpy as np
+import pytest
 
 from flexmbd.report import bench
 from flexmbd.solvers.build import from_case
@@ -94,3 +95,24 @@ def test_solid_mesh_rows_reduce_and_evaluate_a_small_mesh():
     rows = bench.solid_mesh({"tiny": [6, 1, 1]})
     assert rows[0]["dofs"] == 3 * bench.solid_case([6, 1, 1]).reduced("bar").n_nodes - 6
     assert rows[0]["flexmbd_us"] > 0 and rows[0]["reduce_s"] > 0
+
+
+def test_the_duty_cycle_grades_each_setting_against_the_solver_s_own_converged_count():
+    """bench.duty_cycle on slider_crank (two revolutions, the second counted) with two exudyn-beam
+    steps and one flexmbd tolerance: each row's S_eq at m = 5 and its difference from the
+    solver's last (converged) setting's, which is 0 there; the reference's (exudyn-beam's)
+    converged S_eq is what error_reference is against; the fastest setting within 1 % of the
+    solver's own converged S_eq is named with its time (the converged one at least qualifies)."""
+    grid = {"exudyn-beam": [("dt=5e-5", ["solvers.exudyn-beam.dt=5e-5"]), ("dt=2.5e-5", ["solvers.exudyn-beam.dt=2.5e-5"])],
+            "flexmbd": [("rtol=1e-8", ["integrator.rtol=1e-8", "integrator.atol=1e-9"])]}
+    got = bench.duty_cycle(settings=grid, name="slider_crank")
+    rows = {(r["solver"], r["setting"]): r for r in got["rows"]}
+    assert got["reference"] == "exudyn-beam" and len(rows) == 3
+    assert rows[("exudyn-beam", "dt=2.5e-5")]["error"] == 0.0 == rows[("flexmbd", "rtol=1e-8")]["error"]
+    fine, coarse = rows[("exudyn-beam", "dt=2.5e-5")], rows[("exudyn-beam", "dt=5e-5")]
+    assert coarse["error"] == pytest.approx(abs(coarse["seq5_MPa"] / fine["seq5_MPa"] - 1), rel=1e-12)
+    mine = rows[("flexmbd", "rtol=1e-8")]
+    assert mine["error_reference"] == pytest.approx(abs(mine["seq5_MPa"] / fine["seq5_MPa"] - 1), rel=1e-12)
+    assert mine["error_reference"] < 0.05                    # the case's own S_eq verdict: flexmbd 3.1 % off
+    best = {r["solver"]: r for r in got["fastest"]}
+    assert best["flexmbd"]["setting"] == "rtol=1e-8" and best["exudyn-beam"]["setting"] in ("dt=5e-5", "dt=2.5e-5")

@@ -102,7 +102,7 @@ def test_a_study_writes_its_table_and_figures_and_keeps_its_runs(grid_study, tmp
     assert (ref["reference"] == "fe-linear").all() and np.isfinite(ref["value"]).all()
     assert sorted(p.name for p in (out / "figures").glob("*.png")) == sorted(
         f"cantilever_step__{k}__{m}.png" for k in ("solvers.analytic.modes", "integrator.output_dt")
-        for m in study.DRAWN)
+        for m in ("rms_vs_reference", "rms_vs_finest"))          # no fatigue count on this case: no S_eq figure
     capsys.readouterr()
     assert main(["study", *GRID, "--out", str(out), "--workers", "1"]) == 0
     assert capsys.readouterr().err.count("(stored, unchanged)") == 8
@@ -146,3 +146,41 @@ def test_a_reference_at_the_base_runs_once_and_grades_every_point(tmp_path, caps
                  "--reference-at", "base", "--out", str(tmp_path / "bad")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "solvers.fe-linear.dt" in err[0] and not (tmp_path / "bad").exists()
+
+
+def test_a_counted_channel_has_its_fatigue_metrics_and_no_other_channel_does():
+    """study._metrics on the pendulum with a [durability] table (tests/data/pendulum_durability.toml):
+    the counted channel's S_eq at m = 3 and 5 and damage are the fatigue count's (`harness.durability`,
+    as the report counts them): a cosine of 4 MPa amplitude over 10 periods, from a peak to a peak,
+    is 10 cycles of 8 MPa, S_eq,m = 8 (10 / 2e6)^(1/m) MPa; another channel has the plain metrics
+    only."""
+    from pathlib import Path
+    from flexmbd import cases
+    from flexmbd.harness.results import Result
+    case = cases.load(str(Path(__file__).resolve().parents[1] / "data" / "pendulum_durability.toml"))
+    t = np.linspace(0.0, 1.0, 4001)
+    r = Result(solver="flexmbd", case=case.name, t=t, channels={"stress_normal": 4e6 * np.cos(2 * np.pi * 10 * t),
+                                                                 "joint_angle": t})
+    got = study._metrics(case, "stress_normal", r, None, None)
+    assert set(got) == set(study.METRICS) | set(study.FATIGUE)
+    for m in (3, 5):
+        assert got[f"seq{m}_MPa"] == pytest.approx(8.0 * (10 / 2e6) ** (1 / m), rel=1e-9)
+    assert got["damage"] > 0
+    assert set(study._metrics(case, "joint_angle", r, None, None)) == set(study.METRICS)
+
+
+@pytest.mark.parametrize("path", sorted((Path(__file__).resolve().parents[2] / "cases" / "studies").glob("*.toml")),
+                         ids=lambda p: p.stem)
+def test_each_stored_sweep_is_its_study_run_to_the_end(path):
+    """cases/studies/NAME.parquet is NAME.toml's table: every value of its varied key, every solver
+    and channel of the case, every run ended, and the fatigue metrics of the counted channel."""
+    from flexmbd import cases
+    st = study.from_file(path)
+    df = pd.read_parquet(path.with_suffix(".parquet"))
+    (key, values), = st.vary
+    assert sorted(set(df[key].dropna())) == sorted(study._value(v) for v in values)
+    case = cases.load(st.cases[0])
+    assert set(df["solver"]) == set(st.solvers) and set(df["channel"]) == set(case.channels)
+    assert df["status"].str.startswith("ok").all()
+    seq = df[df["metric"] == "seq5_MPa"]
+    assert set(seq["channel"]) == set(case.durability["channels"]) and (seq["value"] > 0).all()

@@ -26,8 +26,9 @@ def cmd_bench(args) -> int:
     from flexmbd.report import bench
 
     def show(row):
+        what = f"S_eq {row['seq5_MPa']:.4g} MPa" if "seq5_MPa" in row else f"error {row['error']:.3g}"
         sys.stderr.write(f"bench: {row['case']} / {row['solver']} {row['scheme']} {row['setting']}: "
-                         f"error {row['error']:.3g}, {row['wall_s']:.2f} s\n")
+                         f"{what}, {row['wall_s']:.2f} s\n")
 
     files.writable_dir(args.out, "--out")
     stored = Path(args.results) / "results" if args.results else None
@@ -62,5 +63,13 @@ def cmd_bench(args) -> int:
         at = lambda k: f"{r[f'wall_s_at_{k}']:.3f} s" if math.isfinite(r[f"wall_s_at_{k}"]) else "-"
         print(f"  {r['case']:16s} {r['solver']:15s} floor {r['floor']:.2e}; "
               f"1e-03: {at('1e-03')}; 1e-04: {at('1e-04')}")
+    duty = result.get("duty_cycle")
+    if duty:
+        print(f"duty cycle ({duty['case']}): the fastest setting within {duty['target']:.0%} of the solver's own "
+              f"converged S_eq (m = 5), and that S_eq against the reference's ({duty['reference']}) converged one:")
+    for r in (duty or {}).get("fastest", []):
+        at = f"{r['wall_s']:.2f} s at {r['setting']}" if math.isfinite(r["wall_s"]) else "none within it"
+        print(f"  {r['solver']:12s} {at}; S_eq {r['seq5_MPa']:.4g} MPa (converged {r['converged_seq5_MPa']:.4g}), "
+              f"{r['error_reference']:.2%} from the reference's")
     print(f"plots: {Path(args.out) / 'index.html'}")
     return 0
