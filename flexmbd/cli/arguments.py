@@ -165,6 +165,10 @@ def modes_arguments(s: Parser) -> None:
                    help="the assembled system's frequencies (joint and modal coordinates, linearized)")
     s.add_argument("--about", choices=["initial", "equilibrium"], default="initial",
                    help="with --system: linearize about the initial state or the static equilibrium")
+    s.add_argument("--sweep", metavar="KEY=START:STOP:N",
+                   help="with --system: linearize at N evenly spaced values of a case key, the modes tracked by "
+                        "their shapes (a frequency map); with --out, written as OUT/CASE_sweep.csv and .png")
+    option(s, "--out", default=None, metavar="DIR", help="with --sweep: the folder of the map's table and figure")
     options(s, "--json", "--allow-large")
 
 

@@ -39,6 +39,8 @@ class SystemMode(NamedTuple):
     label: str         # what leads the mode: 'joint pivot', 'beam: bending xy 2' (`labelled`)
     share: float       # that joint's or body family's share of the mode's kinetic energy
     damping_resolution: float   # the smallest |damping| its eigenvalue resolves (`damping_resolution`)
+    shape: object = None        # (nf,) its displacement over the free coordinates (`dynamics.free_velocities`;
+                                # a loop's dependent ones closed), real at its largest entry, unit norm
 
 
 
@@ -273,10 +275,18 @@ def system_modes(model: Model, q, v, t: float = 0.0, bar=None, loops: constraint
     found = []
     for k in np.flatnonzero((lam.imag > 1e-9 * scale) & (np.abs(lam) > zero)):
         share = np.zeros(model.nv)
-        share[free] = energy_shares(*momenta(A, M, lam[k], vec[:ind.size, k], closure))
+        x, p = momenta(A, M, lam[k], vec[:ind.size, k], closure)
+        share[free] = energy_shares(x, p)
         zeta = -lam[k].real / abs(lam[k])
+        x = x / x[np.argmax(np.abs(x))]
         found.append((float(lam[k].imag / (2 * np.pi)), float(zeta if abs(zeta) > resolution[k] else 0.0),
-                      lead(groups, share), float(resolution[k])))
+                      lead(groups, share), float(resolution[k]), x.real / np.linalg.norm(x.real)))
     found.sort(key=lambda m: m[0])
     labels = labelled([m[2][:3] for m in found])
-    return [SystemMode(f, d, lab, led[3], r) for (f, d, led, r), lab in zip(found, labels)]
+    return [SystemMode(f, d, lab, led[3], r, x) for (f, d, led, r, x), lab in zip(found, labels)]
+
+
+def mac(a, b) -> float:
+    """The modal assurance criterion of two shapes (n,): (a . b)^2 / (a . a)(b . b), 1 for the same
+    shape, 0 for orthogonal ones."""
+    return float(np.dot(a, b) ** 2 / (np.dot(a, a) * np.dot(b, b)))

@@ -603,3 +603,20 @@ def frozen(case, solver: str, sweep: list, fmin: float, fmax: float, path: Path)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return save(fig, path)
+
+
+def frequency_map(values, tracks: list, key: str, path: Path, case: str) -> str:
+    """A sweep's system frequencies (`linearize.tracked`) against the swept key, a curve per track
+    labelled by what leads it at the first value; returns the file name."""
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    for j, t in enumerate(tracks):
+        ax.plot(values, t["freq_hz"], "o-", ms=3, lw=1.2, label=f"{j + 1}: {t['label']}")
+    ax.set_xlabel(key)
+    ax.set_ylabel("frequency [Hz]")
+    ax.set_yscale("log")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
+    ax.set_title(f"{case}: system modes against {key}, tracked by shape", fontsize=10)
+    return save(fig, path)
+

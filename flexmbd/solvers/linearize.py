@@ -15,7 +15,7 @@ from flexmbd.mbd import constraints
 from flexmbd.mbd.linearize import (ROUNDOFF, STEP, NotLinearized, SystemMode, accelerations, closing,  # noqa: F401
                                    coordinate_groups, coordinates, damping_resolution, energy_shares, equilibrium,
                                    family, labelled, lead, mass_matrix, momenta, perturbed, refined, state_matrix,
-                                   system_modes)
+                                   system_modes, mac)
 from flexmbd.mbd.model import Model
 from flexmbd.harness.progress import Progress
 
@@ -110,3 +110,86 @@ def along(case, t, coords: dict, instants, model: Model | None = None) -> list:
             guess = q
         out.append((float(t[k]), solved(case, system_modes, model, q, v, float(t[k]), None, loops)))
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# a frequency map: the system linearized at each value of one setting, its modes tracked by shape
+
+
+def sweep_values(text: str) -> tuple[str, np.ndarray]:
+    """(key, values) of a sweep 'KEY=START:STOP:N' (N >= 2 evenly spaced values, ends included);
+    an InputError naming `--sweep` for any other text."""
+    key, _, span = text.partition("=")
+    parts = span.split(":")
+    try:
+        start, stop, n = float(parts[0]), float(parts[1]), int(parts[2])
+        if len(parts) != 3 or n < 2 or not (np.isfinite(start) and np.isfinite(stop)):
+            raise ValueError
+    except (ValueError, IndexError):
+        raise InputError(f"--sweep: {text!r}: expected KEY=START:STOP:N (numbers, N >= 2 values)") from None
+    if not key:
+        raise InputError(f"--sweep: {text!r}: expected KEY=START:STOP:N, a case key first")
+    return key, np.linspace(start, stop, n)
+
+
+def sweep(case, key: str, values, about: str = "initial", progress=None) -> list:
+    """[(value, [SystemMode])]: `for_case` on the case with `key` set to each value in turn (after
+    its own overrides), each mode's shape made physical (`physical`); progress(k, n, value) before
+    each."""
+    from flexmbd import cases
+    out = []
+    for k, x in enumerate(values):
+        if progress:
+            progress(k, len(values), x)
+        here = cases.load(str(case.path), [*case.overrides, f"{key}={float(x)!r}"])
+        model = model_of(here)
+        out.append((float(x), [m._replace(shape=physical(here, model, m.shape)) for m in for_case(here, about)]))
+    return out
+
+
+def physical(case, model: Model, shape) -> np.ndarray:
+    """A system mode's shape over the free coordinates (`SystemMode.shape`) as joint
+    coordinates and node translations: each flexible body's modal part replaced by its nodes'
+    displacements Phi_t eta (N x 3, m), so that shapes compare across mode sets that a swept
+    setting reorders or changes (a section's two bending planes trading places); unit norm."""
+    from flexmbd.mbd import dynamics
+    full = np.zeros(model.nv)
+    full[dynamics.free_velocities(model)] = shape
+    keep, parts = np.ones(model.nv, dtype=bool), []
+    for name, fb in flexbody.for_case(case.modelled).items():
+        if name in model.names:
+            i = model.index(name)
+            a, n = int(model.body_madr[i]), int(model.body_nm[i])
+            parts.append((fb.Phi[:, 3:, :n] @ full[a:a + n]).ravel())
+            keep[a:a + n] = False
+    x = np.concatenate([full[keep], *parts])
+    return x / np.linalg.norm(x)
+
+
+DEGENERATE = 1e-6      # relative: two frequencies this close are one (a symmetric section's two planes)
+
+
+def tracked(steps: list) -> list[dict]:
+    """The modes of a sweep (`sweep`) followed from value to value by their shapes, not their order:
+    at each value the modes are assigned to the tracks so that the sum of the MAC of each with the
+    track's shape at the previous value is largest (`scipy.optimize.linear_sum_assignment`). A
+    mode whose frequency another one shares (to DEGENERATE) has no shape of its own there, any mix
+    of the two being one: its track keeps the shape it had before. A track per mode of the first
+    value: {label (at the first value), freq_hz (n,), mac (n,): the MAC with the shape it was
+    assigned by (1 at the first), NaN where no mode was left for it}."""
+    from scipy.optimize import linear_sum_assignment
+    first = steps[0][1]
+    tracks = [{"label": m.label, "freq_hz": [m.freq_hz], "mac": [1.0], "shape": m.shape} for m in first]
+    for _, modes in steps[1:]:
+        C = np.array([[mac(t["shape"], m.shape) if t["shape"] is not None and m.shape.size == t["shape"].size else 0.0
+                       for m in modes] for t in tracks]).reshape(len(tracks), len(modes))
+        rows, cols = linear_sum_assignment(-C) if C.size else ([], [])
+        got = dict(zip(rows, cols))
+        f = np.array([m.freq_hz for m in modes])
+        shared = [bool(np.sum(np.abs(f - x) <= DEGENERATE * x) > 1) for x in f]
+        for i, t in enumerate(tracks):
+            m = modes[got[i]] if i in got else None
+            t["freq_hz"].append(m.freq_hz if m else np.nan)
+            t["mac"].append(C[i, got[i]] if m else np.nan)
+            t["shape"] = m.shape if m and not shared[got[i]] else t["shape"]
+    return [{"label": t["label"], "freq_hz": np.array(t["freq_hz"]), "mac": np.array(t["mac"])} for t in tracks]

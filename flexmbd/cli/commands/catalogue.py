@@ -4,10 +4,15 @@ commands themselves."""
 
 from __future__ import annotations
 
+import csv
+import io
 from pathlib import Path
+
+import numpy as np
 
 from flexmbd import cases
 from flexmbd.harness import cost, registry
+from flexmbd.harness.progress import Progress
 from flexmbd.core import files
 from flexmbd.cli.shared import _case, _load, warn
 from flexmbd.cli.status import OK
@@ -51,6 +56,10 @@ def cmd_modes(args) -> int:
     from flexmbd.fe import flexbody
     case = _load(args)
     cost.check([(case, None)], allow_large=args.allow_large, about=args.about if args.system else None)
+    if args.sweep and not args.system:
+        raise InputError("--sweep: a frequency map is of the system's modes: add --system")
+    if args.system and args.sweep:
+        return frequency_map(case, args)
     if args.system:
         return system_modes(case, args.about, args.json)
     if args.save:
@@ -98,6 +107,43 @@ def system_modes(case, about: str, as_json: bool) -> int:
         print("  none: no coordinate vibrates about this state (rigid bodies, or motion without stiffness)")
     for note in mode_notes(rows, case):
         print(f"  note: {note}")
+    return 0
+
+
+def frequency_map(case, args) -> int:
+    """`modes --system --sweep KEY=START:STOP:N`: the system's frequencies at each value, the modes
+    tracked by shape (`linearize.tracked`); a table on stdout (or JSON), and with --out the table
+    as OUT/CASE_sweep.csv and the map as OUT/CASE_sweep.png."""
+    from flexmbd.solvers import linearize
+    key, values = linearize.sweep_values(args.sweep)
+    if args.out:
+        files.writable_dir(args.out, "--out")
+    bar = Progress(len(values), f"{case.name} / sweeping {key}", unit="values")
+    with files.signals_exit():
+        steps = linearize.sweep(case, key, values, args.about, progress=lambda k, n, x: bar.update(k))
+    bar.close()
+    tracks = linearize.tracked(steps)
+    rows = [{key: x, "track": j + 1, "label": t["label"], "freq_hz": t["freq_hz"][k], "mac": t["mac"][k]}
+            for j, t in enumerate(tracks) for k, x in enumerate(values)]
+    if args.out:
+        from flexmbd.report import figures
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow([key, "track", "label", "freq_hz [Hz]", "mac"])
+        w.writerows([repr(float(r[key])), r["track"], r["label"], repr(float(r["freq_hz"])), repr(float(r["mac"]))]
+                    for r in rows)
+        text = buf.getvalue()
+        files.atomic_write(Path(args.out) / f"{case.name}_sweep.csv", text)
+        figures.frequency_map(values, tracks, key, Path(args.out) / f"{case.name}_sweep.png", case.name)
+    if args.json:
+        print(files.json_text({"case": case.name, "key": key, "about": args.about, "rows": rows}, indent=2))
+        return 0
+    print(f"{case.name}: system modes against {key} (tracked by shape; MAC with the previous value)")
+    print(f"  {key:>24s}  " + "  ".join(f"{j + 1:>10d}" for j in range(len(tracks))))
+    for k, x in enumerate(values):
+        print(f"  {x:24.6g}  " + "  ".join(f"{t['freq_hz'][k]:10.4f}" for t in tracks))
+    for j, t in enumerate(tracks):
+        print(f"  track {j + 1}: {t['label']} (at {values[0]:g}); smallest MAC {np.nanmin(t['mac']):.3f}")
     return 0
 
 
