@@ -133,18 +133,34 @@ def sweep_values(text: str) -> tuple[str, np.ndarray]:
 
 
 def sweep(case, key: str, values, about: str = "initial", progress=None) -> list:
-    """[(value, [SystemMode])]: `for_case` on the case with `key` set to each value in turn (after
-    its own overrides), each mode's shape made physical (`physical`); progress(k, n, value) before
-    each."""
+    """[(value, [SystemMode], {joint: coordinate})]: `for_case` on the case with `key` set to each
+    value in turn (after its own overrides), each mode's shape made physical (`physical`). On a
+    closed loop each value starts from the loop's closed coordinates at the value before
+    (`continued`), so that a crank turned step by step keeps the mechanism on the branch it was
+    assembled on instead of closing onto its mirror image; the closed coordinates of the free
+    one-coordinate joints are returned. progress(k, n, value) before each."""
     from flexmbd import cases
-    out = []
+    out, guesses = [], []
     for k, x in enumerate(values):
         if progress:
             progress(k, len(values), x)
-        here = cases.load(str(case.path), [*case.overrides, f"{key}={float(x)!r}"])
+        here = cases.load(str(case.path), [*case.overrides, *guesses, f"{key}={float(x)!r}"])
         model = model_of(here)
-        out.append((float(x), [m._replace(shape=physical(here, model, m.shape)) for m in for_case(here, about)]))
+        at = continued(here, model)
+        guesses = [f"joints.{j}.q0={q!r}" for j, q in at.items()] if here.loops else []
+        out.append((float(x), [m._replace(shape=physical(here, model, m.shape)) for m in for_case(here, about)], at))
     return out
+
+
+def continued(case, model: Model) -> dict:
+    """{joint: its coordinate} of the case's free one-coordinate tree joints at the initial state,
+    the loops closed: where the next value of a sweep starts."""
+    q = model.q0.copy()
+    loops = loops_of(case, model)
+    if loops:
+        q, _ = closed(case, loops, 0.0, q, model.v0.copy())
+    return {model.jnt_names[i]: float(q[model.jnt_qadr[i]]) for i in range(1, model.nb + 1)
+            if model.jnt_nv[i] == 1 and not model.jnt_prescribed[i] and model.jnt_names[i] in case.joints}
 
 
 def physical(case, model: Model, shape) -> np.ndarray:
@@ -180,7 +196,7 @@ def tracked(steps: list) -> list[dict]:
     from scipy.optimize import linear_sum_assignment
     first = steps[0][1]
     tracks = [{"label": m.label, "freq_hz": [m.freq_hz], "mac": [1.0], "shape": m.shape} for m in first]
-    for _, modes in steps[1:]:
+    for _, modes, *_ in steps[1:]:
         C = np.array([[mac(t["shape"], m.shape) if t["shape"] is not None and m.shape.size == t["shape"].size else 0.0
                        for m in modes] for t in tracks]).reshape(len(tracks), len(modes))
         rows, cols = linear_sum_assignment(-C) if C.size else ([], [])

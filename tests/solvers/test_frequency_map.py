@@ -60,3 +60,26 @@ def test_a_bad_sweep_is_one_line_and_exit_2(args, said, tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--sweep" in err[0] and said in err[0], err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_crank_turned_step_by_step_stays_on_its_branch():
+    """four_bar (crank 0.15 m from A = 0, coupler 0.45 m, rocker 0.40 m from D = (0.5, 0)) at rest,
+    its loop's guesses those of the crank at 0 (crank_pin 1.0195, rocker 1.8605 rad), its crank
+    swept over a whole turn in 30-degree steps: each value starts from the loop closed at the value
+    before, so the rocker follows the branch it was assembled on (C above AD), the closed form's
+    circle intersection there to 1e-8 rad (the closure's tolerance; measured 1e-12), and the map
+    closes on itself after the turn. Closed from those guesses at every value instead, the crank
+    at 150 to 210 degrees lands on the mirror image (rocker 3.81 to 4.04 rad: C below AD)."""
+    case = cases.load("four_bar", ["joints.crank_pivot.qd0=0", "joints.crank_pin.q0=1.0195",
+                                   "joints.rocker_pivot.q0=1.8605"])
+    th = np.linspace(0.0, 2 * np.pi, 13)
+    steps = linearize.sweep(case, "joints.crank_pivot.q0", th)
+    for x, _, at in steps:
+        B, D = 0.15 * np.array([np.cos(x), np.sin(x)]), np.array([0.5, 0.0])
+        L = np.linalg.norm(D - B)
+        a = (0.45 ** 2 - 0.40 ** 2 + L ** 2) / (2 * L)
+        u = (D - B) / L
+        C = B + a * u + np.sqrt(0.45 ** 2 - a ** 2) * np.array([-u[1], u[0]])    # left of B -> D: y > 0
+        assert C[1] > 0 and abs(at["rocker_pivot"] - np.arctan2(C[1], C[0] - 0.5)) < 1e-8, x
+    first, last = steps[0][1], steps[-1][1]
+    assert np.allclose([m.freq_hz for m in first], [m.freq_hz for m in last], rtol=1e-6)
