@@ -202,6 +202,19 @@ def section(case, d: Path, warn=None) -> tuple[str, str] | None:
             if not sel.empty:
                 fig = study.figure(sel, case.name, key, metric, case.report.reference)
                 imgs.append(figures.save(fig, d / f"convergence_{name}_{metric}.png"))
+        seq = df[(df["case"] == case.name) & (df["metric"] == "seq5_MPa") & df[key].notna()]
+        seq = seq[seq["value"].astype(float) > 0]
+        if not seq.empty:                               # a counted channel's S_eq against the key (docs/durability.md)
+            fig = study.figure(seq, case.name, key, "seq5_MPa", case.report.reference)
+            once = df[(df["case"] == case.name) & (df["metric"] == "seq5_MPa") & df[key].isna()
+                      & (df["solver"] == case.report.reference)]
+            for ax, ch in zip(fig.axes, dict.fromkeys(seq["channel"])):   # the reference run once: a line
+                v = once[once["channel"] == ch]["value"].astype(float)
+                if len(v) and v.iloc[0] > 0:
+                    ax.axhline(v.iloc[0], ls=":", color="k", lw=1.0)
+                    ax.annotate(f"{case.report.reference}: {v.iloc[0]:.4g}", (0.02, v.iloc[0]), fontsize=7,
+                                xycoords=("axes fraction", "data"), va="bottom")
+            imgs.append(figures.save(fig, d / f"convergence_{name}_seq5_MPa.png"))
         finest = _fmt_x(study._value(dict(st.vary)[key][-1]))
         head = ["solver", "channel", "error", *[_fmt_x(x) for x in (rows[0]["x"] if rows else [])], "rate b",
                 "tolerance", "within tolerance from"]
@@ -226,7 +239,9 @@ INTRO = ("<p>Each solver's error against its discretisation, coarse to fine: the
          "each an RMS difference over the reference's largest magnitude as in the accuracy table. "
          "<i>rate b</i>: the fitted exponent of error ~ x^b (least squares in log-log); "
          "<i>within tolerance from</i>: the coarsest value from which every finer point is within the "
-         "channel's tolerance. The tables are stored beside the case (<code>convergence/NAME.parquet</code>) "
+         "channel's tolerance. A channel the case counts for fatigue also has its S_eq at m = 5 against the "
+         "same values, the reference's (run once) dotted. The tables are stored beside the case "
+         "(<code>convergence/NAME.parquet</code>) "
          "and made by <code>make convergence</code>.</p>")
 
 

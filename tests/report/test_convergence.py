@@ -129,3 +129,16 @@ def test_the_section_shows_the_stored_numbers_and_says_where_a_study_is_missing(
     mine = cases.load(str(tmp_path / "c" / "mine.toml"))
     html, md = convergence.section(mine, tmp_path / "c")
     assert "not run yet" in md and "make convergence STUDIES=mine.modes" in md
+
+
+def test_a_counted_channel_s_s_eq_is_drawn_against_the_study_s_key(tmp_path):
+    """pendulum's stress_normal is counted ([durability]): each of its studies whose table holds
+    the channel's seq5_MPa draws it against the varied key (convergence_NAME_seq5_MPa.png), shown in
+    the section; a case without a count draws none."""
+    html, _ = convergence.section(cases.load("pendulum"), tmp_path)
+    assert (tmp_path / "convergence_pendulum.forces_seq5_MPa.png").is_file()
+    assert "convergence_pendulum.forces_seq5_MPa.png" in html
+    other = tmp_path / "other"
+    other.mkdir()
+    convergence.section(cases.load("cantilever_step"), other)
+    assert not list(other.glob("*seq5*"))
