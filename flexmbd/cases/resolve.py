@@ -141,6 +141,7 @@ class Solid:
     rigid: bool = False
     stiffening: bool = False
     segments: int = 1
+    stiffness_damping: float = 0.0  # a beam's material damping; a solid has none (its key is a beam's)
     type: str = "solid"
 
     def __hash__(self):

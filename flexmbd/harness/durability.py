@@ -265,13 +265,14 @@ def relative(row: dict, ref: dict, curve: SNCurve, rms: float, tolerance: float)
     cut = curve.lower[-1] if curve.cutoff else 0.0
     near = lambda c: bool(np.any(np.abs(c.ranges - cut) <= tolerance * cut))        # could cross the cut-off
     hurt = lambda c: Cycles(*(a[c.ranges >= cut] for a in (c.ranges, c.means, c.counts, c.starts, c.ends)))
-    seg = segments_of(curve, hurt(row["c"]).ranges) | segments_of(curve, hurt(ref["c"]).ranges)
+    mine, theirs = hurt(row["c"]), hurt(ref["c"])                                   # the damaging cycles
+    seg = segments_of(curve, mine.ranges) | segments_of(curve, theirs.ranges)
     one = len(seg) == 1 and min(seg) < len(curve.m) and not (near(row["c"]) or near(ref["c"]))
     m = curve.m[min(seg)] if one else curve.m[0]
     ratio = {f"seq{s:g}_ratio": row[f"seq{s:g}_MPa"] / ref[f"seq{s:g}_MPa"] if ref[f"seq{s:g}_MPa"] > 0 else np.nan
              for s in SLOPES}
-    s_ref = equivalent_range(hurt(ref["c"]), m)
-    predicted = (equivalent_range(hurt(row["c"]), m) / s_ref) ** m if one and s_ref > 0 else np.nan
+    s_ref = equivalent_range(theirs, m)
+    predicted = (equivalent_range(mine, m) / s_ref) ** m if one and s_ref > 0 else np.nan
     worst = max(abs(v - 1.0) for v in ratio.values())
     return {**ratio, "damage_ratio": row["damage"] / ref["damage"] if ref["damage"] > 0 else np.nan,
             "slope": m, "predicted_ratio": predicted, "mixed": not one, "rms": rms,

@@ -96,7 +96,7 @@ def stages(case, t_end, settings) -> list:
     takes a dense eigensolution of all n DOFs."""
     name, body = next((n, b) for n, b in case.bodies.items() if b.type != "point_mass")   # point masses: node masses
     n = cost.solid_dofs(body) if body.type == "solid" else 6 * body.elements
-    damped = body.damping_ratio > 0 or getattr(body, "stiffness_damping", 0.0) > 0
+    damped = body.damping_ratio > 0 or body.stiffness_damping > 0
     mesh = body.type == "solid" and not body.is_frame   # a 3-D mesh; a frame steps as a beam
     scheme = settings["scheme"] or ("newmark" if mesh else "exact" if damped else "modal")
     dt = settings["dt"] or (5e-5 if scheme == "newmark" else case.integrator.output_dt)
@@ -177,9 +177,8 @@ def run(case, t_end, settings):
 
     Kf, Mf = K[free][:, free].tocsc(), M[free][:, free].tocsc()
     C = damping(Kf, Mf, body.damping_ratio)
-    beta = getattr(body, "stiffness_damping", 0.0)       # a beam's material damping, C = beta K
-    if beta > 0:
-        C = beta * Kf if C is None else C + beta * Kf
+    if body.stiffness_damping > 0:                      # a beam's material damping, C = beta K
+        C = body.stiffness_damping * Kf if C is None else C + body.stiffness_damping * Kf
 
     scheme = settings.get("scheme") or ("modal" if C is None else "exact")
     out_dt = case.integrator.output_dt

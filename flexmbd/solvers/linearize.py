@@ -11,7 +11,7 @@ from flexmbd.solvers import build
 from flexmbd.fe import flexbody
 from flexmbd.solvers.build import from_case
 from flexmbd.core.errors import InputError
-from flexmbd.mbd import constraints
+from flexmbd.mbd import constraints, dynamics
 from flexmbd.mbd.linearize import (ROUNDOFF, STEP, NotLinearized, SystemMode, accelerations, closing,  # noqa: F401
                                    coordinate_groups, coordinates, damping_resolution, energy_shares, equilibrium,
                                    family, labelled, lead, mass_matrix, momenta, perturbed, refined, state_matrix,
@@ -30,11 +30,12 @@ def loops_of(case, model: Model) -> constraints.Loops | None:
     return build.loops(model, case.modelled)
 
 
-def for_case(case, about: str = "initial", progress: bool = False) -> list:
+def for_case(case, about: str = "initial", progress: bool = False, model: Model | None = None) -> list:
     """System modes of a case about its initial state (t = 0) or its static equilibrium at rest;
     with `progress`, a bar on stderr over the coordinates of the state matrix (4 evaluations
-    each: `cost.system`) when they take more than a couple of seconds."""
-    model = model_of(case)
+    each: `cost.system`) when they take more than a couple of seconds. `model`: the case's Model
+    (`model_of`) when the caller has it."""
+    model = model_of(case) if model is None else model
     loops = loops_of(case, model)
     q, v = model.q0.copy(), model.v0.copy()
     if about == "equilibrium":
@@ -148,7 +149,8 @@ def sweep(case, key: str, values, about: str = "initial", progress=None) -> list
         model = model_of(here)
         at = continued(here, model)
         guesses = [f"joints.{j}.q0={q!r}" for j, q in at.items()] if here.loops else []
-        out.append((float(x), [m._replace(shape=physical(here, model, m.shape)) for m in for_case(here, about)], at))
+        out.append((float(x), [m._replace(shape=physical(here, model, m.shape))
+                               for m in for_case(here, about, model=model)], at))
     return out
 
 
@@ -168,7 +170,6 @@ def physical(case, model: Model, shape) -> np.ndarray:
     coordinates and node translations: each flexible body's modal part replaced by its nodes'
     displacements Phi_t eta (N x 3, m), so that shapes compare across mode sets that a swept
     setting reorders or changes (a section's two bending planes trading places); unit norm."""
-    from flexmbd.mbd import dynamics
     full = np.zeros(model.nv)
     full[dynamics.free_velocities(model)] = shape
     keep, parts = np.ones(model.nv, dtype=bool), []
