@@ -100,7 +100,7 @@ def compiled_kernel(shared_dir) -> None:
     with locked(shared_dir / "kernel.lock"):
         case = cases.load("pendulum")
         integrate.warm_up(from_case(case.modelled, flexbody.for_case(case.modelled)))
-        for case in (case, cases.load("four_bar")):
+        for case in (case, cases.load("four_bar_swing")):
             assert registry.run(case, "flexmbd", 0.01).ok
 
 

@@ -34,7 +34,8 @@ __all__ = ["Beam", "CASES_DIR", "Case", "Channel", "Integrator", "JOINT_COORDS",
 # what a Case reads from its resolved case (`resolve.Resolved`)
 TYPED = ("title", "duration", "gravity", "materials", "bodies", "joints", "loads", "channels", "integrator",
          "report", "solvers", "tree", "nq", "nv", "segments", "whole", "split", "modelled", "order", "link",
-         "joint_of", "children", "place", "stress_sections", "reduced", "flexible", "loops", "durability")
+         "joint_of", "children", "place", "stress_sections", "reduced", "flexible", "loops", "durability",
+         "frequency_map")
 
 
 @dataclass(frozen=True)

@@ -276,6 +276,7 @@ class Report:
     snapshots: tuple    # instants of the deformed-shape snapshots, s
     shape_points: int   # evenly spaced points along each flexible beam drawn in them
     notes: str = ""     # shown on the case page beside its accuracy table
+    graded_from: float = 0.0    # s: the accuracy rows compare t >= this (a start-up left out)
     defaults: tuple = ()    # which of "reference", "tolerances" are defaults, not the case file's
     expected_failures: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))  # solver -> why its
     # run fails, shown on the page
@@ -321,6 +322,7 @@ class Resolved:
     split: Resolved | None = field(default=None, repr=False, compare=False)     # None: this one
     loops: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))   # name -> Joint: the cut joints
     durability: MappingProxyType | None = None      # the [durability] table as checked (None: none)
+    frequency_map: MappingProxyType | None = None   # the [frequency_map] table (None: none)
 
     @property
     def modelled(self) -> Resolved:
@@ -494,13 +496,15 @@ def resolve(data: dict, split: bool = True) -> Resolved:
         report=Report(reference=rep["reference"], solvers=None if rep["solvers"] is None else tuple(rep["solvers"]),
                       tolerances=read_only(tolerances(rep["tolerances"], data["channels"])),
                       snapshots=tuple(rep["snapshots"]), shape_points=rep["shape_points"], notes=rep["notes"],
+                      graded_from=rep["graded_from"],
                       defaults=("tolerances",) * (rep["tolerances"] is None),
                       expected_failures=read_only(rep["expected_failures"])),
         solvers=read_only(data["solvers"]), tree=tuple(tree), nq=nq, nv=nv,
         segments=MappingProxyType(segments), whole=MappingProxyType(whole),
         split=None if expanded is data else dataclasses.replace(resolve(expanded, split=False),
                                                                 whole=MappingProxyType(whole)),
-        loops=MappingProxyType(loops), durability=None if data["durability"] is None else read_only(data["durability"]))
+        loops=MappingProxyType(loops), durability=None if data["durability"] is None else read_only(data["durability"]),
+        frequency_map=None if data["frequency_map"] is None else read_only(data["frequency_map"]))
 
 
 def tolerances(given: dict | None, chans: dict) -> dict:

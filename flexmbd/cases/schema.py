@@ -182,6 +182,7 @@ REPORT = {
     "reference": ("solver", None),
     "solvers": ("solvers", None),
     "tolerances": ("tolerances", None),  # channel -> relative tolerance (None: TOLERANCES by channel kind)
+    "graded_from": ("float0+", 0.0),    # s: the differences are taken over t >= this (a start-up left out)
     "snapshots": ("vec", None),         # s: instants of the deformed-shape snapshots (default `snapshot_instants`)
     "shape_points": ("int0+", 11),      # evenly spaced points along each flexible beam drawn in them (0: none)
     "notes": ("str", ""),               # what a reader of the case page should know of its reference and verdicts
@@ -216,6 +217,17 @@ DURABILITY = {
     "tolerance": ("float+", 0.05),      # verdict: |S_eq / S_eq of the reference - 1| at most this
 }
 
+# the system's frequencies against a setting, shown on the case page (`flexmbd modes --system --sweep`)
+FREQUENCY_MAP = {
+    "key": ("line", REQUIRED),          # the swept case key (a number)
+    "start": ("float", REQUIRED),       # its first value
+    "stop": ("float", REQUIRED),        # its last value
+    "values": ("int+", REQUIRED),       # evenly spaced values, ends included (>= 2)
+    "set": ("strings", []),             # KEY=VALUE overrides the map is taken with (a crank held: its rate 0)
+    "tracks": ("int+", 3),              # the lowest tracks drawn and tabulated
+    "peers": ("strings", []),           # solvers whose own eigen-solve is set beside flexmbd's
+}
+
 # the deformed-shape snapshots: at most this many instants (one panel each) and shape points per beam
 MAX_SNAPSHOTS = 12
 MAX_SHAPE_POINTS = 101
@@ -233,6 +245,7 @@ CASE = {
     "solvers": ("solver_settings", {}),
     "report": (REPORT, {}),
     "durability": (DURABILITY, None),
+    "frequency_map": (FREQUENCY_MAP, None),
 }
 
 

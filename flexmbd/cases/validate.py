@@ -417,13 +417,30 @@ def _check_references(d: dict, where: str) -> None:
     rep = d["report"]
     if rep["solvers"] and rep["reference"] is not None and rep["reference"] not in rep["solvers"]:
         _fail(where, "report.reference", f"{rep['reference']!r} is not among report.solvers {rep['solvers']}")
+    if rep["graded_from"] >= d["duration"]:
+        _fail(where, "report.graded_from", f"{rep['graded_from']:g} s leaves nothing of the run of "
+              f"{d['duration']:g} s to grade")
     _check_snapshots(d, where)
     _check_durability(d, where)
+    _check_frequency_map(d, where)
 
 
 # the stress channels with a sign, which a rainflow count can read (von Mises folds each compressive
 # half cycle into a tensile one)
 SIGNED = ("stress_normal", "stress_signed_vm")
+
+
+def _check_frequency_map(d, where):
+    """A [frequency_map] table: at least two values, and each `set` item KEY=VALUE (the solvers in
+    `peers` are checked where the map is taken, against the solvers this installation has)."""
+    fm = d["frequency_map"]
+    if fm is None:
+        return
+    if fm["values"] < 2:
+        _fail(where, "frequency_map.values", f"{fm['values']} value: a map needs at least 2")
+    for item in fm["set"]:
+        if "=" not in item or not item.partition("=")[0].strip():
+            _fail(where, "frequency_map.set", f"{item!r}: expected KEY=VALUE")
 
 
 def _check_durability(d, where):

@@ -168,6 +168,9 @@ def modes_arguments(s: Parser) -> None:
     s.add_argument("--sweep", metavar="KEY=START:STOP:N",
                    help="with --system: linearize at N evenly spaced values of a case key, the modes tracked by "
                         "their shapes (a frequency map); with --out, written as OUT/CASE_sweep.csv and .png")
+    s.add_argument("--peers", metavar="SOLVER[,SOLVER]", default="",
+                   help="with --system: also each solver's own eigen-solve of the same assembly (exudyn-beam, "
+                        "exudyn-ffrf, fe-linear), its lowest frequencies beside flexmbd's")
     option(s, "--out", default=None, metavar="DIR", help="with --sweep: the folder of the map's table and figure")
     options(s, "--json", "--allow-large")
 

@@ -24,12 +24,18 @@ sigma_xx = E (eps - kappa_z y + kappa_y z) (the curvatures `fe.stress.curvature_
 the twist rate theta', the shear
 G theta' r across the fibre's radius r (St Venant's for a circular section; for other sections
 a shear of that size at the fibre, an approximation said in docs/fe.md).
+
+A planar frame (`planar_matrices`, `tied`): beams in the x-y plane, three DOFs a node, node p owning
+3 p + [ux, uy, rz] in the plane's axes; the same elements, restricted to their in-plane families
+(axial, bending x-y), which are uncoupled from the others when the element's z is the plane's
+normal. Joints tie DOFs equal or hold them (`tied`: u = T w, T of zeros and ones).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from flexmbd.fe import element, stress
 from flexmbd.fe.section import Section
@@ -76,11 +82,13 @@ def element_matrices(nodes: np.ndarray, cells: np.ndarray, bars: np.ndarray, E: 
 
 
 def assemble(blocks: np.ndarray, cells: np.ndarray, n_nodes: int) -> sp.csr_matrix:
-    """(6N, 6N) the sum of element blocks (ne, 12, 12) over their nodes' DOFs (cells (ne, 2))."""
-    dofs = (6 * cells[:, :, None] + np.arange(6)).reshape(-1, 12)
-    rows = np.repeat(dofs, 12, axis=1).ravel()
-    cols = np.tile(dofs, (1, 12)).ravel()
-    n = 6 * n_nodes
+    """(dN, dN) the sum of element blocks (ne, 2d, 2d) over their nodes' DOFs (cells (ne, 2)), d DOFs
+    a node: 6 in space, 3 in a plane (`planar_matrices`)."""
+    d = blocks.shape[1] // 2
+    dofs = (d * cells[:, :, None] + np.arange(d)).reshape(-1, 2 * d)
+    rows = np.repeat(dofs, 2 * d, axis=1).ravel()
+    cols = np.tile(dofs, (1, 2 * d)).ravel()
+    n = d * n_nodes
     return sp.coo_matrix((blocks.ravel(), (rows, cols)), shape=(n, n)).tocsr()
 
 
@@ -140,3 +148,55 @@ def fibre_rows(mesh, E: float, nu: float, x: np.ndarray) -> tuple:
     for k, (i, j) in enumerate(((0, 0), (1, 1), (2, 2), (1, 2), (2, 0), (0, 1))):
         out[k] = ex[i] * ex[j] * sigma + (ex[i] * c[j] + c[i] * ex[j]) * tau
     return out @ np.kron(np.eye(4), R), (6 * cells[row][:, None] + np.arange(6)).ravel()
+
+
+# ---------------------------------------------------------------------------------------------
+# a planar frame: beams in the x-y plane, three DOFs a node
+
+PLANAR = np.array([0, 1, 5, 6, 7, 11])     # an element's in-plane DOFs: ux, uy, rz of node a, then of node b
+
+
+def planar_triads(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(ne, 3, 3) each element's triad, rows its x (node a to b, projected on the x-y plane), y = z
+    cross x and z = the plane's normal (0, 0, 1), from nodes (N, 3) and cells (ne, 2)."""
+    d = nodes[cells[:, 1], :2] - nodes[cells[:, 0], :2]
+    x = d / np.linalg.norm(d, axis=1, keepdims=True)
+    zero, one = np.zeros(len(x)), np.ones(len(x))
+    return np.stack([np.column_stack([x, zero]), np.column_stack([-x[:, 1], x[:, 0], zero]),
+                     np.column_stack([zero, zero, one])], axis=1)
+
+
+def planar_matrices(nodes: np.ndarray, cells: np.ndarray, E: float, G: float, rho: float, sec: Section,
+                    shear: bool = False) -> tuple:
+    """(k (ne, 6, 6), m (ne, 6, 6)): each element's stiffness and consistent mass in the plane's
+    axes, DOFs [ux, uy, rz] of node a then node b (N/m, N, N m/rad; kg, kg m, kg m^2). The 12-DOF
+    element (`element.stiffness`, Euler-Bernoulli or with `shear` Timoshenko; `element.mass_consistent`)
+    turned by its `planar_triads` (`turned`) and restricted to PLANAR. Exact: with the element's z
+    along the plane's normal the turn mixes ux with uy and keeps rz, and the in-plane families (axial
+    EA, bending E Iz) are uncoupled from torsion and x-z bending. The section's Iz is the one bending
+    in the plane: a beam whose body z is the plane's normal (either way: the in-plane matrices do
+    not change when y and z both turn over). Nodes (N, 3), m; cells (ne, 2)."""
+    R, ls = planar_triads(nodes, cells), lengths(nodes, cells)
+    keep = np.ix_(PLANAR, PLANAR)
+    k = np.array([turned(element.stiffness(E, G, sec, l, shear=shear), r)[keep] for l, r in zip(ls, R)])
+    m = np.array([turned(element.mass_consistent(rho, sec, l), r)[keep] for l, r in zip(ls, R)])
+    return k, m
+
+
+def tied(n: int, pairs: np.ndarray, held: np.ndarray) -> sp.csr_matrix:
+    """(n, r) T, u = T w: n DOFs of which `pairs` (k, 2) are tied equal (a joint's shared DOFs) and
+    `held` (h,) are zero (a joint to ground). Each class of DOFs tied together (through any chain of
+    pairs) is one column of ones, a class holding a held DOF none: the constraints eliminated, so
+    that T^T K T and T^T M T are the model's on its free coordinates w. Columns in the order of
+    their classes' first DOFs."""
+    pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
+    graph = sp.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    free = np.ones(label.max() + 1, dtype=bool)
+    free[label[np.asarray(held, dtype=int)]] = False
+    first = np.unique(label, return_index=True)[1]                 # each class's first DOF
+    order = np.argsort(first[free])
+    column = np.full(free.size, -1)
+    column[np.flatnonzero(free)[order]] = np.arange(order.size)
+    rows = np.flatnonzero(free[label])
+    return sp.csr_matrix((np.ones(rows.size), (rows, column[label[rows]])), shape=(n, order.size))

@@ -4,7 +4,7 @@ small probe cases, one feature each, so that the table cannot drift from the ada
 A solver models a feature when it can run at least one of the feature's probes. The probes are
 built here from plain dicts (a 1 m steel beam of 8 elements and 2 modes, a 1 kg rigid body or
 point mass);
-loops and solids are probed with the shipped cases `four_bar`, `four_bar_rigid`,
+loops and solids are probed with the shipped cases `four_bar_swing`, `four_bar_swing_rigid`,
 `cantilever_solid` and `brick_pendulum`. docs/solvers.md holds the table (`markdown`), and
 `flexmbd list --solvers` prints it.
 """
@@ -60,7 +60,7 @@ FEATURES = {
     "split beams": [probe(CLAMP, loads=[TIP_LOAD], beam={"segments": 2}),
                     probe(HINGE, GRAVITY, beam={"segments": 2})],
     "stress": [probe(CLAMP, loads=[TIP_LOAD], stress=True), probe(HINGE, GRAVITY, stress=True)],
-    "loops": ["four_bar", "four_bar_rigid"],
+    "loops": ["four_bar_swing", "four_bar_swing_rigid"],
     "solids": ["cantilever_solid", "brick_pendulum"],
 }
 

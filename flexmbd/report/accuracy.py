@@ -65,8 +65,9 @@ def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
         for ch in case.channels:
             if ch not in r.channels or ch not in ref.channels or not comparable(case, modules.get(name), ch):
                 continue
-            y = metrics.on_grid(ref.t, r.t, r.channels[ch])
-            x = ref.channels[ch]
+            graded = ref.t >= case.report.graded_from - 1e-12 * max(1.0, case.duration)
+            y = metrics.on_grid(ref.t, r.t, r.channels[ch])[graded]
+            x = ref.channels[ch][graded]
             k = metrics.channel_norm(case.channels[ch].kind, x,
                                      channels.physical_scale(case, ch, ref.extra.get("kinetic_max_J")))
             row = {"case": case.name, "solver": name, "reference": ref_name, "channel": ch,
@@ -78,7 +79,7 @@ def rows(case, results: dict, modules: dict, freqs: dict) -> list[dict]:
             fc = cutoff_hz(case, ch, freqs)
             if case.channels[ch].kind in DEFORMATION and np.isfinite(fc):
                 ok = np.isfinite(y)
-                tt, xx, yy = ref.t[ok], x[ok], y[ok]
+                tt, xx, yy = ref.t[graded][ok], x[ok], y[ok]
                 row["f_ref"] = dominant_frequency(tt, xx, fc)
                 row["f_solver"] = dominant_frequency(tt, yy, fc)
                 row["envelope"] = metrics.envelope_rms_diff(tt, xx, yy, fc)

@@ -605,18 +605,28 @@ def frozen(case, solver: str, sweep: list, fmin: float, fmax: float, path: Path)
     return save(fig, path)
 
 
-def frequency_map(values, tracks: list, key: str, path: Path, case: str) -> str:
+def frequency_map(values, tracks: list, key: str, path: Path, case: str, peers: dict | None = None,
+                  log: bool = True) -> str:
     """A sweep's system frequencies (`linearize.tracked`) against the swept key, a curve per track
-    labelled by what leads it at the first value; returns the file name."""
+    labelled by what leads it at the first value; `peers`: solver -> (n, count) its own lowest
+    frequencies at each value, marked over the curves up to the highest track drawn; returns the
+    file name."""
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    fig, ax = plt.subplots(figsize=(8, 6.5), layout="constrained")
     for j, t in enumerate(tracks):
-        ax.plot(values, t["freq_hz"], "o-", ms=3, lw=1.2, label=f"{j + 1}: {t['label']}")
+        ax.plot(values, t["freq_hz"], "-", lw=1.4, label=f"flexmbd {j + 1}: {t['label']}")
+    top = max((np.nanmax(t["freq_hz"]) for t in tracks), default=np.inf)
+    for (name, F), mk in zip((peers or {}).items(), "oxs^v"):
+        show = F[:, :len(tracks)]
+        for r in range(show.shape[1]):
+            ax.plot(values, np.where(show[:, r] <= 1.05 * top, show[:, r], np.nan), mk, ms=4, mfc="none", mew=0.9,
+                    color=f"C{len(tracks) + list(peers).index(name)}", label=name if r == 0 else None)
     ax.set_xlabel(key)
     ax.set_ylabel("frequency [Hz]")
-    ax.set_yscale("log")
+    if log:
+        ax.set_yscale("log")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), frameon=False, ncol=1)
     ax.set_title(f"{case}: system modes against {key}, tracked by shape", fontsize=10)
     return save(fig, path)
 

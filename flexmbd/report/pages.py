@@ -32,8 +32,8 @@ from flexmbd import cases
 from flexmbd.harness import metrics, results, registry
 from flexmbd.core import resources
 from flexmbd.core.files import atomic_write
-from flexmbd.report import (accuracy, animation, convergence, durability, fields, figures, loading, shapes, spectra,
-                            tables)
+from flexmbd.report import (accuracy, animation, convergence, durability, fields, figures, frequency_map, loading,
+                            shapes, spectra, tables)
 from flexmbd.report import templates as T
 
 
@@ -399,6 +399,41 @@ def modes_part(p: CasePage) -> list:
     return [(T.MODES.title, *got)] if got else []
 
 
+def frequency_map_part(p: CasePage) -> list:
+    """The system's frequencies against a setting (`report.frequency_map`), flexmbd's modes tracked
+    by shape and the peers' own eigen-solves beside them: the figure, the table of the lowest
+    tracks with each peer's largest difference at each value, the whole map as CSV."""
+    m = frequency_map.taken(p.case)
+    if m is None:
+        return []
+    fm = p.case.frequency_map
+    n = fm["tracks"]
+    img, csv_name = frequency_map.write(m, p.folder, p.case.name, n)
+    rows = frequency_map.agreement(m, n)
+    head = [m.key, *[f"flexmbd {k + 1} [Hz]" for k in range(n)], *[f"{s}: largest |f / f_flexmbd - 1|" for s in m.peers]]
+    num = accuracy.number
+    cells = [[num(r["value"], 4), *[num(f, 5) for f in r["flexmbd"]], *[num(r[f"{s} diff"], 2) for s in m.peers]]
+             for r in rows]
+    said = "; ".join(f"{s}: {why}" for s, why in m.refused.items())
+    lead = (f"The system linearized at {len(m.values)} values of {m.key} from {m.values[0]:g} to {m.values[-1]:g}"
+            f"{' with ' + ', '.join(fm['set']) if fm['set'] else ''}; flexmbd's modes are followed from value to "
+            f"value by their shapes (the largest MAC, node translations), not by sorting, and each curve is named by "
+            f"the link and mode that hold most of its strain energy at the first value. "
+            + (f"Marked over them: the lowest frequencies of {', '.join(m.peers)}, each from its own eigen-solve of "
+               f"the same assembly (no array of flexmbd's), compared below with flexmbd's {n} lowest. " if m.peers
+               else "") + (f"Not shown: {said}." if said else ""))
+    links = Both(f"<p><a href='{csv_name}'>{csv_name}</a></p>", f"[{csv_name}]({csv_name})")
+    sens_head = ["model", "discretization", *[f"f{k + 1} [Hz]" for k in range(n)]]
+    sens = [[r["model"], r["setting"], *[num(f, 6) for f in r["freq_hz"]]] for r in m.sensitivity]
+    said_sens = (f"Each model's sensitivity to its discretization at {m.key} = {m.values[0]:g}: flexmbd's retained "
+                 f"modes doubled, each peer's elements per beam halved and doubled.")
+    return [section(T.FREQUENCY_MAP, lead=Both(paragraph(lead), lead), images=images([img]),
+                    table=Both(*[a + b + c for a, b, c in zip(table(head, cells, left=1),
+                                                                Both(paragraph(said_sens), "\n" + said_sens + "\n\n"),
+                                                                table(sens_head, sens, left=2))]),
+                    files=links)]
+
+
 def elasticity_part(p: CasePage) -> list:
     """What elasticity changes: the flexible model's joint angles minus a rigid model's."""
     if FLEXIBLE not in p.ok or not p.rigid or not figures.angle_channels(p.case):
@@ -466,7 +501,8 @@ def provenance_part(p: CasePage) -> list:
     return [section(T.PROVENANCE, table=table(T.PROVENANCE_HEAD, p.provenance, left=len(T.PROVENANCE_HEAD)))]
 
 
-SECTIONS = (lead, runs_part, deflection_part, stress_part, angles_part, spectra_part, modes_part, elasticity_part,
+SECTIONS = (lead, runs_part, deflection_part, stress_part, angles_part, spectra_part, frequency_map_part, modes_part,
+            elasticity_part,
             timing_part, accuracy_part, durability_part, convergence_part, provenance_part)
 
 

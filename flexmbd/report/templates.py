@@ -53,6 +53,7 @@ STRESS = Section("Stress at the stress points", *same("$images"))
 ANGLES = Section("Joint angles, energy and reactions", *same("$images"))
 SPECTRA = Section("FFT spectra and identified frequencies", Template("$images$note$table"),
                   Template("$images$note\n\n$table"))
+FREQUENCY_MAP = Section("Frequency map", Template("$lead$images$table$files"), Template("$lead\n\n$images$table\n$files\n"))
 MODES = Section("Mode shapes", Template("$images$note"), Template("$images$note\n"))
 ELASTICITY = Section("Flexible minus rigid", *same("$images"))
 TIMING = Section("Timing", *same("$table"))

@@ -60,6 +60,10 @@ The trajectory (`flexmbd.harness.channels`) from Exudyn's nodes and elements (do
 The largest closure mismatch of the cut joints over the run is `extra["loop_closure_m"]`.
 Time integration: Exudyn's implicit solver, fixed steps of exactly dt up to the last output
 instant (`exudyn_common.reach`).
+
+The system's natural frequencies (`system_frequencies`): this model at its initial state, every
+prescribed joint held, by Exudyn's own eigenvalue solver on the constrained system
+(`exudyn_common.system_frequencies`).
 """
 
 from __future__ import annotations
@@ -846,3 +850,27 @@ def run(case, t_end, settings):
     if case.loops:
         r.extra["loop_closure_m"] = loop_closure(case, parts, X["bodies"], n)
     return r
+
+
+# ---------------------------------------------------------------------------------------------
+# the system's natural frequencies
+
+
+def system_frequencies(case, count: int) -> np.ndarray:
+    """The lowest `count` nonzero natural frequencies (count,) of the case's mechanism, Hz,
+    ascending: this model (`build`, the case's `elements` and `beam_mass` settings) at the initial
+    state, the loops closed and every joint of prescribed motion held at its initial value (a
+    lock of its coordinate: the driven joint's rotation constraint, its offset zero), linearized
+    by Exudyn's own eigenvalue solver on the constrained system (`xc.frequencies`: undamped, the
+    zero eigenvalues of rigid-body motion dropped, within `xc.ZERO` of the largest). The model is
+    the full beam mesh: its frequencies converge from above as the elements are refined (the
+    element's error falls as 1 / elements^2). InputError (one line, naming the case file) for a
+    case this model cannot take (`applies`), one loaded at t = 0 (`xc.loaded`: Exudyn's
+    eigenvalue solver sees no stiffness from loads), one whose initial state moves (`xc.at_rest`),
+    or one Exudyn refuses."""
+    opt = cases.check_table(dict(case.solvers.get("exudyn-beam", {})), SETTINGS, str(case.path), "solvers.exudyn-beam.")
+
+    def model(fixed):
+        SC, mbs, _, _ = build(fixed, opt["elements"], opt["beam_mass"])
+        return SC, mbs
+    return xc.system_frequencies(case, count, "exudyn-beam", applies, model)

@@ -21,6 +21,8 @@ import os
 import re
 import sys
 import time
+from dataclasses import replace
+from types import MappingProxyType
 
 import numpy as np
 
@@ -30,6 +32,8 @@ from exudyn.advancedUtilities import CreateSymbolicUserFunction
 
 from flexmbd.harness import channels, results
 from flexmbd.core import files
+from flexmbd.core.errors import InputError
+from flexmbd.mbd import profiles
 from flexmbd.solvers import common
 from flexmbd.harness.progress import Progress
 
@@ -365,3 +369,100 @@ def reach(sim, t_last: float, dt: float) -> None:
     last output instant, which lies up to half an output interval past the duration."""
     n = max(int(np.ceil(t_last / dt - 1e-9)), 1)
     sim.timeIntegration.numberOfSteps, sim.timeIntegration.endTime = n, n * dt
+
+
+# ---------------------------------------------------------------------------------------------
+# the system's natural frequencies by Exudyn's own eigenvalue solver (the adapters' `system_frequencies`)
+
+# A prescribed joint held at its initial value: a constant profile, which the adapters build as the
+# constraint of a driven joint with its offset always zero, the lock of that coordinate.
+HOLD = MappingProxyType({"type": "constant_rate", "rate": 0.0})
+
+# An eigenvalue omega^2 at most ZERO times the largest is a zero one (a rigid-body mode): eigh
+# computes an exact zero within about eps times the largest (measured 1e-17 of it on the four-bar
+# with its crank free, both adapters), while a beam mesh's lowest vibration lies near 1e-9 of
+# its largest (the element's shear-rotation mode, 1e6 Hz on the four-bar's strips) and a reduced
+# body's far higher; 1e-13 keeps 1e4 from either, and drops frequencies below 3e-7 of the largest.
+ZERO = 1e-13
+# Singular values of the constraint Jacobian below SINGULAR are redundant constraints (a planar
+# loop of 3-D joints holds its out-of-plane motion twice), which the null-space projection drops:
+# they come out at rounding (at most 3e-16 on the four-bar), the independent ones at 0.25 and above
+# (the unit rows of position constraints, lever arms, Euler parameters).
+SINGULAR = 1e-10
+
+
+def held(case):
+    """The resolved case with every joint of prescribed motion held at its initial value: its
+    motion `HOLD` from the profile's q(0), rate 0."""
+    base = getattr(case, "resolved", case)
+    joints = {jn: j if j.motion is None else
+              replace(j, q0=(float(profiles.motion(j.motion, 0.0, float(j.q0[0]))[0]),), qd0=(0.0,), motion=HOLD)
+              for jn, j in base.joints.items()}
+    return replace(base, joints=MappingProxyType(joints))
+
+
+def loaded(case) -> str:
+    """'' when no load acts on the case at t = 0, else which does: Exudyn's eigenvalue solver
+    takes the stiffness at its initial coordinates with the Lagrange multipliers zero and the
+    beams unstressed, so the stiffness a load sets up (a pendulum's under gravity, the constraint
+    forces' and a beam's prestress) is not in it."""
+    if any(abs(g) > 0 for g in case.gravity):
+        return "gravity acts on it"
+    for ln, ld in case.loads.items():
+        if any(abs(f) > 0 for f in ld.force) and float(profiles.load_factor(ld.profile, 0.0)) != 0.0:
+            return f"load {ln!r} acts at t = 0"
+    return ""
+
+
+def at_rest(mbs, case) -> str:
+    """'' when the assembled system starts at rest (every initial velocity coordinate zero), else
+    which joints set it moving: Exudyn's eigenvalue solver has no velocity terms."""
+    v = np.asarray(mbs.systemData.GetODE2Coordinates_t(configuration=exu.ConfigurationType.Initial), dtype=float)
+    if not np.any(v):
+        return ""
+    moving = [jn for jn, j in case.joints.items() if j.motion is None and any(abs(x) > 0 for x in j.qd0)]
+    return f"its initial state moves ({', '.join(f'joint {jn!r}' for jn in moving) or 'a body'} starts with a rate)"
+
+
+def frequencies(mbs, count: int) -> np.ndarray:
+    """The lowest `count` nonzero natural frequencies (count,) in Hz, ascending, of the assembled
+    system at its initial coordinates: Exudyn's `ComputeODE2Eigenvalues` on the constrained system
+    (the dense mass and stiffness matrices projected onto the null space of the constraint
+    Jacobian, `SINGULAR`; eigh), undamped. The eigenvalues omega^2 are taken signed (not Exudyn's
+    absolute values, which would fold a negative one onto a frequency): those within `ZERO` of the
+    largest are the zero ones of rigid-body motion and are dropped; ValueError for a negative one
+    beyond it (the state is unstable) or fewer than `count` left."""
+    lam = mbs.ComputeODE2Eigenvalues(useAbsoluteValues=False, ignoreAlgebraicEquations=False,
+                                     singularValuesTolerance=SINGULAR, computeComplexEigenvalues=False)[0]
+    lam = np.asarray(lam, dtype=float)
+    zero = ZERO * np.abs(lam).max(initial=0.0)
+    if np.any(lam < -zero):
+        raise ValueError(f"a negative eigenvalue (omega^2 = {lam.min():.4g} 1/s^2): the state is unstable")
+    f = np.sqrt(lam[lam > zero]) / (2.0 * np.pi)
+    if f.size < count:
+        raise ValueError(f"the model has {f.size} nonzero natural frequencies, {count} asked for")
+    return np.sort(f)[:count]
+
+
+def system_frequencies(case, count: int, solver: str, applies, model) -> np.ndarray:
+    """The adapters' `system_frequencies`: the lowest `count` nonzero natural frequencies (count,),
+    Hz, ascending (`frequencies`), of the case with its prescribed joints held (`held`), at rest
+    and unloaded, its model from model(held case) -> (SystemContainer, assembled MainSystem).
+    What the solver cannot take, `applies(held case)` or this (`loaded`, `at_rest`, Exudyn's
+    refusal), is an InputError of one line naming the case file."""
+    if int(count) < 1:
+        raise InputError(f"{case.path}: {solver} system frequencies: count must be at least 1, not {count!r}")
+    fixed = held(case)
+    why = applies(fixed) or loaded(fixed)
+    f = None
+    if not why:
+        try:
+            with quiet():
+                SC, mbs = model(fixed)
+                why = at_rest(mbs, fixed)
+                f = None if why else frequencies(mbs, int(count))
+        except (ValueError, RuntimeError, np.linalg.LinAlgError) as e:    # exu.ExudynError is a RuntimeError
+            why = " ".join(str(e).split()) or type(e).__name__
+    if why:
+        raise InputError(f"{case.path}: {solver} system frequencies: {why}")
+    return f

@@ -74,6 +74,10 @@ are read as means over the steps around each output instant (`step_mean`): sampl
 carry a part alternating from step to step.
 Exudyn stores every sensor at those steps (`write_around_outputs`), so no Python runs per step:
 the means are formed after the run.
+
+The system's natural frequencies (`system_frequencies`): this model at its initial state, every
+prescribed joint held, by Exudyn's own eigenvalue solver on the constrained system
+(`exudyn_common.system_frequencies`).
 """
 
 from __future__ import annotations
@@ -1218,7 +1222,7 @@ def refused(case, opt: dict) -> str:
     """'' when the scheme of `opt` can run the case, else why not: an index-2 scheme cannot drive
     a joint, and the trapezoidal rule with index-3 constraints (generalized-alpha at spectral
     radius 1) is unstable on a closed loop: the part of the constraint forces that alternates
-    from step to step grows (four_bar_rigid: to 1.6 kN by t = 0.4 s, Newton fails at 0.90 s;
+    from step to step grows (four_bar_swing_rigid: to 1.6 kN by t = 0.4 s, Newton fails at 0.90 s;
     at spectral radius 0.99 it stays below 0.8 N, at 0.9 below 0.08 N, the force up to 72 N)."""
     driven = [jn for jn, j in case.joints.items() if j.motion is not None]
     if opt["solver"] in INDEX2 and driven:
@@ -1280,3 +1284,31 @@ def run(case, t_end, settings):
     if case.loops:
         r.extra["loop_gap_m"] = {jn: float(g.max()) for jn, g in gaps(case, X).items()}
     return r
+
+
+# ---------------------------------------------------------------------------------------------
+# the system's natural frequencies
+
+
+def system_frequencies(case, count: int) -> np.ndarray:
+    """The lowest `count` nonzero natural frequencies (count,) of the case's mechanism, Hz,
+    ascending: this model (`build`: the case's reduced bodies, flexmbd's FlexBody modes, with the
+    `rotary_inertia` setting) at the initial state, the loops closed (`assembled`) and every joint
+    of prescribed motion held at its initial value (a lock of its coordinate: the driven joint's
+    generic joint, all six axes held, its offset zero), linearized by Exudyn's own eigenvalue
+    solver on the constrained system (`xc.frequencies`: undamped, the zero eigenvalues of
+    rigid-body motion dropped, within `xc.ZERO` of the largest; the planar mechanism's redundant
+    out-of-plane constraints dropped from the null-space projection, `xc.SINGULAR`). Its
+    frequencies are those of the retained modes. InputError (one line, naming the case file) for a
+    case this model cannot take (`applies`), one loaded at t = 0 (`xc.loaded`: Exudyn's
+    eigenvalue solver sees no stiffness from loads), one whose initial state moves (`xc.at_rest`),
+    or one Exudyn refuses (the loops not closing among them)."""
+    opt = options(cases.check_table(dict(case.solvers.get("exudyn-ffrf", {})), SETTINGS, str(case.path),
+                                    "solvers.exudyn-ffrf."))
+    fbs = flexbody.for_case(case)
+
+    def model(fixed):
+        SC, mbs, *_ = build(assembled(fixed, fbs), fbs, opt["rotary_inertia"], opt["gravity"])
+        mbs.Assemble()
+        return SC, mbs
+    return xc.system_frequencies(case, count, "exudyn-ffrf", applies, model)

@@ -40,6 +40,10 @@ A frame (a solid whose mesh is of bar elements, `fe.frame`; `run`, `frame_trajec
 every DOF of its nodes, six each, with the frame interface's node held; its loads act on their
 interfaces' nodes, gravity on its lumped node masses; its stresses are `fe.frame.fibre_rows`'. It
 steps by the schemes of a beam (default modal, undamped; exact with damping).
+
+A planar mechanism's natural frequencies (`system_frequencies`): every beam of the case in one
+full-order frame at the assembled pose, its joints as ties between nodes (`planar_frame`), an
+independent check of flexmbd's linearization about the same state (docs/formulation.md §10).
 """
 
 from __future__ import annotations
@@ -53,6 +57,8 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from flexmbd import cases
+from flexmbd.cases import closure
+from flexmbd.core.errors import InputError
 from flexmbd.harness import channels, cost
 from flexmbd.fe import flexbody
 from flexmbd.mbd import profiles
@@ -454,3 +460,117 @@ def energy(U, V, K, M, fg):
     kin = 0.5 * np.einsum("ti,ti->t", V, (M @ V.T).T)
     strain = 0.5 * np.einsum("ti,ti->t", U, (K @ U.T).T)
     return kin + strain - U @ fg
+
+
+# ---------------------------------------------------------------------------------------------
+# a planar mechanism's natural frequencies: all its beams as one full-order frame
+
+PLANE = 1e-9            # how far |z| of a unit vector (a pin's axis, a beam's body z) may be from 1
+
+
+def system_frequencies(case, count: int) -> np.ndarray:
+    """(count,) the lowest natural frequencies of the case's mechanism, Hz, ascending: the planar
+    frame of all its beams at the assembled pose (`planar_frame`), K phi = w^2 M phi on its free
+    coordinates (dense `scipy.linalg.eigh`). A motion the joints leave free (a mechanism nothing
+    holds) is a frequency of 0.
+
+    Planar, not 3-D: a mechanism in the x-y plane with every pin about z and every beam bending in
+    the plane about its section's z vibrates in the plane and out of it independently (the
+    element's in-plane families are uncoupled from torsion and x-z bending, and a pin about z ties
+    in-plane DOFs to in-plane DOFs only), so the in-plane frequencies of a 3-D frame are exactly
+    this frame's, with 3 DOFs a node instead of 6. Those are the modes a planar case's bodies
+    retain (`kinds = ["bending xy"]`); out of the plane a 3-D frame would add torsion and x-z
+    bending modes that depend on how stiff a pin is taken to be about its normals. Anything else
+    is refused (`planar_frame`, InputError).
+
+    The model is linear about an unloaded state: elastic stiffness only (EA and E Iz), no geometric
+    stiffness (the mechanism is at rest and nothing preloads it; gravity and the case's loads are
+    not applied), no damping. Its frequencies converge from above as the elements' h^4 (Hermite
+    cubics, consistent mass)."""
+    K, M, T = planar_frame(case)
+    Kr, Mr = (T.T @ K @ T).toarray(), (T.T @ M @ T).toarray()
+    if not 1 <= count <= Kr.shape[0]:
+        raise InputError(f"{case.path}: {count} frequencies asked of a frame of {Kr.shape[0]} free DOFs")
+    w2 = scipy.linalg.eigh(Kr, Mr, eigvals_only=True, subset_by_index=[0, count - 1])
+    return np.sqrt(np.clip(w2, 0.0, None)) / (2.0 * np.pi)
+
+
+def planar_frame(case) -> tuple:
+    """(K (3N, 3N), M (3N, 3N), T (3N, r)), sparse: the mechanism of the case as one planar frame
+    (`fe.frame.planar_matrices`), DOFs 3 p + [ux, uy, rz] of node p in world axes (m, rad), and
+    the joints' ties (`fe.frame.tied`): the model on its free coordinates is T^T K T, T^T M T.
+
+    - Every beam (flexible or declared rigid: here each is elastic) meshed by its own `elements`
+      along its body x, placed by the assembled pose (`cases.closure.body_poses` at the joints'
+      q0, the loops' closed ones); the beams' nodes in file order. Consistent mass whatever the
+      beam's `mass` (the reference converges as h^4, the lumped mass as h^2); Timoshenko stiffness
+      where the beam says `shear`.
+    - A point mass: its mass on the two translations of its parent's node (its fixed joint's).
+    - A joint, tree or loop, between the parent's node (a beam's `at`) and the child's (its node 0,
+      or a loop joint's `child_at`): a revolute ties the two translations and leaves the rotations
+      independent (a pin); a fixed joint, or a revolute with a prescribed `motion` (held at its
+      initial angle), ties all three. A joint to ground holds the child's node's DOFs instead.
+
+    Refused, one line (InputError naming the case file): a body other than a beam or a point mass;
+    a joint other than revolute or fixed; a revolute whose axis is not along z, a beam whose body
+    z is not along z (its axis or its section leaving the x-y plane)."""
+    poses = closure.body_poses(case, {name: j.q0 for name, j in case.joints.items()})
+    joints = [*case.joints.values(), *case.loops.values()]
+    beams = [name for name, b in case.bodies.items() if b.type == "beam"]
+    _check_planar(case, poses, joints, beams)
+
+    first = dict(zip(beams, np.cumsum([0] + [case.bodies[n].elements + 1 for n in beams]).tolist()))
+    n_nodes = sum(case.bodies[n].elements + 1 for n in beams)
+    cells, k, m = [], [], []
+    for name in beams:
+        b, (R, p) = case.bodies[name], poses[name]
+        x = np.linspace(0.0, b.length, b.elements + 1)
+        here = p + np.outer(x, R[:, 0])                     # along the body's x, world coordinates
+        local = np.column_stack([np.arange(b.elements), np.arange(1, b.elements + 1)])
+        mat = b.material
+        ke, me = frame.planar_matrices(here, local, mat.E, mat.G, mat.rho, b.geometry, shear=b.shear)
+        cells.append(local + first[name])
+        k.append(ke)
+        m.append(me)
+    cells = np.concatenate(cells)
+    K = frame.assemble(np.concatenate(k), cells, n_nodes)
+    M = frame.assemble(np.concatenate(m), cells, n_nodes)
+
+    lumped, pairs, held = np.zeros(3 * n_nodes), [], []
+    for j in joints:
+        parent = None if j.parent == "ground" else first[j.parent] + j.node
+        if case.bodies[j.child].type == "point_mass":       # fixed to its parent: a mass on that node
+            if parent is not None:
+                lumped[3 * parent:3 * parent + 2] += case.bodies[j.child].mass
+            continue
+        child = first[j.child] + (j.child_point.node if j.loop else 0)
+        dofs = [0, 1] if j.type == "revolute" and j.motion is None else [0, 1, 2]      # a pin keeps rz apart
+        if parent is None:
+            held += [3 * child + d for d in dofs]
+        else:
+            pairs += [(3 * parent + d, 3 * child + d) for d in dofs]
+    T = frame.tied(3 * n_nodes, np.array(pairs, dtype=int), np.array(held, dtype=int))
+    return K, (M + sp.diags(lumped)).tocsr(), T
+
+
+def _check_planar(case, poses: dict, joints: list, beams: list) -> None:
+    """Refuse (InputError, one line naming the case file) what `planar_frame` does not model."""
+    where = str(case.path)
+    for name, b in case.bodies.items():
+        if b.type not in ("beam", "point_mass"):
+            raise InputError(f"{where}: bodies.{name}: a {b.type} body; the full-order frame of a mechanism takes "
+                             f"beams and point masses")
+    for name in beams:
+        z = poses[name][0][:, 2]
+        if abs(abs(z[2]) - 1.0) > PLANE:
+            raise InputError(f"{where}: bodies.{name}: not planar: its body z axis is ({z[0]:.3g}, {z[1]:.3g}, "
+                             f"{z[2]:.3g}) in the world, so it leaves the x-y plane or bends out of it; the planar "
+                             f"frame takes beams in the x-y plane with z normal to it")
+    for j in joints:
+        if j.type not in ("revolute", "fixed"):
+            raise InputError(f"{where}: joints.{j.name}: a {j.type} joint; the planar frame takes revolute joints "
+                             f"about z and fixed joints")
+        a = poses[j.parent][0] @ np.array(j.triad) @ np.asarray(j.axis, dtype=float)
+        if j.type == "revolute" and abs(abs(a[2]) - 1.0) > PLANE:
+            raise InputError(f"{where}: joints.{j.name}: not planar: its axis is ({a[0]:.3g}, {a[1]:.3g}, "
+                             f"{a[2]:.3g}) in the world, not along z; the planar frame takes pins about z")

@@ -70,7 +70,7 @@ AROUND = {"adams": 3e-6, "rk4": 1.5e-5, "rk45": 4e-5, "dop853": 2e-5, "dopri5": 
           "exp-adams": 3e-6}
 # a closed loop's right-hand side (`constraints.Loops.rates`): one evaluation per constraint row more,
 # and the Python around them (rows, Jacobians, the multipliers' solve, scipy's step): measured
-# 0.36 ms (slider_crank), 0.45 ms (four_bar), 0.73 ms (four_bar_rigid, cores busy) per right-hand side
+# 0.36 ms (slider_crank), 0.45 ms (four_bar_swing), 0.73 ms (four_bar_swing_rigid, cores busy) per right-hand side
 LOOP_AROUND = 4e-4
 
 

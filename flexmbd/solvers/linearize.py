@@ -133,14 +133,18 @@ def sweep_values(text: str) -> tuple[str, np.ndarray]:
     return key, np.linspace(start, stop, n)
 
 
-def sweep(case, key: str, values, about: str = "initial", progress=None) -> list:
-    """[(value, [SystemMode], {joint: coordinate})]: `for_case` on the case with `key` set to each
-    value in turn (after its own overrides), each mode's shape made physical (`physical`). On a
-    closed loop each value starts from the loop's closed coordinates at the value before
-    (`continued`), so that a crank turned step by step keeps the mechanism on the branch it was
-    assembled on instead of closing onto its mirror image; the closed coordinates of the free
-    one-coordinate joints are returned. progress(k, n, value) before each."""
+def sweep(case, key: str, values, about: str = "initial", progress=None, peers: dict | None = None) -> list:
+    """[(value, [SystemMode], {joint: coordinate}, {peer: frequencies (n,) Hz})]: `for_case` on the
+    case with `key` set to each value in turn (after its own overrides), each mode labelled by what
+    bends (`strained`) and its shape made physical (`physical`). On a closed loop each value starts
+    from the loop's closed coordinates at the value before (`continued`), so that a crank turned
+    step by step keeps the mechanism on the branch it was assembled on instead of closing onto its
+    mirror image; the closed coordinates of the free one-coordinate joints are returned. `peers`:
+    name -> f(case, count), another solver's own lowest `count` frequencies of the same case at the
+    same value (its assembly closed from the same guesses), as many as flexmbd has modes.
+    progress(k, n, value) before each."""
     from flexmbd import cases
+    held(case, key)
     out, guesses = [], []
     for k, x in enumerate(values):
         if progress:
@@ -149,9 +153,76 @@ def sweep(case, key: str, values, about: str = "initial", progress=None) -> list
         model = model_of(here)
         at = continued(here, model)
         guesses = [f"joints.{j}.q0={q!r}" for j, q in at.items()] if here.loops else []
-        out.append((float(x), [m._replace(shape=physical(here, model, m.shape))
-                               for m in for_case(here, about, model=model)], at))
+        modes = [m._replace(label=strained(model, m.shape) or m.label, shape=physical(here, model, m.shape))
+                 for m in for_case(here, about, model=model)]
+        others = {name: np.asarray(f(cases.load(str(case.path), [*case.overrides, *guesses, f"{key}={float(x)!r}"]),
+                                     len(modes)), dtype=float) for name, f in (peers or {}).items()}
+        out.append((float(x), modes, at, others))
     return out
+
+
+STRAINED = 1e-6     # a mode whose strain energy is below this share of the softest mode's bends nothing
+ALONE = 0.7         # a body mode holding this share of a mode's strain energy names it alone
+SECOND = 0.1        # else the two largest name it, each holding at least this share
+
+
+def strained(model: Model, shape) -> str:
+    """What bends in a system mode (`SystemMode.shape`, over the free coordinates): the flexible
+    body and retained mode that hold the largest share of its strain energy, 1/2 eta^T K_m eta per
+    body split over its modal coordinates c as 1/2 Re(conj(eta_c) (K_m eta)_c): alone where it holds
+    ALONE of it, 'coupler: bending xy 2 (97 %) of the strain energy', else with the second largest,
+    'crank: bending xy 1 (45 %) + follower: bending xy 1 (31 %) of the strain energy'. A mechanism's mode moves its joints as its links
+    bend, so its kinetic energy can sit mostly in a joint (the label `system_modes` gives); a map
+    names it by the link that bends. '' when nothing bends: a rigid mode, whose strain energy
+    (the shape of unit norm) is below STRAINED of the softest retained mode's at unit amplitude."""
+    full = np.zeros(model.nv, dtype=complex)
+    full[dynamics.free_velocities(model)] = shape
+    parts, softest = {}, np.inf
+    for i in range(1, model.nb + 1):
+        a, n = int(model.body_madr[i]), int(model.body_nm[i])
+        if not n:
+            continue
+        fb, eta = model.bodies[model.names[i]], full[a:a + n]
+        e = 0.5 * np.real(np.conj(eta) * (fb.Km @ eta))
+        softest = min(softest, 0.5 * float(np.min(np.diag(fb.Km))))
+        for c in range(n):
+            key = f"{model.names[i].partition(':')[0]}: {fb.labels[c]}"
+            parts[key] = parts.get(key, 0.0) + float(e[c])
+    strain = sum(parts.values())
+    if not parts or strain <= STRAINED * softest:
+        return ""
+    ranked = sorted(parts, key=parts.get, reverse=True)
+    said = [f"{k} ({100 * parts[k] / strain:.0f} %)" for k in ranked[:2] if parts[k] >= SECOND * strain]
+    return " + ".join(said[:1] if parts[ranked[0]] >= ALONE * strain else said) + " of the strain energy"
+
+
+def held(case, key: str) -> None:
+    """A sweep of a joint's coordinate (`joints.NAME.q0`) needs the joint held: a prescribed one
+    (its `motion`; a driven crank with its rate set to 0), about which the rest of the system
+    vibrates. A free joint's coordinate is not a setting of the system but one of its states (it
+    would swing away from all but its equilibria), and a loop's dependent one is fixed by the
+    closure; each is an InputError naming `--sweep`."""
+    parts = key.split(".")
+    if len(parts) != 3 or parts[0] != "joints" or parts[2] not in ("q0", "qd0"):
+        return
+    j = case.joints.get(parts[1])
+    if j is None:
+        return                                          # the loader names the unknown joint
+    if j.motion is None:
+        said = "it closes a loop" if j.loop else "the loop's closure sets it" if parts[1] in dependent(case) else \
+            "it is free"
+        raise InputError(f"--sweep: {key}: {said}; a map over a joint's coordinate needs the joint held (a motion, "
+                         f"e.g. --set joints.{parts[1]}.motion.type=\"constant_rate\" --set "
+                         f"joints.{parts[1]}.motion.rate=0.0)")
+
+
+def dependent(case) -> set:
+    """The names of the case's tree joints whose coordinate a loop's closure sets."""
+    if not case.loops:
+        return set()
+    model = model_of(case)
+    dep = set(loops_of(case, model).partition(model.q0, model.v0).tolist())
+    return {model.jnt_names[i] for i in range(1, model.nb + 1) if model.jnt_nv[i] and model.jnt_vadr[i] in dep}
 
 
 def continued(case, model: Model) -> dict:

@@ -33,7 +33,7 @@ The closure then errs like a stiff spring (by (1 - d) tc^2) and RK4 on its fast 
 (dt / tc)^4, the reactions first). The loops take d = 0.9999, tc = TIMECONST dt, a constraint
 solver run to 1e-15, and diagApprox, which MuJoCo computes from `body_invweight0`, scaled by
 REGULARIZATION after compiling (`compile_model`: an impedance of 1 - 1e-8, past the clamp).
-four_bar_rigid over 1 s at dt = 1e-4 s is then within 3e-9 rad of a tight ODE solution, its
+four_bar_swing_rigid over 1 s at dt = 1e-4 s is then within 3e-9 rad of a tight ODE solution, its
 energy conserved to 5e-10 of its largest kinetic energy, its pin force within 4e-8 of its
 largest: efc_force = -(J qacc - aref) / R keeps about 8 digits with R that small. MJCF settings
 alone (no scaling; solref, solimp, negative solref's direct stiffness and damping, o_solref and

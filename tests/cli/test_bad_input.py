@@ -87,6 +87,15 @@ def _refused(code, err, written, words):
 # case files and overrides: (id, case text (or bytes), table file or None, --set items, solver, words)
 
 C, P = CANTILEVER, PENDULUM
+FMAP = """
+[frequency_map]
+key = "bodies.beam.section.h"
+start = 0.01
+stop = 0.02
+values = 3
+set = []
+"""
+
 BAD = [
     # undecodable input
     ("latin1-case-file", C.replace("Cantilever beam", "Caf\u00e9 beam").encode("latin-1"), None, [], "analytic",
@@ -233,6 +242,15 @@ BAD = [
     ("shape-points-many", C, None, ["report.shape_points=1000"], "analytic", ["report.shape_points", "got 1000"]),
     ("shape-points-negative", C, None, ["report.shape_points=-2"], "analytic", ["report.shape_points", "non-negative"]),
     ("shape-points-fraction", C, None, ["report.shape_points=5.5"], "analytic", ["report.shape_points", "whole number"]),
+    ("graded-from-past-the-end", C, None, ["report.graded_from=5.0"], "analytic",
+     ["report.graded_from", "leaves nothing", "5 s"]),
+    ("graded-from-negative", C, None, ["report.graded_from=-1.0"], "analytic", ["report.graded_from"]),
+    ("frequency-map-one-value", C + FMAP.replace("values = 3", "values = 1"), None, [], "analytic",
+     ["frequency_map.values", "at least 2"]),
+    ("frequency-map-set-not-key-value", C + FMAP.replace('set = []', 'set = ["held"]'), None, [], "analytic",
+     ["frequency_map.set", "'held'", "KEY=VALUE"]),
+    ("frequency-map-no-key", C + FMAP.replace('key = "bodies.beam.section.h"\n', ''), None, [], "analytic",
+     ["frequency_map.key"]),
 ]
 
 

@@ -30,9 +30,9 @@ def loops_of(name, overrides=()):
 
 
 @pytest.fixture(scope="module")
-def four_bar_rigid():
+def four_bar_swing_rigid():
     """The rigid four-bar over 0.3 s at the case's tolerances: (case, model, loops, Simulation)."""
-    case, model, loops = loops_of("four_bar_rigid", ["duration=0.3"])
+    case, model, loops = loops_of("four_bar_swing_rigid", ["duration=0.3"])
     ig = case.integrator
     sim = integrate.simulate_loops(loops, 0.3, ig.method, ig.rtol, ig.atol, ig.max_step, ig.output_dt, progress=False)
     assert sim.status.ok, sim.status
@@ -46,7 +46,7 @@ def test_axis_basis_is_a_rotation_with_the_axis_third():
         assert np.allclose(B[:, 2], np.array(a) / np.linalg.norm(a), atol=1e-15)
 
 
-@pytest.mark.parametrize("name", ["four_bar", "slider_crank"])
+@pytest.mark.parametrize("name", ["four_bar_swing", "slider_crank"])
 def test_rows_jacobian_and_bias_against_finite_differences(name):
     """G is the residual's derivative along v (central differences, h = 1e-6: truncation h^2 |r'''|
     ~ 1e-12 against rows of order 1) and G qdd + gamma the rows' second derivative: d/dt (G v)
@@ -72,7 +72,7 @@ def test_rows_jacobian_and_bias_against_finite_differences(name):
     assert np.allclose(d2, G @ qdd + g, rtol=0, atol=1e-6 * max(1.0, np.abs(d2).max()))
 
 
-@pytest.mark.parametrize("name", ["four_bar", "slider_crank"])
+@pytest.mark.parametrize("name", ["four_bar_swing", "slider_crank"])
 def test_constrained_rates_keep_the_rows(name):
     """On the constraints (position and velocity), G qdd + gamma = 0: the multipliers' system is
     solved to its round-off (margin 1e-9 of gamma's scale: G M^-1 G^T's condition ~ 1e6)."""
@@ -84,7 +84,7 @@ def test_constrained_rates_keep_the_rows(name):
 
 
 def test_four_bar_assembles_on_the_closed_form_branch():
-    case, model, loops = loops_of("four_bar_rigid")
+    case, model, loops = loops_of("four_bar_swing_rigid")
     q, v = loops.close(0.0, model.q0, model.v0)
     th = q[0]
     th3, th4 = angles(th, 0.15, 0.45, 0.40, 0.50)
@@ -93,11 +93,11 @@ def test_four_bar_assembles_on_the_closed_form_branch():
     assert loops.violation(0.0, q, v)[1] < 1e-12
 
 
-def test_four_bar_rigid_follows_the_one_equation_four_bar(four_bar_rigid):
+def test_four_bar_rigid_follows_the_one_equation_four_bar(four_bar_swing_rigid):
     """Crank angle within 1e-7 rad of the oracle (DOP853 at 1e-13) over the run; the constraints
     below 1e-10 m and 1e-10 m/s at every output instant; energy closed to 1e-6 of the largest
     kinetic energy."""
-    case, model, loops, sim = four_bar_rigid
+    case, model, loops, sim = four_bar_swing_rigid
     bars = [case.bodies[n] for n in ("crank", "coupler", "rocker")]
     inert = [beam_inertia(b, "lumped") for b in bars]
     j = case.joints["crank_pivot"]
@@ -116,7 +116,7 @@ def test_rk4_on_a_loop_converges_at_fourth_order_and_keeps_the_rows():
     (output 1 ms) its crank angle against the one-equation oracle falls 17x from 2e-4 to 1e-4 s
     (measured 3.0e-10 -> 1.7e-11: order 4 is 16x, so at least 8x is asked), and the rows hold
     to the projection's 1e-12 at every output instant."""
-    case, model, loops = loops_of("four_bar_rigid", ["duration=0.3"])
+    case, model, loops = loops_of("four_bar_swing_rigid", ["duration=0.3"])
     bars = [case.bodies[n] for n in ("crank", "coupler", "rocker")]
     inert = [beam_inertia(b, "lumped") for b in bars]
     j = case.joints["crank_pivot"]
@@ -132,11 +132,11 @@ def test_rk4_on_a_loop_converges_at_fourth_order_and_keeps_the_rows():
     assert err[1] < err[0] / 8 and err[1] < 1e-9, err
 
 
-def test_cut_reaction_balances_the_rocker(four_bar_rigid):
+def test_cut_reaction_balances_the_rocker(four_bar_swing_rigid):
     """The rocker hangs on its pivot and the cut pin only: the pin force (child frame) and the
     pivot's reaction (corrected for the cut's force in its subtree) with gravity give the rocker's
     momentum rate, m a_c = f_pin + f_pivot + m g, checked from the run's states."""
-    case, model, loops, sim = four_bar_rigid
+    case, model, loops, sim = four_bar_swing_rigid
     k = np.arange(0, sim.t.size, 50)
     t, Q, V = sim.t[k], sim.q[k], sim.v[k]
     cuts = inhouse.cut_forces(loops, t, Q, V)

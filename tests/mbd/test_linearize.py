@@ -193,7 +193,7 @@ def test_a_closed_loop_is_linearized_along_a_run():
     the coupler pin (a dependent joint) follows by closure from the last instant's assembly, and
     the coupler's first bending mode stays near its pinned-pinned 34 Hz (within 15 %: the axial
     load and the mechanism's rates move it)."""
-    case = cases.load("four_bar")
+    case = cases.load("four_bar_swing")
     t = np.linspace(0.0, 0.2, 201)
     crank = np.pi / 2 + 20.0 * t                                  # about the case's start and rate
     from oracle_four_bar import angles

@@ -76,3 +76,21 @@ def test_a_run_holding_only_roundoff_has_no_identified_peaks():
     got = accuracy.peak_table(CASE, runs, modes, 1e-3)
     assert [(g["solver"], g["mode"]) for g in got] == [("ref", "beam: bending xy 1"), ("small", "beam: bending xy 2")]
     assert accuracy.peak_table(CASE, {"rigid": runs["rigid"]}, modes, 1e-3) == []
+
+
+def test_graded_from_leaves_the_start_up_out_of_every_difference():
+    """report.graded_from = 1 s: a reference y = t and a run that differs only before 1 s by 0.5
+    (RMS over the whole run 0.35 of the largest 2) grades to zero difference; the largest
+    magnitude taken over the graded span too (a start-up spike of 10 in the reference before 1 s
+    does not scale the difference down)."""
+    case = cases.load("pendulum", ["report.graded_from=1.0", "report.tolerances={tip_deflection=0.01}"])
+    t = np.linspace(0.0, 2.0, 2001)
+    ref = np.where(t < 0.5, 10.0, t)
+    run = ref + np.where(t < 1.0 - 1e-9, 0.5, 0.0)
+    results = {s: Result(solver=s, case=case.name, t=t, channels={"tip_deflection": y})
+               for s, y in (("exudyn-beam", ref), ("x", run))}
+    got = [r for r in accuracy.rows(case, results, {}, {}) if r["channel"] == "tip_deflection"]
+    assert len(got) == 1 and got[0]["rms"] == 0.0 and got[0]["max"] == 0.0 and got[0]["pass"] == "pass"
+    whole = cases.load("pendulum", ["report.tolerances={tip_deflection=0.01}"])
+    rms = [r for r in accuracy.rows(whole, results, {}, {}) if r["channel"] == "tip_deflection"][0]["rms"]
+    assert rms == pytest.approx(np.sqrt(np.mean((run - ref) ** 2)) / 10.0, rel=1e-12) and rms > 0.01

@@ -214,7 +214,7 @@ def test_export_four_bar_rigid_closes_its_loop(tmp_path, capsys):
     root, the coupler's far end the rocker's tip (the cut joint) within the closure flexmbd keeps
     (constraints.CLOSED: Newton to 1e-12, a state beyond 1e-9 refused; measured 1.3e-13 m), and
     the rocker's root on its ground pivot (0.5, 0, 0)."""
-    code = main(["export", "four_bar_rigid", "--solver", "flexmbd", "--vtk", str(tmp_path), "--t-end", "0.1",
+    code = main(["export", "four_bar_swing_rigid", "--solver", "flexmbd", "--vtk", str(tmp_path), "--t-end", "0.1",
                  "--frames", "6"])
     assert code == 0, capsys.readouterr().err
     angles = set()
@@ -237,7 +237,7 @@ def test_export_four_bar_stress_is_the_stress_channel(tmp_path):
     1e-14 m in flexmbd's model; the points a modal solver reports (`channels.modal_points`, x0 +
     Phi_t eta) leave out the stiffened coupler's second-order foreshortening, which sets the gap
     seen here (measured 1.2e-5 m up to 0.05 s; 6e-15 m with stiffening = false)."""
-    case = cases.load("four_bar")
+    case = cases.load("four_bar_swing")
     fr = animation.framed(case, animation.instants(case, 0.05, 6))
     r = registry.run(fr, "flexmbd", 0.05)
     animation.vtk(case, r, tmp_path)

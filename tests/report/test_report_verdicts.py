@@ -69,13 +69,13 @@ def test_a_failing_channel_is_a_fail_on_the_index_and_with_strict_exit_1(tmp_pat
 
 
 def test_a_rigid_model_is_graded_only_on_the_channels_it_has():
-    """Pinocchio's model of four_bar holds the joint angles and the pin forces, but no deflection,
+    """Pinocchio's model of four_bar_swing holds the joint angles and the pin forces, but no deflection,
     stress, or strain energy: on the flexible case its energy is not compared (the coupler's strain
     energy failed it at 107 x the tolerance while its angles lay on the reference), on the rigid one
     it is."""
     from flexmbd.solvers import pinocchio_rigid
     from flexmbd.report import accuracy
-    flexible, rigid = cases.load("four_bar"), cases.load("four_bar_rigid")
+    flexible, rigid = cases.load("four_bar_swing"), cases.load("four_bar_swing_rigid")
     has = {ch: accuracy.comparable(flexible, pinocchio_rigid, ch) for ch in flexible.channels}
     assert has == {"crank_angle": True, "rocker_angle": True, "midspan_deflection": False, "stress_vm": False,
                    "energy": False, "pin_force_x": True, "pin_force_y": True}, has

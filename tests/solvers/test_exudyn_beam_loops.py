@@ -76,7 +76,7 @@ def test_four_bar_starts_closed():
     th2, th3 = np.arctan2(*(C - B)[::-1]), np.arctan2(*(C - D)[::-1])
     w3 = w * a * np.sin(th2 - th) / (c * np.sin(th2 - th3))
     w2 = -w * a * np.sin(th3 - th) / (b * np.sin(th3 - th2))
-    for name in ("four_bar", "four_bar_rigid"):
+    for name in ("four_bar_swing", "four_bar_swing_rigid"):
         q, qd = exudyn_beam.close_loops(cases.load(name), {"coupler": 16})
         assert q["crank_pin"] == pytest.approx(th2 - th, abs=1e-10)
         assert q["rocker_pivot"] == pytest.approx(th3, abs=1e-10)
@@ -121,11 +121,11 @@ def test_slider_crank_flexible_rod_over_a_revolution():
 
 
 def test_free_rigid_four_bar_keeps_its_energy_and_balances_the_rocker():
-    """four_bar_rigid for 0.5 s: the energy within 5e-5 of the largest kinetic energy (measured
+    """four_bar_swing_rigid for 0.5 s: the energy within 5e-5 of the largest kinetic energy (measured
     1.6e-5); the rocker's I_D phi'' (phi'' by central differences) is the moment about its pivot of
     the pin force (at its tip, 0.4 m, in its frame) and of gravity at its centre of mass, within
     1 % of its largest value."""
-    case = cases.load("four_bar_rigid")
+    case = cases.load("four_bar_swing_rigid")
     r = registry.run(case, "exudyn-beam", 0.5)
     assert r.ok, r.status
     assert r.extra["loop_closure_m"] < 1e-9
@@ -143,9 +143,9 @@ def test_loops_it_cannot_model_or_close():
     pivot beyond the reach of the other three links: a case file refuses it, this adapter's own
     mesh might still not close) is a ValueError saying so."""
     assert exudyn_beam.applies(cases.load("slider_crank")) == ""
-    ball = cases.load("four_bar_rigid", ['joints.rocker_pin.type="spherical"'])
+    ball = cases.load("four_bar_swing_rigid", ['joints.rocker_pin.type="spherical"'])
     assert exudyn_beam.applies(ball) == "loop joint 'rocker_pin': only revolute (pin) loop joints"
-    case = cases.load("four_bar_rigid").resolved
+    case = cases.load("four_bar_swing_rigid").resolved
     far = dataclasses.replace(case.joints["rocker_pivot"], offset=(2.0, 0.0, 0.0))
     case = dataclasses.replace(case, joints=MappingProxyType({**case.joints, "rocker_pivot": far}))
     with pytest.raises(ValueError, match="the loops do not close"):

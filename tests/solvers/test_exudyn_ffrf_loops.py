@@ -57,19 +57,19 @@ def cross(a: complex, b: complex) -> float:
 
 def test_loop_cases_apply_and_the_others_say_why():
     assert exudyn_ffrf.LOOPS
-    for name in ("four_bar_rigid", "four_bar", "slider_crank"):
+    for name in ("four_bar_swing_rigid", "four_bar_swing", "slider_crank"):
         assert exudyn_ffrf.applies(cases.load(name)) == "", name
-    spatial = cases.load("four_bar_rigid", ["gravity=[0.0, 0.0, -9.81]"])
+    spatial = cases.load("four_bar_swing_rigid", ["gravity=[0.0, 0.0, -9.81]"])
     assert exudyn_ffrf.applies(spatial).startswith("loop joint 'rocker_pin': a cut revolute joint is Exudyn's "
                                                    "spherical joint between its two points")
-    case = cases.load("four_bar_rigid").resolved                # a fixed cut joint would not close there
+    case = cases.load("four_bar_swing_rigid").resolved                # a fixed cut joint would not close there
     fixed = replace(case, loops={"rocker_pin": replace(case.loops["rocker_pin"], type="fixed")})
     assert exudyn_ffrf.applies(fixed).startswith("loop joint 'rocker_pin': a cut fixed joint is not modelled")
 
 
 def test_the_trapezoidal_rule_is_refused_on_a_loop():
     """Spectral radius 1 with index-3 constraints lets the loop's alternating constraint force grow
-    (four_bar_rigid: Newton fails at 0.90 s): a failed run at t = 0 says what to use."""
+    (four_bar_swing_rigid: Newton fails at 0.90 s): a failed run at t = 0 says what to use."""
     r = registry.run(cases.load("slider_crank", ["solvers.exudyn-ffrf.spectral_radius=1.0"]), "exudyn-ffrf", 0.01)
     assert not r.ok and r.status.t == 0.0
     assert "spectral radius 1" in str(r.status) and "use spectral_radius < 1 (0.9)" in str(r.status)
@@ -78,7 +78,7 @@ def test_the_trapezoidal_rule_is_refused_on_a_loop():
 def test_the_start_closes_the_loops():
     """The crank keeps its q0 and rate (prescribed: its profile's), the other loop joints close
     the loop at position (Newton to 1e-13 m) and velocity level on the oracle's branch."""
-    case = cases.load("four_bar_rigid")
+    case = cases.load("four_bar_swing_rigid")
     fbs = flexbody.for_case(case)
     model = exudyn_ffrf.assembled(case, fbs)
     gap, rate = exudyn_ffrf.gaps_at_start(model, fbs)
@@ -150,19 +150,19 @@ def four_bar_oracle(case, t: np.ndarray) -> dict:
 
 
 @pytest.fixture(scope="module")
-def four_bar_rigid():
-    case = cases.load("four_bar_rigid", FOX_GOODWIN)
+def four_bar_swing_rigid():
+    case = cases.load("four_bar_swing_rigid", FOX_GOODWIN)
     r = registry.run(case, "exudyn-ffrf", 0.3)
     assert r.ok, r.status
     return r, four_bar_oracle(case, r.t)
 
 
-def test_rigid_four_bar_follows_the_oracle(four_bar_rigid):
+def test_rigid_four_bar_follows_the_oracle(four_bar_swing_rigid):
     """0.3 s (1.4 crank turns), Fox-Goodwin at 1e-4 s: the angles within 1e-5 rad, the energy
     within 5e-5 J of 3.87 J (measured 8.5e-6, 2.2e-6 rad, 3.9e-5 J), the cut joint's force
     within 0.01 N of the oracle's (up to 64 N; measured 6e-3 N), the loop closed to 1e-6 m (an
     index-2 scheme holds the gap's rate: measured 1.1e-7 m)."""
-    r, want = four_bar_rigid
+    r, want = four_bar_swing_rigid
     for k, tol in (("crank_angle", 1e-5), ("rocker_angle", 1e-5), ("energy", 5e-5), ("pin_force_x", 0.01),
                    ("pin_force_y", 0.01)):
         assert np.abs(r.channels[k] - want[k]).max() < tol, k
@@ -176,7 +176,7 @@ def test_stiff_four_bar_follows_the_oracle():
     the coupler's far node among them: tension 91 N) as the oracle's (measured 1e-4). Its
     cut-joint force is not: the coupler starts undeformed, and the bending vibration that start
     sets off, however stiff the coupler, moves the pin force by up to 2.5 N about the rigid one."""
-    case = cases.load("four_bar", STIFF + DAMPED)
+    case = cases.load("four_bar_swing", STIFF + DAMPED)
     r = registry.run(case, "exudyn-ffrf", 0.1)
     want = four_bar_oracle(case, r.t)
     assert np.abs(r.channels["crank_angle"] - want["crank_angle"]).max() < 1e-5
@@ -190,9 +190,9 @@ def test_stiff_four_bar_follows_the_oracle():
 def test_flexible_four_bar_keeps_its_energy_and_its_loop():
     """The flexible coupler, 0.1 s: the energy within 3e-5 J of its start (measured 2.1e-5 J),
     which is the rigid four-bar's (the coupler starts undeformed); the loop closed to 1e-6 m."""
-    r = registry.run(cases.load("four_bar", FOX_GOODWIN), "exudyn-ffrf", 0.1)
+    r = registry.run(cases.load("four_bar_swing", FOX_GOODWIN), "exudyn-ffrf", 0.1)
     e = r.channels["energy"]
-    assert e[0] == pytest.approx(four_bar_oracle(cases.load("four_bar_rigid"), r.t[:2])["energy"][0], abs=1e-12)
+    assert e[0] == pytest.approx(four_bar_oracle(cases.load("four_bar_swing_rigid"), r.t[:2])["energy"][0], abs=1e-12)
     assert np.abs(e - e[0]).max() < 3e-5
     assert r.extra["loop_gap_m"]["rocker_pin"] < 1e-6
     assert np.abs(r.channels["midspan_deflection"]).max() > 2e-3

@@ -123,20 +123,20 @@ def mujoco_at(case, dt=1e-4):
 
 
 @pytest.fixture(scope="module")
-def four_bar():
-    case = cases.load("four_bar_rigid", PRISM)
+def four_bar_swing():
+    case = cases.load("four_bar_swing_rigid", PRISM)
     r = registry.run(case, "mujoco")
     assert r.ok, r.status
     bar = FourBar(case)
     return case, r, bar, bar.run(np.pi / 2, 20.0, r.t)
 
 
-def test_four_bar_angles_energy_and_pin_force_match_the_lagrange_model(four_bar):
+def test_four_bar_angles_energy_and_pin_force_match_the_lagrange_model(four_bar_swing):
     """Over the case's 1 s (about four crank turns) at MuJoCo's default step: the crank and rocker
     angles within 1e-7 rad (observed 3e-9), the energy within 1e-6 of the largest kinetic energy
     from the model's, and conserved to that (observed 5e-10 both), the pin force within 1e-6 of
     its largest (observed 3.5e-8)."""
-    case, r, bar, ref = four_bar
+    case, r, bar, ref = four_bar_swing
     ch = r.channels
     assert np.abs(ch["crank_angle"] - ref["crank"]).max() < 1e-7
     assert np.abs(ch["rocker_angle"] - ref["rocker"]).max() < 1e-7
@@ -147,9 +147,9 @@ def test_four_bar_angles_energy_and_pin_force_match_the_lagrange_model(four_bar)
     assert np.abs(F - ref["force"]).max() < 1e-6 * np.abs(ref["force"]).max()
 
 
-def test_four_bar_outputs_close_the_loop(four_bar):
+def test_four_bar_outputs_close_the_loop(four_bar_swing):
     """At every output the rocker angle is the closure's of the crank angle (observed 1.2e-10 rad)."""
-    case, r, bar, _ = four_bar
+    case, r, bar, _ = four_bar_swing
     closed = np.array([bar.angles(a)[2] for a in r.channels["crank_angle"]])
     assert np.abs(r.channels["rocker_angle"] - closed).max() < 1e-8
 
@@ -158,7 +158,7 @@ def test_assembly_keeps_the_crank_and_closes_the_loop_from_the_guesses():
     """The case's crank_pin and rocker_pivot angles are guesses: the closure replaces them and
     their rates (the last two one-coordinate joints of the tree: rank 2), the crank's angle and
     rate are kept."""
-    case = cases.load("four_bar_rigid", PRISM)
+    case = cases.load("four_bar_swing_rigid", PRISM)
     m, d, _ = mujoco_at(case)
     th = FourBar(case).angles(np.pi / 2)
     w = FourBar(case).rates(th, 20.0)

@@ -107,9 +107,9 @@ def slider_crank(case, t):
 
 
 @pytest.fixture(scope="module")
-def four_bar():
-    """four_bar_rigid by the peer (1 s), and the oracle at its outputs."""
-    case = cases.load("four_bar_rigid")
+def four_bar_swing():
+    """four_bar_swing_rigid by the peer (1 s), and the oracle at its outputs."""
+    case = cases.load("four_bar_swing_rigid")
     r = registry.run(case, "pinocchio")
     return r, four_bar_oracle(case, r.t)
 
@@ -118,7 +118,7 @@ def test_loops_close_from_the_start_and_stay_closed():
     """The closed start keeps the independent coordinates (the crank's angle and rate) and
     moves the guessed ones to the closure; integrated, the closure holds at every output to
     1e-10 m (position) and 1e-9 m/s (velocity)."""
-    for name, t_end, crank in (("four_bar_rigid", 0.5, (np.pi / 2, 20.0)), ("slider_crank", 0.0837758, (0.0, 150.0))):
+    for name, t_end, crank in (("four_bar_swing_rigid", 0.5, (np.pi / 2, 20.0)), ("slider_crank", 0.0837758, (0.0, 150.0))):
         case = cases.load(name)
         eng = pinocchio_rigid.Rigid(case)
         q0, v0 = eng.start()
@@ -134,10 +134,10 @@ def test_loops_close_from_the_start_and_stay_closed():
         assert max(np.abs(J @ y[eng.nq:]).max() for (_, J), y in zip(closure, Y)) < 1e-9
 
 
-def test_four_bar_follows_the_oracle_and_keeps_its_energy(four_bar):
+def test_four_bar_follows_the_oracle_and_keeps_its_energy(four_bar_swing):
     """Crank and rocker angles within 1e-7 rad of the oracle's over 1 s; the energy the oracle's,
     constant to 1e-6 of the largest kinetic energy."""
-    r, ref = four_bar
+    r, ref = four_bar_swing
     assert r.ok
     assert np.abs(r.channels["crank_angle"] - ref["crank_angle"]).max() < 1e-7
     assert np.abs(r.channels["rocker_angle"] - ref["rocker_angle"]).max() < 1e-7
@@ -146,10 +146,10 @@ def test_four_bar_follows_the_oracle_and_keeps_its_energy(four_bar):
     assert np.abs(E - ref["energy"]).max() < 1e-6 * ref["kinetic"].max()
 
 
-def test_four_bar_pin_force_balances_the_rocker_and_the_coupler(four_bar):
+def test_four_bar_pin_force_balances_the_rocker_and_the_coupler(four_bar_swing):
     """The cut joint's reaction (coupler onto rocker, rocker axes) is the force the oracle's
     moment equations of the two bars need, to 1e-6 of its largest value."""
-    r, ref = four_bar
+    r, ref = four_bar_swing
     f = np.column_stack([r.channels["pin_force_x"], r.channels["pin_force_y"]])
     assert np.abs(f - ref["pin_force"]).max() < 1e-6 * np.abs(ref["pin_force"]).max()
 
@@ -171,7 +171,7 @@ def test_slider_crank_rigid_kinematics_crank_pin_force_and_drive():
 def test_tree_joints_carry_no_moment_or_force_along_their_free_axes():
     """The cut joints' forces, put on both their sides, leave the free tree joints nothing to
     carry along their axes (a revolute joint's moment, a prismatic one's force)."""
-    for name in ("four_bar_rigid", "slider_crank"):
+    for name in ("four_bar_swing_rigid", "slider_crank"):
         case = cases.load(name)
         eng = pinocchio_rigid.Rigid(case)
         q, v = eng.start()
@@ -186,9 +186,9 @@ def test_applies_to_planar_hinges_only(monkeypatch):
     """A revolute cut joint on a planar loop applies; one whose loop turns about another axis,
     or a prismatic cut joint, does not, and says why (the tilted loop cannot close at its start,
     which loading refuses: the assembly is off for it here)."""
-    assert pinocchio_rigid.applies(cases.load("four_bar_rigid")) == ""
+    assert pinocchio_rigid.applies(cases.load("four_bar_swing_rigid")) == ""
     monkeypatch.setattr(closure, "assemble", lambda case, where: {})
-    tilted = cases.load("four_bar_rigid", ["joints.rocker_pivot.axis=[0.0, 1.0, 0.0]"])
+    tilted = cases.load("four_bar_swing_rigid", ["joints.rocker_pivot.axis=[0.0, 1.0, 0.0]"])
     assert "not all turn about its axis" in registry.status_for(tilted, "pinocchio")
     sliding = cases.load("slider_crank", ['joints.crank_pin.type="prismatic"'])
     assert "is prismatic" in registry.status_for(sliding, "pinocchio")

@@ -58,10 +58,12 @@ def cmd_modes(args) -> int:
     cost.check([(case, None)], allow_large=args.allow_large, about=args.about if args.system else None)
     if args.sweep and not args.system:
         raise InputError("--sweep: a frequency map is of the system's modes: add --system")
+    if args.peers and not args.system:
+        raise InputError("--peers: the peers' eigen-solves are of the system: add --system")
     if args.system and args.sweep:
         return frequency_map(case, args)
     if args.system:
-        return system_modes(case, args.about, args.json)
+        return system_modes(case, args.about, args.json, peers(args.peers))
     if args.save:
         files.writable_dir(args.save, "--save")
     bodies = flexbody.for_case(case)
@@ -83,9 +85,25 @@ def cmd_modes(args) -> int:
     return 0
 
 
-def system_modes(case, about: str, as_json: bool) -> int:
+def peers(text: str) -> dict:
+    """{solver: its system_frequencies} of `--peers` (comma-separated); a solver without an eigen-solve
+    of the assembled system, or not installed, is one line naming `--peers`."""
+    from flexmbd.harness import registry
+    from flexmbd.report import frequency_map as fmap
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    for n in names:
+        registry.check_name(n, "--peers")
+    got, refused = fmap.peer_functions(names)
+    if refused:
+        n, why = next(iter(refused.items()))
+        raise InputError(f"--peers: {n}: {why}")
+    return got
+
+
+def system_modes(case, about: str, as_json: bool, others: dict | None = None) -> int:
     """The assembled system's frequencies, damping and labels (solvers/linearize.py), with a progress bar
-    past a couple of seconds."""
+    past a couple of seconds; `others`: solver -> its own eigen-solve (`peers`), its lowest
+    frequencies printed beside flexmbd's."""
     from flexmbd.solvers import linearize
     from flexmbd.mbd.compiled import jit
     if not jit.is_cached():
@@ -95,8 +113,12 @@ def system_modes(case, about: str, as_json: bool) -> int:
         modes = linearize.for_case(case, about, progress=True)
     rows = [{"index": k + 1, "freq_hz": m.freq_hz, "damping": m.damping, "damping_resolution": m.damping_resolution,
              "label": m.label, "share": m.share} for k, m in enumerate(modes)]
+    if about != "initial" and others:
+        raise InputError("--peers: the peers' eigen-solves are about the initial state: use --about initial")
+    with files.signals_exit():
+        theirs = {n: [float(x) for x in f(case, len(rows))] for n, f in (others or {}).items()}
     if as_json:
-        print(files.json_text({"case": case.name, "about": about, "modes": rows}, indent=2))
+        print(files.json_text({"case": case.name, "about": about, "modes": rows, "peers": theirs}, indent=2))
         return 0
     print(f"{case.name}: system modes about the {'initial state' if about == 'initial' else 'static equilibrium'}")
     for r in rows:
@@ -105,6 +127,10 @@ def system_modes(case, about: str, as_json: bool) -> int:
               f"({100 * r['share']:.0f} % of the kinetic energy)")
     if not rows:
         print("  none: no coordinate vibrates about this state (rigid bodies, or motion without stiffness)")
+    for n, f in theirs.items():
+        diff = [abs(g / r["freq_hz"] - 1) for g, r in zip(f, rows)]
+        print(f"  {n} (its own eigen-solve): " + ", ".join(f"{g:.4f}" for g in f) + " Hz"
+              + (f"; largest |f / f_flexmbd - 1| over these {max(diff):.2g}" if diff else ""))
     for note in mode_notes(rows, case):
         print(f"  note: {note}")
     return 0
@@ -112,30 +138,27 @@ def system_modes(case, about: str, as_json: bool) -> int:
 
 def frequency_map(case, args) -> int:
     """`modes --system --sweep KEY=START:STOP:N`: the system's frequencies at each value, the modes
-    tracked by shape (`linearize.tracked`); a table on stdout (or JSON), and with --out the table
-    as OUT/CASE_sweep.csv and the map as OUT/CASE_sweep.png."""
+    tracked by shape (`linearize.tracked`), and with --peers each peer's own lowest frequencies; a
+    table on stdout (or JSON), and with --out the table as OUT/CASE_sweep.csv and the map as
+    OUT/CASE_sweep.png."""
     from flexmbd.solvers import linearize
+    from flexmbd.report import frequency_map as fmap
     key, values = linearize.sweep_values(args.sweep)
     if args.out:
         files.writable_dir(args.out, "--out")
+    others = peers(args.peers)
     bar = Progress(len(values), f"{case.name} / sweeping {key}", unit="values")
     with files.signals_exit():
-        steps = linearize.sweep(case, key, values, args.about, progress=lambda k, n, x: bar.update(k))
+        steps = linearize.sweep(case, key, values, args.about, progress=lambda k, n, x: bar.update(k), peers=others)
     bar.close()
     tracks = linearize.tracked(steps)
-    rows = [{key: x, "track": j + 1, "label": t["label"], "freq_hz": t["freq_hz"][k], "mac": t["mac"][k]}
-            for j, t in enumerate(tracks) for k, x in enumerate(values)]
+    m = fmap.Map(key, values, tracks, {n: np.array([s[3][n] for s in steps]) for n in others}, {})
     if args.out:
         from flexmbd.report import figures
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        w.writerow([key, "track", "label", "freq_hz [Hz]", "mac"])
-        w.writerows([repr(float(r[key])), r["track"], r["label"], repr(float(r["freq_hz"])), repr(float(r["mac"]))]
-                    for r in rows)
-        text = buf.getvalue()
-        files.atomic_write(Path(args.out) / f"{case.name}_sweep.csv", text)
-        figures.frequency_map(values, tracks, key, Path(args.out) / f"{case.name}_sweep.png", case.name)
+        files.atomic_write(Path(args.out) / f"{case.name}_sweep.csv", fmap.table(m))
+        figures.frequency_map(values, tracks, key, Path(args.out) / f"{case.name}_sweep.png", case.name, peers=m.peers)
     if args.json:
+        rows = list(csv.DictReader(io.StringIO(fmap.table(m))))
         print(files.json_text({"case": case.name, "key": key, "about": args.about, "rows": rows}, indent=2))
         return 0
     print(f"{case.name}: system modes against {key} (tracked by shape; MAC with the previous value)")
@@ -144,6 +167,10 @@ def frequency_map(case, args) -> int:
         print(f"  {x:24.6g}  " + "  ".join(f"{t['freq_hz'][k]:10.4f}" for t in tracks))
     for j, t in enumerate(tracks):
         print(f"  track {j + 1}: {t['label']} (at {values[0]:g}); smallest MAC {np.nanmin(t['mac']):.3f}")
+    for n, F in m.peers.items():
+        print(f"  {n} (its own eigen-solve, sorted):")
+        for k, x in enumerate(values):
+            print(f"  {x:24.6g}  " + "  ".join(f"{f:10.4f}" for f in F[k]))
     return 0
 
 

@@ -71,5 +71,14 @@ def cmd_bench(args) -> int:
         at = f"{r['wall_s']:.2f} s at {r['setting']}" if math.isfinite(r["wall_s"]) else "none within it"
         print(f"  {r['solver']:12s} {at}; S_eq {r['seq5_MPa']:.4g} MPa (converged {r['converged_seq5_MPa']:.4g}), "
               f"{r['error_reference']:.2%} from the reference's")
+    got = result.get("loops")
+    if got:
+        print(f"closed loops: each solver's fastest setting within {got['target']:.0e} of its own converged run "
+              f"(worst deflection channel), and flexmbd's time over each peer's there:")
+    for r in (got or {}).get("fastest", []):
+        at = f"{r['wall_s']:.2f} s at {r['setting']}" if math.isfinite(r["wall_s"]) else "none within it"
+        print(f"  {r['case']:16s} {r['solver']:12s} {at}; {r['error_reference']:.2e} from the reference")
+    for r in (got or {}).get("ratios", []):
+        print(f"  {r['case']:16s} flexmbd / {r['peer']}: {r['ratio']:.2f}")
     print(f"plots: {Path(args.out) / 'index.html'}")
     return 0
