@@ -141,16 +141,21 @@ def table(m: Map) -> str:
 
 
 def agreement(m: Map, n: int) -> list[dict]:
-    """At each value, flexmbd's n lowest tracks (sorted) against each peer's n lowest: the largest
-    relative difference |f_peer / f - 1| over the n."""
+    """At each value, flexmbd's n lowest frequencies (its tracks sorted) and each peer's n lowest,
+    and the largest relative difference |f_peer / f - 1| of a peer's frequency from the nearest of
+    all flexmbd's at that value, over the peer's n lowest that lie within flexmbd's range (to 5 %
+    above its highest): a peer that models families flexmbd's mode sets leave out (a planar frame
+    has no out-of-plane bending, a finer mesh has modes above the retained ones) is compared on
+    what both have, not rank by rank."""
     out = []
     for k, x in enumerate(m.values):
-        f = np.sort([t["freq_hz"][k] for t in m.tracks])[:n]
-        row = {"value": float(x), "flexmbd": f}
+        every = np.sort([t["freq_hz"][k] for t in m.tracks])
+        row = {"value": float(x), "flexmbd": every[:n]}
         for name, F in m.peers.items():
             g = F[k, :n]
             row[name] = g
-            row[f"{name} diff"] = float(np.max(np.abs(g / f[:g.size] - 1))) if g.size else np.nan
+            g = g[g <= 1.05 * every[-1]] if every.size else g[:0]
+            row[f"{name} diff"] = (float(max(np.min(np.abs(f / every - 1)) for f in g)) if g.size else np.nan)
         out.append(row)
     return out
 

@@ -410,7 +410,8 @@ def frequency_map_part(p: CasePage) -> list:
     n = fm["tracks"]
     img, csv_name = frequency_map.write(m, p.folder, p.case.name, n)
     rows = frequency_map.agreement(m, n)
-    head = [m.key, *[f"flexmbd {k + 1} [Hz]" for k in range(n)], *[f"{s}: largest |f / f_flexmbd - 1|" for s in m.peers]]
+    head = [m.key, *[f"flexmbd {k + 1} [Hz]" for k in range(n)],
+            *[f"{s}: largest |f / f_flexmbd - 1| (the nearest)" for s in m.peers]]
     num = accuracy.number
     cells = [[num(r["value"], 4), *[num(f, 5) for f in r["flexmbd"]], *[num(r[f"{s} diff"], 2) for s in m.peers]]
              for r in rows]
@@ -420,7 +421,9 @@ def frequency_map_part(p: CasePage) -> list:
             f"value by their shapes (the largest MAC, node translations), not by sorting, and each curve is named by "
             f"the link and mode that hold most of its strain energy at the first value. "
             + (f"Marked over them: the lowest frequencies of {', '.join(m.peers)}, each from its own eigen-solve of "
-               f"the same assembly (no array of flexmbd's), compared below with flexmbd's {n} lowest. " if m.peers
+               f"the same assembly (no array of flexmbd's); below, each peer's {n} lowest against the nearest of "
+               f"flexmbd's, over those within its range (a peer may model families the retained modes leave "
+               f"out). " if m.peers
                else "") + (f"Not shown: {said}." if said else ""))
     links = Both(f"<p><a href='{csv_name}'>{csv_name}</a></p>", f"[{csv_name}]({csv_name})")
     sens_head = ["model", "discretization", *[f"f{k + 1} [Hz]" for k in range(n)]]
