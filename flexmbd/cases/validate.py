@@ -112,7 +112,7 @@ def validate(raw: dict, where: str) -> dict:
 
 LOOP_METHOD = "dopri5"      # a case with a loop and no integrator.method: one that restarts after each projection
 # the methods that restart after each projection onto a loop's constraints (`integrate.PROJECTED`)
-LOOP_METHODS = ("dopri5", "rk45", "dop853", "rk4")
+LOOP_METHODS = ("dopri5", "fox-goodwin", "rk45", "dop853", "rk4")
 
 
 def _loop_method(d: dict, named: bool, where: str) -> None:

@@ -16,28 +16,39 @@ recursion's Xup, U, S build: J_i = Xup_i J_lam + U_i P_lam + S_i P_i) and their 
 G qdd + gamma (gamma from the velocity-product accelerations c_i of the same recursion).
 
 Forward dynamics (the tree's mass matrix is never formed): qdd = qdd_0 + K lam with qdd_0 the
-articulated-body accelerations of the tree and K = M^-1 G^T, each column one more articulated-body
-pass with G^T e_k as generalized force (the response is linear in it); the multipliers solve
-(G K) lam = -gamma - G qdd_0 in the least-squares, least-norm sense, so that a planar loop's
-redundant rows (out of plane) are harmless. G^T lam is the constraint force: lam's position rows,
-R lam_r, are the force from the parent onto the child at C (world), its rotation rows the moment.
+articulated-body accelerations of the tree and K = M^-1 G^T, each column the response of the same
+evaluation's factored articulated inertias to G^T e_k as generalized force (`dynamics.response`);
+the multipliers solve (G K) lam = -gamma - G qdd_0 in the least-squares, least-norm sense, so that
+a planar loop's redundant rows (out of plane) are harmless. G^T lam is the constraint force: lam's
+position rows, R lam_r, are the force from the parent onto the child at C (world), its rotation
+rows the moment.
 
-Drift: after every output interval the dependent coordinates are corrected by Newton on the
-position rows and the velocities projected onto G v = 0 (coordinate partitioning: the dependent
+Drift: at every output instant the dependent coordinates are corrected by Newton on the position
+rows and the velocities projected onto G v = 0 (coordinate partitioning: the dependent
 coordinates are one-coordinate tree joints, chosen from the last in q backwards while they add to
 G's rank; the independent ones - the first, prescribed and modal - keep their values).
+
+The rows, the constrained accelerations and the projection are compiled functions of the cuts
+packed as arrays (`CutArrays`) and an entry of the kernel (`compiled.entry.handle`), so that a
+compiled integrator calls them without returning to Python (`integrate.dopri5`); `Loops` calls
+the same functions from Python.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
-from flexmbd.mbd import profiles, spatial
-from flexmbd.mbd.dynamics import node_kinematics
-from flexmbd.mbd.compiled import entry
+from flexmbd.mbd import profiles
+from flexmbd.mbd.compiled.bound import bind
+from flexmbd.mbd.compiled.dense import mm, mm_add_into, mm_into, mtm, mtv, mv, sym_lstsq
+from flexmbd.mbd.compiled.entry import KINEMATICS, RATES, bound_of, call, handle
+from flexmbd.mbd.compiled.jit import njit
+from flexmbd.mbd.dynamics import node_kinematics, prescribed, response
 from flexmbd.mbd.model import Model, make_data
+from flexmbd.mbd.spatial import cross_motion, skew, xlt, xmv_into
 
 ROWS = {"revolute": ((0, 1, 2), (0, 1)), "spherical": ((0, 1, 2), ()), "fixed": ((0, 1, 2), (0, 1, 2)),
         "prismatic": ((0, 1), (0, 1, 2))}       # (position rows, rotation rows) in the B-rotated triad
@@ -104,96 +115,244 @@ def pick(J, names: list, scale=None) -> list:
 
 
 # ---------------------------------------------------------------------------------------------
-# kinematics of the cut frames, from one evaluation's Data
+# the cuts as arrays, for compiled code
 
 
-def tree_jacobians(model: Model, data):
+class CutArrays(NamedTuple):
+    """The cut joints (`Cut`s) of a Loops packed for compiled code: per cut c and side s (0 the
+    parent's P, 1 the child's C), and per constraint row j; `dep` the dependent coordinates and
+    `fail` where a projection that failed leaves its residual and row."""
+
+    body: np.ndarray        # (nc, 2) the side's body
+    node: np.ndarray        # (nc, 2) True: on a flexible body's node (Phi, D, x0), else at `offset`
+    E: np.ndarray           # (nc, 2, 3, 3) the side frame's constant rotation from the body (or node) frame
+    offset: np.ndarray      # (nc, 2, 3) a rigid side's offset in its body frame
+    Phi: np.ndarray         # (nc, 2, 6, nm) a node's mode block [rot; trans], zero-padded to the model's nm
+    D: np.ndarray           # (nc, 2, nm, nm) its foreshortening matrix
+    x0: np.ndarray          # (nc, 2, 3) its undeformed position
+    revolute: np.ndarray    # (nc,) True: the rotation rows are the axis's misalignment
+    row_cut: np.ndarray     # (m,) the cut of each row
+    row_kind: np.ndarray    # (m,) which of its rows: 0-2 position (R^T d), 3-5 rotation
+    dep: np.ndarray         # (nd,) indices into v (= into q) of the dependent coordinates
+    fail: np.ndarray        # (2,) a failed projection's largest residual (m or rad) and its row
+
+
+def pack(model: Model, cuts: list) -> CutArrays:
+    """The CutArrays of `cuts` on `model`, no dependent coordinates yet (`Loops.closing`)."""
+    nc, nm = len(cuts), model.jnt_Phi.shape[2]
+    out = CutArrays(body=np.zeros((nc, 2), dtype=np.int64), node=np.zeros((nc, 2), dtype=np.bool_),
+                    E=np.zeros((nc, 2, 3, 3)), offset=np.zeros((nc, 2, 3)), Phi=np.zeros((nc, 2, 6, nm)),
+                    D=np.zeros((nc, 2, nm, nm)), x0=np.zeros((nc, 2, 3)),
+                    revolute=np.array([c.type == "revolute" for c in cuts], dtype=np.bool_),
+                    row_cut=np.array([k for k, c in enumerate(cuts) for _ in (*c.pos, *c.rot)], dtype=np.int64),
+                    row_kind=np.array([j for c in cuts for j in (*c.pos, *(3 + o for o in c.rot))], dtype=np.int64),
+                    dep=np.zeros(0, dtype=np.int64), fail=np.zeros(2))
+    for k, c in enumerate(cuts):
+        for s, side in enumerate((c.P, c.C)):
+            out.body[k, s], out.E[k, s], out.offset[k, s] = side.body, side.E, side.offset
+            if side.Phi is not None:
+                n = side.Phi.shape[1]
+                out.node[k, s] = True
+                out.Phi[k, s, :, :n], out.D[k, s, :n, :n], out.x0[k, s] = side.Phi, side.D, side.x0
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# kinematics of the cut frames, from one evaluation's Data (compiled)
+
+
+@njit
+def tree_jacobians(model, data, nv):
     """J (nb+1, 6, nv): body velocities v_i = J_i v (body frame), and a0 (nb+1, 6): the spatial
     accelerations at qdd = 0 without gravity (the velocity-product part), from data.Xup, U, S, c
     of an evaluation at the state."""
-    nb, nv = model.nb, model.nv
-    J, a0 = np.zeros((nb + 1, 6, nv)), np.zeros((nb + 1, 6))
-    for i in range(1, nb + 1):
+    n = model.parent.size
+    J, a0 = np.zeros((n, 6, nv)), np.zeros((n, 6))
+    for i in range(1, n):
         lam = model.parent[i]
-        J[i] = data.Xup[i] @ J[lam]
-        a0[i] = data.Xup[i] @ a0[lam] + data.c[i]
+        mm_into(data.Xup[i], J[lam], J[i])
+        xmv_into(data.Xup[i], a0[lam], a0[i])
+        a0[i] += data.c[i]
         if model.jnt_node[i] >= 0:
             a, nm = model.body_madr[lam], model.body_nm[lam]
-            J[i][:, a:a + nm] += data.U[i, :, :nm]
-        kv, n = model.jnt_vadr[i], model.jnt_nv[i]
-        J[i][:, kv:kv + n] += data.S[i, :, :n]
+            J[i, :, a:a + nm] += data.U[i, :, :nm]
+        kv, nj = model.jnt_vadr[i], model.jnt_nv[i]
+        J[i, :, kv:kv + nj] += data.S[i, :, :nj]
     return J, a0
 
 
-@dataclass
-class Frame:
-    """A side frame at one state, world components: rotation R (3, 3) (frame -> world), origin x
-    (3,), angular and linear velocity w, v (3,), their Jacobians Jw, Jv (3, nv), and the
-    velocity-product angular and (classical) linear accelerations al0, ac0 (3,)."""
-
-    R: np.ndarray
-    x: np.ndarray
-    w: np.ndarray
-    v: np.ndarray
-    Jw: np.ndarray
-    Jv: np.ndarray
-    al0: np.ndarray
-    ac0: np.ndarray
-
-
-def frame(model: Model, data, J, a0, s: Side, q, v) -> Frame:
-    i = s.body
-    Ei, ri = data.X0[i, :3, :3], body_origin(data.X0[i])          # global -> body rotation, origin
-    if s.Phi is not None:
+@njit
+def frame(model, data, J, a0, cuts, c, s, q, v):
+    """Side s of cut c at one state: (Rn (3, 3) the body's or node's frame -> world, R (3, 3) the
+    side frame's (Rn E), origin x (3,), angular and linear velocity w, u (3,), world, Jf (6, nv):
+    [angular; linear] velocity Jacobian in the node (or offset) frame, and the velocity-product
+    angular and (classical) linear accelerations al0, ac0 (3,), world)."""
+    i = cuts.body[c, s]
+    Ei = data.X0[i, :3, :3]                                         # global -> body rotation
+    if cuts.node[c, s]:
         a, nm = model.body_madr[i], model.body_nm[i]
-        Xn, Sn, cn = node_kinematics(np.ascontiguousarray(s.Phi), np.ascontiguousarray(s.D), s.x0,
-                                     q[a:a + nm].copy(), v[a:a + nm].copy())
-        Jf = Xn @ J[i]
+        eta_d = v[a:a + nm]
+        Xn, Sn, cn = node_kinematics(cuts.Phi[c, s, :, :nm], cuts.D[c, s, :nm, :nm], cuts.x0[c, s], q[a:a + nm],
+                                     eta_d)
+        Jf = mm(Xn, J[i])
         Jf[:, a:a + nm] += Sn
-        vrel = Sn @ v[a:a + nm]
-        vf = Xn @ data.v[i] + vrel
-        af0 = Xn @ a0[i] + cn + spatial.cross_motion(vf, vrel)
+        vrel = mv(Sn, eta_d)
+        vf = mv(Xn, data.v[i]) + vrel
+        af0 = mv(Xn, a0[i]) + cn + cross_motion(vf, vrel)
     else:
-        Xn = spatial.plux(np.eye(3), s.offset)
-        Jf, vf, af0 = Xn @ J[i], Xn @ data.v[i], Xn @ a0[i]
-    En, rn = Xn[:3, :3], body_origin(Xn)
-    Rn = Ei.T @ En.T                                                 # node frame -> world
-    R = Rn @ s.E
-    return Frame(R=R, x=ri + Ei.T @ rn, w=Rn @ vf[:3], v=Rn @ vf[3:], Jw=Rn @ Jf[:3], Jv=Rn @ Jf[3:],
-                 al0=Rn @ af0[:3], ac0=Rn @ (af0[3:] + cross(vf[:3], vf[3:])))
+        Xn = xlt(cuts.offset[c, s])
+        Jf, vf, af0 = mm(Xn, J[i]), mv(Xn, data.v[i]), mv(Xn, a0[i])
+    Rn = mtm(Ei, Xn[:3, :3].T)                                       # node frame -> world
+    x = body_origin(data.X0[i]) + mtv(Ei, body_origin(Xn))
+    af0[3:] += cross(vf[:3], vf[3:])
+    return (Rn, mm(Rn, cuts.E[c, s]), x, mv(Rn, vf[:3]), mv(Rn, vf[3:]), Jf, mv(Rn, af0[:3]),
+            mv(Rn, af0[3:]))
 
 
-def cross(a, b) -> np.ndarray:
+@njit
+def cross(a, b):
     """a x b of two 3-vectors (numpy's general cross costs ten times more on these)."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
-def body_origin(X) -> np.ndarray:
-    """r (3,): the origin of frame B in frame A, from X_{B<-A} = plux(E, r)."""
-    rx = -X[:3, :3].T @ X[3:, :3]
-    return np.array([rx[2, 1], rx[0, 2], rx[1, 0]])
+@njit
+def body_origin(X):
+    """r (3,): the origin of frame B in frame A, from X_{B<-A} = plux(E, r) = [E 0; -E r~ E]:
+    r~ = -E^T F, F its lower-left block."""
+    r = np.zeros(3)
+    for l in range(3):
+        r[0] -= X[l, 2] * X[3 + l, 1]
+        r[1] -= X[l, 0] * X[3 + l, 2]
+        r[2] -= X[l, 1] * X[3 + l, 0]
+    return r
 
 
-def rows(c: Cut, P: Frame, C: Frame):
-    """The cut's rows at one state: residual r (m,), G (m, nv), gamma (m,) (G qdd + gamma is the
-    rows' second time derivative), R (3, 3) (P's triad -> world)."""
-    R = P.R
-    d, dd = C.x - P.x, C.v - P.v
-    wT = R.T @ P.w
-    rdot_p = R.T @ (dd + cross(d, P.w))
-    G_p = R.T @ (C.Jv - P.Jv + spatial.skew(d) @ P.Jw)
-    g_p = R.T @ (C.ac0 - P.ac0 + cross(dd, P.w) + cross(d, P.al0)) - cross(wT, rdot_p)
-    rho = R.T @ (C.w - P.w)
-    G_r = R.T @ (C.Jw - P.Jw)
-    g_r = R.T @ (C.al0 - P.al0) - cross(wT, rho)
-    Q = R.T @ C.R                                   # child side in the triad (identity when closed)
-    if c.type == "revolute":                        # a x (Q a): the axis's misalignment
-        r_r = np.array([-Q[1, 2], Q[0, 2], 0.0])
-    else:                                           # the relative rotation's small-angle vector
-        r_r = 0.5 * np.array([Q[2, 1] - Q[1, 2], Q[0, 2] - Q[2, 0], Q[1, 0] - Q[0, 1]])
-    p, o = list(c.pos), list(c.rot)
-    return (np.concatenate([(R.T @ d)[p], r_r[o]]), np.vstack([G_p[p], G_r[o]]),
-            np.concatenate([g_p[p], g_r[o]]), R)
+@njit
+def rows(model, data, cuts, q, v):
+    """The cuts' rows at one state, after an evaluation there (data: its kinematics): residual r
+    (m,), G (m, nv), gamma (m,) (G qdd + gamma is the rows' second time derivative), and per cut
+    R (nc, 3, 3) (P's triad -> world) and x_C (nc, 3) (C's origin, world).
+
+    The velocity rows R^T (w_C - w_P) and R^T (v_C - v_P + d x w_P) take the sides' Jacobians
+    in their own frames, Jf, turned by R^T Rn (3, 3) once, not each turned to the world and back."""
+    nc, m, nv = cuts.body.shape[0], cuts.row_cut.size, v.size
+    J, a0 = tree_jacobians(model, data, nv)
+    r, G, g = np.empty(m), np.empty((m, nv)), np.empty(m)
+    R, xc = np.empty((nc, 3, 3)), np.empty((nc, 3))
+    r6, G6, g6 = np.empty(6), np.empty((6, nv)), np.empty(6)
+    for c in range(nc):
+        PRn, PR, Px, Pw, Pu, PJ, Pal, Pac = frame(model, data, J, a0, cuts, c, 0, q, v)
+        CRn, CR, Cx, Cw, Cu, CJ, Cal, Cac = frame(model, data, J, a0, cuts, c, 1, q, v)
+        d, dd = Cx - Px, Cu - Pu
+        wT = mtv(PR, Pw)
+        rdot_p = mtv(PR, dd + cross(d, Pw))
+        rho = mtv(PR, Cw - Pw)
+        Q = mtm(PR, CR)                             # child side in the triad (identity when closed)
+        r6[:3] = mtv(PR, d)
+        if cuts.revolute[c]:                        # a x (Q a): the axis's misalignment
+            r6[3], r6[4], r6[5] = -Q[1, 2], Q[0, 2], 0.0
+        else:                                       # the relative rotation's small-angle vector
+            r6[3], r6[4], r6[5] = 0.5 * (Q[2, 1] - Q[1, 2]), 0.5 * (Q[0, 2] - Q[2, 0]), 0.5 * (Q[1, 0] - Q[0, 1])
+        AC, AP = mtm(PR, CRn), -mtm(PR, PRn)        # each side's frame in the triad (P's taken away)
+        G6[:] = 0.0
+        mm_add_into(AC, CJ[3:], G6[:3])             # R^T (Ju_C - Ju_P + d~ Jw_P)
+        mm_add_into(AP, PJ[3:], G6[:3])
+        mm_add_into(mm(mtm(PR, skew(d)), PRn), PJ[:3], G6[:3])
+        mm_add_into(AC, CJ[:3], G6[3:])             # R^T (Jw_C - Jw_P)
+        mm_add_into(AP, PJ[:3], G6[3:])
+        g6[:3] = mtv(PR, Cac - Pac + cross(dd, Pw) + cross(d, Pal)) - cross(wT, rdot_p)
+        g6[3:] = mtv(PR, Cal - Pal) - cross(wT, rho)
+        for j in range(m):
+            if cuts.row_cut[j] == c:
+                kind = cuts.row_kind[j]
+                r[j], G[j], g[j] = r6[kind], G6[kind], g6[kind]
+        R[c], xc[c] = PR, Cx
+    return r, G, g, R, xc
+
+
+# ---------------------------------------------------------------------------------------------
+# the constrained accelerations and the projection (compiled; k is an entry, `compiled.entry.handle`)
+
+
+@njit
+def cut_state(k, cuts, t, q, v):
+    """One tree evaluation at (t, q, v) through the entry k and the cuts' rows there: ([dq/dt;
+    qdd_0] (nq+nv,), r, G, gamma, R, x_C) (`rows`). q, v C-contiguous."""
+    b = bound_of(k)
+    out = np.empty(q.size + v.size)
+    call(k, t, q, v, np.zeros(v.size), out, RATES)
+    r, G, g, R, xc = rows(b.model, b.data, cuts, q, v)
+    return out, r, G, g, R, xc
+
+
+@njit
+def cut_rows(k, cuts, t, q, v):
+    """The cuts' rows at (t, q, v) (`rows`) after the tree's kinematics alone (the entry's
+    KINEMATICS: no inertia, no accelerations). q, v C-contiguous."""
+    b = bound_of(k)
+    call(k, t, q, v, v, v, KINEMATICS)               # (tau and out are not read)
+    return rows(b.model, b.data, cuts, q, v)
+
+
+@njit
+def constrained_rates(k, cuts, t, q, v):
+    """([dq/dt; qdd] (nq+nv,), lam (m,), G (m, nv), R, x_C): the constrained state rates at (t, q,
+    v), the multipliers, the rows' Jacobian (G^T lam: the constraint forces, generalized) and the
+    cut frames (`rows`). K = M^-1 G^T column by column from the evaluation's factored articulated
+    inertias (`dynamics.response`); lam solves (G K) lam = -gamma - G qdd_0, least squares and
+    least norm (singular values below RANK of the largest dropped: a planar loop's redundant
+    rows; `dense.sym_lstsq`, nan when not finite)."""
+    out, _, G, g, R, xc = cut_state(k, cuts, t, q, v)
+    nq, nv, m = q.size, v.size, G.shape[0]
+    b = bound_of(k)
+    K = np.empty((nv, m))
+    for j in range(m):                              # inlined: through the entry, the call costs as much
+        K[:, j] = response(b.model, b.data, G[j])   # as the response
+    lam = sym_lstsq(mm(G, K), -g - mv(G, out[nq:]), RANK)          # G K = G M^-1 G^T: symmetric
+    out[nq:] += mv(K, lam)
+    return out, lam, G, R, xc
+
+
+@njit
+def lstsq_dep(G, dep, b):
+    """The least-squares, least-norm x (nd,) of G[:, dep] x = b (singular values below RANK of the
+    largest dropped); nan where G or b is not finite (numpy's lstsq refuses them)."""
+    A = np.empty((G.shape[0], dep.size))
+    for j in range(dep.size):
+        A[:, j] = G[:, dep[j]]
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+        return np.full(dep.size, np.nan)
+    return np.linalg.lstsq(A, b, rcond=RANK)[0]
+
+
+@njit
+def project(k, cuts, t, q, v, iterations):
+    """Close the loops at time t in place: Newton on the position rows over the dependent
+    coordinates cuts.dep (the others keep their values; at most `iterations` corrections), then
+    the prescribed joints on their profiles and the velocities projected onto G v = 0 over the
+    dependent ones. q, v C-contiguous. True when closed; False leaves the largest residual and its
+    row in cuts.fail (q, v then partly corrected)."""
+    dep = cuts.dep
+    for it in range(iterations + 1):
+        r, G = cut_rows(k, cuts, t, q, v)[:2]
+        worst = np.abs(r).max()
+        if not worst >= CLOSED or it == iterations:     # closed, not finite, or out of iterations
+            break
+        dq = lstsq_dep(G, dep, r)
+        for j in range(dep.size):
+            q[dep[j]] -= dq[j]
+    if not np.isfinite(worst) or worst >= 1e3 * CLOSED:
+        cuts.fail[0] = worst
+        cuts.fail[1] = np.argmax(np.abs(r)) if np.isfinite(worst) else 0
+        return False
+    b = bound_of(k)
+    qp, vp = prescribed(b.model, b.data, t, q, v)
+    q[:] = qp
+    v[:] = vp
+    dv = lstsq_dep(G, dep, mv(G, v))
+    for j in range(dep.size):
+        v[dep[j]] -= dv[j]
+    return True
 
 
 # ---------------------------------------------------------------------------------------------
@@ -202,29 +361,28 @@ def rows(c: Cut, P: Frame, C: Frame):
 
 class Loops:
     """The cut joints (`Cut`s: a case's are `build.cuts`) on a Model: evaluation, assembly and
-    projection."""
+    projection, through compiled code on the arrays (`arrays`, `CutArrays`) with a Data of its own."""
 
     NotClosed = NotClosed
 
     def __init__(self, model: Model, cuts: list):
         self.model, self.cuts = model, list(cuts)
         self.data = make_data(model)
-        self.zero = np.zeros(model.nv)
+        self.bound = bind(model, self.data)         # alive as long as the Loops: reached by address
+        self.entry = handle(self.bound)
+        self.arrays = pack(model, self.cuts)
         self.dep = None
 
+    @staticmethod
+    def _contiguous(q, v):
+        """q, v as the compiled functions take them: C-contiguous float arrays."""
+        return np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float)
+
     def state(self, t, q, v):
-        """One tree evaluation at (t, q, v): ([dq/dt; qdd_0] (nq+nv,), r, G, gamma, frames per cut)."""
-        m, data = self.model, self.data
-        q, v = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float)
-        rates = entry.rates(m, data, float(t), q, v, self.zero)
-        J, a0 = tree_jacobians(m, data)                 # (modal coordinates are never prescribed)
-        parts, frames = [], []
-        for c in self.cuts:
-            P, C = frame(m, data, J, a0, c.P, q, v), frame(m, data, J, a0, c.C, q, v)
-            parts.append(rows(c, P, C))
-            frames.append((P, C))
-        r, G, g = (np.concatenate([x[k] for x in parts]) for k in range(3))
-        return rates, r, G, g, frames
+        """One tree evaluation at (t, q, v): ([dq/dt; qdd_0] (nq+nv,), r, G, gamma, frames), frames
+        (R (nc, 3, 3), x_C (nc, 3)) as `rows` gives them."""
+        rates, r, G, g, R, xc = cut_state(self.entry, self.arrays, float(t), *self._contiguous(q, v))
+        return rates, r, G, g, (R, xc)
 
     def prescribed(self, t, q, v):
         """q, v with the prescribed joints on their profiles at t (as the evaluation sees them)."""
@@ -238,18 +396,10 @@ class Loops:
 
     def rates(self, t, q, v):
         """([dq/dt; qdd] (nq+nv,), lam (m,), G (m, nv), frames): the constrained state rates, the
-        multipliers and the rows' Jacobian (G^T lam: the constraint forces, generalized)."""
-        rates, r, G, g, frames = self.state(t, q, v)
-        qdd0 = rates[self.model.nq:]
-        K = np.empty((self.model.nv, G.shape[0]))
-        q, v = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float)
-        for k in range(G.shape[0]):             # the response is linear in tau: a large force s G_k keeps the
-            s = 1e6 / max(np.abs(G[k]).max(), 1e-300)   # difference from qdd_0 free of qdd_0's round-off
-            tau = np.ascontiguousarray(s * G[k])
-            K[:, k] = (entry.forward(self.model, self.data, float(t), q, v, tau) - qdd0) / s
-        lam = np.linalg.lstsq(G @ K, -g - G @ qdd0, rcond=RANK)[0]
-        rates[self.model.nq:] += K @ lam
-        return rates, lam, G, frames
+        multipliers and the rows' Jacobian (G^T lam: the constraint forces, generalized)
+        (`constrained_rates`)."""
+        rates, lam, G, R, xc = constrained_rates(self.entry, self.arrays, float(t), *self._contiguous(q, v))
+        return rates, lam, G, (R, xc)
 
     # -- assembly and projection on the dependent coordinates
 
@@ -279,24 +429,21 @@ class Loops:
                 return float(max((np.abs(b).max() for b in blocks), default=0.0))
         return 0.0
 
-    def close(self, t, q, v, iterations: int = 30):
-        """(q, v) with the dependent coordinates corrected: Newton on the position rows, then the
-        velocities projected onto G v = 0. Raises NotClosed (joint, residual) when it fails."""
-        q, v = np.array(q, dtype=float), np.array(v, dtype=float)
+    def closing(self, t, q, v) -> CutArrays:
+        """The arrays with the dependent coordinates, partitioned at (t, q, v) on the first call."""
         if self.dep is None:
             self.dep = self.partition(q, v, t)
-        dep = self.dep
-        for _ in range(iterations):
-            _, r, G, _, _ = self.state(t, q, v)
-            if np.abs(r).max() < CLOSED:
-                break
-            q[dep] -= np.linalg.lstsq(G[:, dep], r, rcond=RANK)[0]
-        _, r, G, _, _ = self.state(t, q, v)
-        if not np.all(np.isfinite(r)) or np.abs(r).max() >= 1e3 * CLOSED:
-            k = int(np.nanargmax(np.abs(r))) if np.any(np.isfinite(r)) else 0
-            raise NotClosed(self.row_joint(k), float(np.abs(r).max()))
-        q, v = self.prescribed(t, q, v)
-        v[dep] -= np.linalg.lstsq(G[:, dep], G @ v, rcond=RANK)[0]
+            self.arrays = self.arrays._replace(dep=np.asarray(self.dep, dtype=np.int64))
+        return self.arrays
+
+    def close(self, t, q, v, iterations: int = 30):
+        """(q, v) with the dependent coordinates corrected: Newton on the position rows, then the
+        velocities projected onto G v = 0 (`project`). Raises NotClosed (joint, residual) when it
+        fails."""
+        q, v = np.array(q, dtype=float), np.array(v, dtype=float)
+        arrays = self.closing(t, q, v)
+        if not project(self.entry, arrays, float(t), q, v, iterations):
+            raise NotClosed(self.row_joint(int(arrays.fail[1])), float(arrays.fail[0]))
         return q, v
 
     def row_joint(self, k: int) -> str:
@@ -316,14 +463,14 @@ class Loops:
     def wrenches(self, lam, frames) -> list:
         """Per cut joint (name, force f (3,), moment n (3,), point x (3,)), world components: what
         the cut exerts on its child at C (the parent side takes -f, -n at the same point)."""
-        out, k = [], 0
-        for c, (P, C) in zip(self.cuts, frames):
+        (R, xc), out, k = frames, [], 0
+        for i, c in enumerate(self.cuts):
             f, n = np.zeros(3), np.zeros(3)
             f[list(c.pos)] = lam[k:k + len(c.pos)]
             k += len(c.pos)
             n[list(c.rot)] = lam[k:k + len(c.rot)]
             k += len(c.rot)
-            out.append((c.name, P.R @ f, P.R @ n, C.x))
+            out.append((c.name, R[i] @ f, R[i] @ n, xc[i]))
         return out
 
     def reactions(self, lam, frames) -> dict:

@@ -353,6 +353,66 @@ def passes23(model, data, tau):
 
 
 # ---------------------------------------------------------------------------------------------
+# the response to a generalized force (after `aba`)
+
+
+@njit(inline="always")
+def response(model, data, tau):
+    """M^-1 tau (nv,) at the state of the last `aba`, from the articulated inertias it factored
+    (data.Lm, W, Uj, dinv, Xup, U, S, which stay): what tau adds to that evaluation's
+    accelerations, with no velocity product, gravity or profile (a prescribed joint's entry of
+    tau is ignored and its acceleration is 0). Passes 2 and 3 on the bias alone, about a quarter
+    of an evaluation; the bias workspace (data.pA, pa, y, u, a) and data.qdd are overwritten, and
+    data.qdd is the result (copy it to keep it)."""
+    qdd = data.qdd
+    for i in range(1, model.parent.size):              # each body's own bias: tau's modal entries
+        a, nm = model.body_madr[i], model.body_nm[i]
+        data.pA[i, :6] = 0.0
+        for r in range(nm):
+            data.pA[i, 6 + r] = -tau[a + r]
+    for i in range(model.parent.size - 1, 0, -1):     # pass 2 on the bias: modes, then the joint
+        nm = model.body_nm[i]
+        pA, pa = data.pA[i, :6 + nm], data.pa[i]
+        pa[:] = pA[:6]
+        if nm > 0:
+            y = forward_subst(data.Lm[i, :nm, :nm], pA[6:].reshape(nm, 1))[:, 0]
+            data.y[i, :nm] = y
+            pa -= mtv(data.W[i, :nm], y)
+        kv, nvj = model.jnt_vadr[i], model.jnt_nv[i]
+        if not model.jnt_prescribed[i] and nvj > 0:   # a prescribed joint passes the bias on unchanged
+            u = tau[kv:kv + nvj] - mtv(data.S[i, :, :nvj], pa)
+            data.u[i, :nvj] = u
+            mv_add_into(data.Uj[i, :, :nvj], mv(data.dinv[i, :nvj, :nvj], u), pa)
+        lam = model.parent[i]
+        if lam == 0:
+            continue
+        if model.jnt_node[i] >= 0:
+            n = 6 + model.body_nm[lam]
+            xtv_add_into(data.Xup[i], pa, data.pA[lam, :6])
+            mtv_add_into(data.U[i, :, :n - 6], pa, data.pA[lam, 6:n])
+        else:
+            xtv_add_into(data.Xup[i], pa, data.pA[lam])
+    data.a[0] = 0.0
+    for i in range(1, model.parent.size):              # pass 3 from rest: no c, no gravity
+        lam, a = model.parent[i], data.a[i]
+        xmv_into(data.Xup[i], data.a[lam], a)
+        if model.jnt_node[i] >= 0:
+            ma, nml = model.body_madr[lam], model.body_nm[lam]
+            mv_add_into(data.U[i, :, :nml], qdd[ma:ma + nml], a)
+        kv, nvj = model.jnt_vadr[i], model.jnt_nv[i]
+        if model.jnt_prescribed[i]:
+            qdd[kv:kv + nvj] = 0.0
+        elif nvj > 0:
+            qdd[kv:kv + nvj] = mv(data.dinv[i, :nvj, :nvj], data.u[i, :nvj] - mtv(data.Uj[i, :, :nvj], a))
+        mv_add_into(data.S[i, :, :nvj], qdd[kv:kv + nvj], a)
+        nm = model.body_nm[i]
+        if nm > 0:
+            ma = model.body_madr[i]
+            qdd[ma:ma + nm] = -back_subst_vec(data.Lm[i, :nm, :nm], mv(data.W[i, :nm], a) + data.y[i, :nm])
+    return qdd
+
+
+# ---------------------------------------------------------------------------------------------
 # energies (after pass1; `compiled.entry.energy` evaluates them)
 
 

@@ -401,37 +401,42 @@ def duty_cycle(progress=None, settings=DUTY_SETTINGS, name: str = DUTY) -> dict:
 # closed loops: each solver's fastest setting within a target of its own converged run
 
 LOOPS = ("four_bar", "slider_crank")
-# each solver's settings, coarse to fine, the last its converged run: flexmbd's dopri5 tolerance
-# (the cases': 1e-8), the Exudyn adapters' steps (their generalized-alpha, the cases' schemes)
+# each solver's settings, coarse to fine: flexmbd's fox-goodwin steps (Newton to 1e-4) and dopri5
+# tolerances, the Exudyn adapters' steps (each case's scheme); then LOOP_CONVERGED, its converged run
 LOOP_SETTINGS = {
-    "flexmbd": [(f"rtol={r:g}", [f"integrator.rtol={r}", f"integrator.atol={r / 10}"]) for r in (1e-4, 1e-6, 1e-8, 1e-11)],
-    **{s: [(f"dt={dt:g}", [f"solvers.{s}.dt={dt}"]) for dt in (1e-4, 5e-5, 2.5e-5, 1.25e-5, 6.25e-6)]
+    "flexmbd": [(f"fox-goodwin dt={dt:g}", ["integrator.method=fox-goodwin", f"integrator.dt={dt}",
+                                            "integrator.rtol=1e-4", "integrator.atol=1e-6"]) for dt in (1e-4, 5e-5, 2.5e-5)]
+    + [(f"dopri5 rtol={r:g}", ["integrator.method=dopri5", f"integrator.rtol={r}", f"integrator.atol={r / 10}"])
+       for r in (1e-4, 1e-6, 1e-8)],
+    **{s: [(f"dt={dt:g}", [f"solvers.{s}.dt={dt}"]) for dt in (1e-4, 5e-5, 2.5e-5, 1.25e-5)]
        for s in ("exudyn-beam", "exudyn-ffrf")}}
+LOOP_CONVERGED = {"flexmbd": ["integrator.method=dopri5", "integrator.rtol=1e-12", "integrator.atol=1e-14"],
+                  **{s: [f"solvers.{s}.dt=3.125e-6"] for s in ("exudyn-beam", "exudyn-ffrf")}}
 LOOP_TARGET = 1e-3          # the worst deflection channel's RMS difference from the solver's own converged run
 
 
-def loops(progress=None, settings=LOOP_SETTINGS, names=LOOPS) -> dict:
+def loops(progress=None, settings=LOOP_SETTINGS, converged=LOOP_CONVERGED, names=LOOPS) -> dict:
     """Each solver of `settings` on each closed-loop case at each of its settings: rows {case,
     solver, setting, error (the worst deflection channel's RMS difference from the solver's own
-    converged run, over its largest magnitude: `deflection_error`), error_reference (from the
-    case's reference at the case's settings), wall_s}; per case the fastest setting of each solver
-    within LOOP_TARGET of its own converged run and flexmbd's time over each peer's."""
+    converged run, `converged`, over its largest magnitude: `deflection_error`), error_reference
+    (from the case's reference at the case's settings), wall_s}; per case the fastest setting of
+    each solver within LOOP_TARGET of its own converged run and flexmbd's time over each peer's."""
     rows, fastest = [], []
     for name in names:
         ref_solver, ref = reference_run(name)
         for solver, grid in settings.items():
-            runs = []
+            own = registry.run(cases.load(name, converged[solver]), solver)
+            mine = []
             for setting, over in grid:
                 case = cases.load(name, over)
-                runs.append((setting, case, registry.run(case, solver)))
-            converged = runs[-1][2]
-            for setting, case, r in runs:
-                rows.append({"case": name, "solver": solver, "setting": setting, "scheme": "loop",
-                             "error": deflection_error(case, converged, r), "error_reference": deflection_error(case, ref, r),
+                r = registry.run(case, solver)
+                mine.append({"case": name, "solver": solver, "setting": setting, "scheme": "loop",
+                             "error": deflection_error(case, own, r), "error_reference": deflection_error(case, ref, r),
                              "wall_s": r.wall_s, "status": str(r.status)})
                 if progress:
-                    progress(rows[-1])
-            ok = [r for r in rows[-len(runs):-1] if finite(r["error"]) and r["error"] <= LOOP_TARGET]
+                    progress(mine[-1])
+            rows += mine
+            ok = [r for r in mine if finite(r["error"]) and r["error"] <= LOOP_TARGET]
             best = min(ok, key=lambda r: r["wall_s"]) if ok else None
             fastest.append({"case": name, "solver": solver, "setting": best["setting"] if best else "",
                             "wall_s": best["wall_s"] if best else np.nan,
@@ -461,7 +466,7 @@ def run(quick: bool = False, with_work_precision: bool = True, progress=None, st
     out["solid_mesh"] = solid_mesh({"5k": SOLID_MESHES["5k"]} if quick else SOLID_MESHES)
     if not quick:                                       # minutes: 12 runs of 50 revolutions
         out["duty_cycle"] = duty_cycle(progress)
-        out["loops"] = loops(progress)                  # minutes: 28 runs of two closed-loop cases
+        out["loops"] = loops(progress)                  # minutes: 34 runs of two closed-loop cases
     if with_work_precision:
         names = ["cantilever_step"] if quick else ["cantilever_step", "pendulum", "double_pendulum"]
         if quick:

@@ -116,3 +116,31 @@ def test_the_duty_cycle_grades_each_setting_against_the_solver_s_own_converged_c
     assert mine["error_reference"] < 0.05                    # the case's own S_eq verdict: flexmbd 3.1 % off
     best = {r["solver"]: r for r in got["fastest"]}
     assert best["flexmbd"]["setting"] == "rtol=1e-8" and best["exudyn-beam"]["setting"] in ("dt=5e-5", "dt=2.5e-5")
+
+
+def test_the_loops_section_grades_each_setting_against_the_solver_s_own_converged_run():
+    """bench.loops on slider_crank with two settings each of flexmbd and exudyn-ffrf and a converged
+    run given: each row's error is its worst deflection channel's RMS difference from that
+    converged run (`deflection_error`, recomputed here), a converged setting repeated as a row has
+    error 0, the fastest setting within 1e-3 is named, and flexmbd's time over exudyn-ffrf's is
+    the ratio of those fastest times."""
+    from flexmbd import cases
+    from flexmbd.harness import registry
+    tight = ["integrator.method=dopri5", "integrator.rtol=1e-10", "integrator.atol=1e-12"]
+    grid = {"flexmbd": [("fox-goodwin dt=1e-4", ["integrator.method=fox-goodwin", "integrator.dt=1e-4",
+                                                 "integrator.rtol=1e-4", "integrator.atol=1e-6"]),
+                        ("dopri5 rtol=1e-10", tight)],
+            "exudyn-ffrf": [("dt=1e-4", ["solvers.exudyn-ffrf.dt=1e-4"]), ("dt=5e-5", ["solvers.exudyn-ffrf.dt=5e-5"])]}
+    got = bench.loops(settings=grid, converged={"flexmbd": tight, "exudyn-ffrf": ["solvers.exudyn-ffrf.dt=5e-5"]},
+                      names=("slider_crank",))
+    rows = {(r["solver"], r["setting"]): r for r in got["rows"]}
+    assert len(rows) == 4 and rows[("flexmbd", "dopri5 rtol=1e-10")]["error"] == 0.0
+    assert rows[("exudyn-ffrf", "dt=5e-5")]["error"] == 0.0
+    case = cases.load("slider_crank", grid["flexmbd"][0][1])
+    own = registry.run(cases.load("slider_crank", tight), "flexmbd")
+    again = bench.deflection_error(case, own, registry.run(case, "flexmbd"))
+    assert rows[("flexmbd", "fox-goodwin dt=1e-4")]["error"] == pytest.approx(again, rel=1e-6, abs=1e-12)
+    best = {r["solver"]: r for r in got["fastest"]}
+    assert all(best[s]["setting"] for s in grid)
+    (ratio,) = got["ratios"]
+    assert ratio["peer"] == "exudyn-ffrf" and ratio["ratio"] == best["flexmbd"]["wall_s"] / best["exudyn-ffrf"]["wall_s"]

@@ -26,6 +26,19 @@ def mm_into(A, B, out):
 
 
 @njit(inline="always")
+def mm_add_into(A, B, out):
+    """out += A B: (m, k) (k, n) -> out (m, n); out must not overlap A or B."""
+    m, k = A.shape
+    n = B.shape[1]
+    for i in range(m):
+        for j in range(n):
+            s = 0.0
+            for l in range(k):
+                s += A[i, l] * B[l, j]
+            out[i, j] += s
+
+
+@njit(inline="always")
 def mv_into(A, x, out):
     """out = A x: (m, k) (k,) -> out (m,)."""
     m, k = A.shape
@@ -157,3 +170,64 @@ def chol_solve(L, B):
 def inv_spd(A):
     """A^-1 (n, n) of a symmetric positive definite A, through its Cholesky factor."""
     return chol_solve(cholesky(A), np.eye(A.shape[0]))
+
+
+@njit
+def eig_sym(A):
+    """Eigenvalues w (n,) and eigenvectors V (n, n) (columns, orthonormal) of a symmetric A (n, n)
+    by cyclic Jacobi rotations, until the off-diagonal part is below round-off of the whole."""
+    n = A.shape[0]
+    a, V = A.copy(), np.eye(n)
+    for _ in range(50):
+        off, total = 0.0, 0.0
+        for i in range(n):
+            for j in range(n):
+                total += a[i, j] * a[i, j]
+                if i != j:
+                    off += a[i, j] * a[i, j]
+        if off <= 1e-32 * total:
+            break
+        for p in range(n - 1):
+            for q in range(p + 1, n):
+                if a[p, q] == 0.0:
+                    continue
+                theta = (a[q, q] - a[p, p]) / (2.0 * a[p, q])
+                t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + np.sqrt(theta * theta + 1.0))
+                c = 1.0 / np.sqrt(t * t + 1.0)
+                s = t * c
+                for k in range(n):                     # a <- a J, then J^T a; V <- V J
+                    akp, akq = a[k, p], a[k, q]
+                    a[k, p], a[k, q] = c * akp - s * akq, s * akp + c * akq
+                for k in range(n):
+                    apk, aqk = a[p, k], a[q, k]
+                    a[p, k], a[q, k] = c * apk - s * aqk, s * apk + c * aqk
+                for k in range(n):
+                    vkp, vkq = V[k, p], V[k, q]
+                    V[k, p], V[k, q] = c * vkp - s * vkq, s * vkp + c * vkq
+    w = np.empty(n)
+    for i in range(n):
+        w[i] = a[i, i]
+    return w, V
+
+
+@njit
+def sym_lstsq(A, b, rcond):
+    """The least-squares, least-norm x (n,) of A x = b for a symmetric A (n, n) (its symmetric
+    part taken), eigenvalues of magnitude below rcond times the largest dropped: numpy's lstsq
+    with that rcond, whose singular values these magnitudes are. nan where A or b is not finite."""
+    n = b.size
+    x = np.zeros(n)
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+        x[:] = np.nan
+        return x
+    w, V = eig_sym(0.5 * (A + A.T))
+    cut = rcond * np.abs(w).max()
+    for i in range(n):
+        if abs(w[i]) > cut:
+            c = 0.0
+            for k in range(n):
+                c += V[k, i] * b[k]
+            c /= w[i]
+            for k in range(n):
+                x[k] += c * V[k, i]
+    return x

@@ -1,5 +1,5 @@
 """The kernel's one compiled entry, `evaluate`, and the calls into it: `forward` and `energy`
-from Python, `rhs` from the compiled integrators.
+from Python, `rhs` and `call` from the compiled integrators and the closed loops' rows.
 
 `evaluate` is a C function (numba cfunc): the profiles at time t, the coordinate rates and the
 articulated-body algorithm (`dynamics`) for the Bound at an address. It is compiled once; the
@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numba import carray, types
 
-from flexmbd.mbd.dynamics import aba, kinetic_energy, pass1, passes23, potential_energy, prescribed
+from flexmbd.mbd.dynamics import (aba, forward_kinematics, kinetic_energy, pass1, passes23, potential_energy,
+                                  prescribed, response)
 from flexmbd.mbd.compiled.jit import PURE_PYTHON, cfunc, njit
 from flexmbd.mbd.joints import qdot
 from flexmbd.mbd.compiled.bound import Bound, bind, bound_at, call_entry
@@ -25,7 +26,7 @@ _P = types.CPointer(types.float64)
 SIGNATURE = types.void(types.intp, types.float64, _P, _P, _P, _P, types.intp, types.intp, types.intp)
 
 
-ACCELERATIONS, RATES, ENERGY = 0, 1, 2      # what `evaluate` computes (its last argument)
+ACCELERATIONS, RATES, ENERGY, RESPONSE, KINEMATICS = 0, 1, 2, 3, 4     # what `evaluate` computes (its last argument)
 
 
 def evaluate(address, t, q_ptr, v_ptr, tau_ptr, out_ptr, nq, nv, mode):
@@ -34,12 +35,22 @@ def evaluate(address, t, q_ptr, v_ptr, tau_ptr, out_ptr, nq, nv, mode):
     (RATES), or the kinetic and potential energy of the state as it is, no profile applied, into
     out (2,) (ENERGY). The energy is here, after `aba`'s first pass (the bodies' mass matrices
     M_i(eta) included), so that it is compiled with the rest, not as a second copy of the
-    kinematics and the mass matrix in a function of its own (16 s of a first run's compilation)."""
+    kinematics and the mass matrix in a function of its own (16 s of a first run's compilation).
+    RESPONSE: M^-1 tau at the state of the last ACCELERATIONS or RATES evaluation into out (nv,)
+    (`dynamics.response`; t, q and v are not read). KINEMATICS: the profiles and the kinematics
+    of pass 1 alone (`dynamics.forward_kinematics`: transforms, velocities, velocity products),
+    nothing into out."""
     b = bound_at(address)
     model, data = b.model, b.data
     q, v, tau = carray(q_ptr, nq), carray(v_ptr, nv), carray(tau_ptr, nv)
+    if mode == RESPONSE:
+        carray(out_ptr, nv)[:] = response(model, data, tau)
+        return
     if mode != ENERGY:
         q, v = prescribed(model, data, t, q, v)
+    if mode == KINEMATICS:
+        forward_kinematics(model, data, q, v)
+        return
     pass1(model, data, q, v, tau)                       # `aba`'s first pass, shared
     if mode == ENERGY:
         out = carray(out_ptr, 2)
@@ -75,6 +86,20 @@ def rhs(k, t, y, nq):
     out = np.empty(y.size)
     call_entry(k[0], k[1], t, y[:nq], y[nq:], np.zeros(y.size - nq), out, RATES)
     return out
+
+
+@njit
+def call(k, t, q, v, tau, out, mode):
+    """One call of the entry `k` (`handle`) from compiled code: `evaluate`'s mode at time t for
+    q (nq,), v (nv,), tau (nv,), out; each C-contiguous (they go by their data pointers)."""
+    call_entry(k[0], k[1], t, q, v, tau, out, mode)
+
+
+@njit
+def bound_of(k):
+    """The Bound behind the entry `k` (`handle`), for compiled code that reads its model's arrays
+    and the Data an evaluation left (the caller keeps the Bound alive)."""
+    return bound_at(k[1])
 
 
 @njit
@@ -146,6 +171,29 @@ if PURE_PYTHON:                                         # no addresses: the same
         qdot(model, q, v, out[:nq])
         out[nq:] = aba(model, data, q, v, np.zeros(v.size))
         return out
+
+    def call(k, t, q, v, tau, out, mode):                # noqa: F811
+        """`call` uncompiled: `evaluate`'s modes on k, a PlainBound."""
+        model, data = k.model, k.data
+        if mode == RESPONSE:
+            out[:] = response(model, data, tau)
+            return
+        if mode == ENERGY:
+            pass1(model, data, q, v, tau)
+            out[0], out[1] = kinetic_energy(model, data, v), potential_energy(model, data, q)
+            return
+        q, v = prescribed(model, data, t, q, v)
+        if mode == KINEMATICS:
+            forward_kinematics(model, data, q, v)
+            return
+        qdd = aba(model, data, q, v, tau)
+        if mode == RATES:
+            qdot(model, q, v, out[:q.size])
+            out[q.size:] = qdd
+
+    def bound_of(k):                                    # noqa: F811
+        """`bound_of` uncompiled: k is the PlainBound itself."""
+        return k
 
     def forward(model: Model, data: Data, t: float, q, v, tau) -> np.ndarray:  # noqa: F811
         """`forward` uncompiled: the same passes on the NamedTuples."""

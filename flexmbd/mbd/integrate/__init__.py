@@ -6,7 +6,8 @@ Methods (the case's `[integrator] method`):
   fox-goodwin  Newmark beta = 1/12, gamma = 1/2, fixed step `dt`, compiled as a whole: Newton
           on the accelerations with a reused finite-difference iteration matrix (rtol/atol are
           its tolerance). Phase error (w h)^4/480, stable for w_max h < sqrt(6) like an explicit
-          method, but one or two evaluations per step
+          method, but one or two evaluations per step. dopri5 and fox-goodwin also integrate a
+          tree closed by cut joints (`simulate_loops`), with the loops' rates and projection inside
   exp-adams  exponential Adams predictor-corrector (PECE, order 3), fixed step `dt`, compiled
           (`exp_adams`): f(y) = L y + N(y) with L the Jacobian, re-linearized every `refresh`
           steps, the case's `integrator.refresh` (default EXP_REFRESH): where dq/dt = v,
@@ -37,17 +38,17 @@ from flexmbd.mbd.compiled.bound import bind
 from flexmbd.mbd.compiled.entry import handle
 from flexmbd.mbd.compiled.jit import compiling
 from flexmbd.mbd.integrate.base import (DIVERGED, DIVERGING, NEWTON, NON_FINITE, NONFINITE, OK, TOO_SMALL, WHY, Ended,
-                                        Simulation, Stop, failed, judge, reached, rhs_function, state_code)
+                                        Simulation, Stop, failed, judge, rates, reached, rhs_function, state_code)
 from flexmbd.mbd.integrate.dopri5 import _dopri5, dopri5
 from flexmbd.mbd.integrate.exp_adams import (EXP_REFRESH, NOT_DIAGONAL, _exp_adams, cmv, cmv_real,
                                              second_order_basis)
 from flexmbd.mbd.integrate.fox_goodwin import _fox_goodwin, fox_goodwin, newmark_matrix
-from flexmbd.mbd.integrate.loops import PROJECTED, simulate_loops
+from flexmbd.mbd.integrate.loops import COMPILED as COMPILED_LOOPS, PROJECTED, simulate_loops
 from flexmbd.mbd.integrate.stepping import _adams, _rk4, _solve_ivp
 from flexmbd.mbd.model import Model, make_data
 
-__all__ = ["DIVERGED", "EXP_REFRESH", "NON_FINITE", "PROJECTED", "Ended", "Simulation", "Stop", "failed", "simulate",
-           "simulate_loops", "warm_up", "cmv", "cmv_real", "second_order_basis",
+__all__ = ["COMPILED_LOOPS", "DIVERGED", "EXP_REFRESH", "NON_FINITE", "PROJECTED", "Ended", "Simulation", "Stop",
+           "failed", "simulate", "simulate_loops", "warm_up", "cmv", "cmv_real", "second_order_basis",
            "OK", "NONFINITE", "DIVERGING", "TOO_SMALL", "NEWTON", "NOT_DIAGONAL", "WHY"]   # a run's end codes, their words
 
 
@@ -112,20 +113,31 @@ def simulate(model: Model, t_end: float, method: str = "adams", rtol: float = 1e
                       steps=steps, rhs_evals=count[0], wall_s=wall, settings=settings)
 
 
-def warm_up(model: Model, method: str = "") -> None:
+def warm_up(model: Model, method: str = "", loops=None) -> None:
     """Compile (or load from the cache) the kernel's entry, `rhs` and the compiled integrator of
     `method` ("dopri5", "fox-goodwin", "exp-adams"; none for any other), so that no compilation lands inside a
-    timed run. Only what the run uses: each integrator compiles on its first use."""
+    timed run. Only what the run uses: each integrator compiles on its first use. With `loops`
+    (`constraints.Loops`): its closure at the start, and dopri5 or fox-goodwin on its constrained
+    rates (their first evaluation alone, no projection)."""
     with compiling():
         b, nq = bind(model, make_data(model)), model.nq
         ev = handle(b)
         y0 = np.concatenate([model.q0, model.v0])
         rhs_function(model)[0](0.0, y0)
         t, Y, counts = np.zeros(2), np.zeros((2, y0.size)), np.zeros(3, dtype=np.int64)
+        cuts = None if loops is None else loops.arrays
+        if loops is not None:
+            try:
+                loops.close(0.0, model.q0, model.v0)
+            except loops.NotClosed:                 # the run says so
+                pass
+            rates(ev, cuts, 0.0, y0, nq)             # as the drivers call it, from Python
+            t = t[:1]                                # the first evaluation alone: y0 is not closed
         if method == "dopri5":
-            dopri5(ev, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts)
+            dopri5(ev, nq, y0.copy(), t, Y, 1e-6, 1e-6, 1e-8, 1e-3, counts, cuts)
         if method == "fox-goodwin" and model.nq == model.nv and model.nv:   # nothing to compile for: no states
-            newmark_matrix(ev, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5)
-            fox_goodwin(ev, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts)
+            newmark_matrix(ev, nq, 0.0, y0, 1e-4, 1.0 / 12.0, 0.5, cuts)
+            fox_goodwin(ev, nq, y0.copy(), np.zeros(model.nv), t, Y, 1e-4, 1e-6, 1e-8, np.eye(model.nv), counts,
+                        cuts)
         if method == "exp-adams" and y0.size:      # one short step compiles it
             _exp_adams(model, y0, np.array([0.0, 1e-6]), np.zeros((2, y0.size)), 1e-6, 1e-6, None)

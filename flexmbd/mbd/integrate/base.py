@@ -1,6 +1,7 @@
 """What every integrator shares: a run's end (`Ended`, `Stop`), its samples (`Simulation`), the
-right-hand side called from Python (`rhs_function`), the divergence rule on a state (`state_code`,
-its words WHY) and the chunked driving of a compiled step loop with its checks (`_in_chunks`)."""
+right-hand side called from Python (`rhs_function`) and from the compiled step loops, of a tree or
+of closed loops (`rates`), the divergence rule on a state (`state_code`, its words WHY) and the
+chunked driving of a compiled step loop with its checks (`_in_chunks`)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import numpy as np
 from flexmbd.mbd.compiled.bound import bind
 from flexmbd.mbd.compiled.entry import handle, rhs
 from flexmbd.mbd.compiled.jit import njit
+from flexmbd.mbd.constraints import constrained_rates
 from flexmbd.mbd.model import Model, make_data
 
 
@@ -66,8 +68,22 @@ def rhs_function(model: Model):
     return f, count
 
 
+@njit
+def rates(ev, cuts, t, y, nq):
+    """dy/dt (nq+nv,) at (t, y) through the entry `ev` (`compiled.entry.handle`): the tree's
+    (cuts None), or the constrained rates of the loops closed by the cuts (`constraints.CutArrays`,
+    `constraints.constrained_rates`). None is pruned when compiled: a tree's step loop holds none
+    of the loops' code."""
+    if cuts is None:
+        return rhs(ev, t, y, nq)
+    return constrained_rates(ev, cuts, t, y[:nq], y[nq:])[0]
+
+
+CLOSING = 30        # Newton iterations of a projection onto the loops' constraints (`constraints.project`)
+
 
 OK, NONFINITE, DIVERGING, TOO_SMALL, NEWTON = 0, 1, 2, 3, 4
+NOT_CLOSED = 7      # a closed loop's projection failed (exp-adams has 5 and 6)
 
 
 @njit
@@ -85,7 +101,7 @@ def state_code(y, nq):
 
 
 WHY = {NONFINITE: "non-finite state", DIVERGING: f"diverged (|v| > {DIVERGED:g})", TOO_SMALL: "step size too small",
-       NEWTON: "Newton did not converge with a fresh iteration matrix"}
+       NEWTON: "Newton did not converge with a fresh iteration matrix", NOT_CLOSED: "a loop no longer closes"}
 NON_FINITE = (WHY[NONFINITE], "non-finite acceleration")     # the whys of a run that ended in non-finite values
 
 

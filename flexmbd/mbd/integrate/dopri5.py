@@ -1,15 +1,19 @@
 """Dormand-Prince 5(4), variable step, compiled as a whole: the step loop and every right-hand
 side evaluation run without returning to Python (`dopri5`), driven over chunks of output
-instants from Python (`_dopri5`)."""
+instants from Python (`_dopri5`). On a tree closed by cut joints the right-hand side is the
+constrained one and the state is projected onto the constraints at every output instant
+(`constraints.constrained_rates`, `constraints.project`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from flexmbd.mbd.compiled.bound import bind
-from flexmbd.mbd.compiled.entry import handle, rhs
+from flexmbd.mbd.compiled.entry import handle
 from flexmbd.mbd.compiled.jit import njit
-from flexmbd.mbd.integrate.base import NONFINITE, OK, TOO_SMALL, _in_chunks, failed, state_code
+from flexmbd.mbd.constraints import project
+from flexmbd.mbd.integrate.base import (CLOSING, NONFINITE, NOT_CLOSED, OK, TOO_SMALL, _in_chunks, failed, rates,
+                                        state_code)
 from flexmbd.mbd.model import make_data
 
 
@@ -31,23 +35,27 @@ LANDING = 1e-12      # a step within this (relative to the instant) of an output
 
 
 @njit
-def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
+def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts, cuts):
     """Integrate from (t_out[0], y) through the instants t_out, writing the state at each into
-    Y[1:], the right-hand side evaluated through `ev` (`compiled.entry.handle`); steps are cut to
-    land on them. Step size by the error of the embedded 4th-order
-    solution (RMS norm, weights atol + rtol |y|) with Hairer's PI controller (alpha 0.17, beta 0.04).
+    Y[1:], the right-hand side evaluated through `ev` (`compiled.entry.handle`) and, with cuts
+    (`constraints.CutArrays`; None for a tree), constrained by them (`rates`); steps are cut to
+    land on them. With cuts, the state reached at each instant is projected onto the constraints
+    (`constraints.project`: the rows hold to its tolerance at every output instant; status
+    NOT_CLOSED, cuts.fail saying where, when that fails) and the integration goes on from it, its
+    rates evaluated anew. Step size by the error of the embedded 4th-order solution (RMS norm,
+    weights atol + rtol |y|) with Hairer's PI controller (alpha 0.17, beta 0.04).
     A step that would stop within LANDING of an instant goes to the instant itself, and the
     landing step sets t to it exactly: steps of max_step summed to an instant (0.001 s a hundred
     times is not 0.1 s in floating point) leave no sliver of 1e-16 s to step.
 
     Returns (k, h, status, t): the last instant reached, the next step size, a status code
-    (OK, NONFINITE, DIVERGING, TOO_SMALL) and the time it refers to. counts (3,) += accepted
-    steps, rejected steps, evaluations.
+    (OK, NONFINITE, DIVERGING, TOO_SMALL, NOT_CLOSED) and the time it refers to. counts (3,) +=
+    accepted steps, rejected steps, evaluations.
     """
     n = y.size
     K = np.empty((7, n))
     t = t_out[0]
-    K[0] = rhs(ev, t, y, nq)
+    K[0] = rates(ev, cuts, t, y, nq)
     counts[2] += 1
     err_old = 1e-4
     yn = np.empty(n)
@@ -64,7 +72,7 @@ def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
                 for r in range(s):
                     if _A[s, r] != 0.0:
                         ys += hs * _A[s, r] * K[r]
-                K[s] = rhs(ev, t + _C[s] * hs, ys, nq)
+                K[s] = rates(ev, cuts, t + _C[s] * hs, ys, nq)
             yn[:] = ys                                  # stage 7 is at the 5th-order solution (FSAL)
             counts[2] += 6
             err = 0.0
@@ -93,15 +101,21 @@ def dopri5(ev, nq, y, t_out, Y, h, rtol, atol, max_step, counts):
             else:
                 counts[1] += 1
                 h = hs * max(0.9 * err ** -0.2, 0.2)
+        if cuts is not None:
+            if not project(ev, cuts, t, y[:nq], y[nq:], CLOSING):
+                return k - 1, h, NOT_CLOSED, t
+            K[0] = rates(ev, cuts, t, y, nq)         # the projected state's
+            counts[2] += 1
         Y[k] = y
     return t_out.size - 1, h, OK, t
 
 
-def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50, judged=None):
-    """Drive the compiled `dopri5` over chunks of output instants (progress and failures between)."""
+def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50, judged=None, cuts=None):
+    """Drive the compiled `dopri5` over chunks of output instants (progress and failures between);
+    cuts (`constraints.CutArrays`): the loops that constrain it, y0 on them."""
     b, nq = bind(model, make_data(model)), model.nq
     ev = handle(b)
-    f0 = rhs(ev, 0.0, y0, nq)
+    f0 = rates(ev, cuts, 0.0, y0, nq)
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(f0))):
         return 0, 0, 1, failed("non-finite state", 0.0)
     w = atol + rtol * np.abs(y0)
@@ -112,7 +126,7 @@ def _dopri5(model, y0, t_out, Y, rtol, atol, max_step, bar, chunk=50, judged=Non
 
     def advance(k, k1):
         j, step[0], code, t = dopri5(ev, nq, y, t_out[k:k1 + 1], Y[k:k1 + 1], step[0], rtol, atol, max_step,
-                                     counts)
+                                     counts, cuts)
         return j, code, t
 
     return _in_chunks(advance, t_out, counts, bar, chunk, judged)

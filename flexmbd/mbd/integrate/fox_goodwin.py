@@ -1,5 +1,7 @@
 """Fox-Goodwin (Newmark beta = 1/12, gamma = 1/2), implicit, fixed step, compiled: Newton on the
-accelerations with a reused finite-difference iteration matrix."""
+accelerations with a reused finite-difference iteration matrix. On a tree closed by cut joints
+the accelerations are the constrained ones and the state is projected onto the constraints at
+every output instant (`constraints.constrained_rates`, `constraints.project`)."""
 
 from __future__ import annotations
 
@@ -7,9 +9,11 @@ import numpy as np
 
 from flexmbd.mbd.compiled.bound import bind
 from flexmbd.mbd.compiled.dense import mv
-from flexmbd.mbd.compiled.entry import handle, rhs
+from flexmbd.mbd.compiled.entry import handle
 from flexmbd.mbd.compiled.jit import njit
-from flexmbd.mbd.integrate.base import NEWTON, NONFINITE, OK, Stop, _in_chunks, failed, state_code
+from flexmbd.mbd.constraints import project
+from flexmbd.mbd.integrate.base import (CLOSING, NEWTON, NONFINITE, NOT_CLOSED, OK, Stop, _in_chunks, failed, rates,
+                                        state_code)
 from flexmbd.mbd.model import make_data
 
 
@@ -18,17 +22,18 @@ from flexmbd.mbd.model import make_data
 
 
 @njit
-def newmark_matrix(ev, nq, t, y, h, beta, gamma):
+def newmark_matrix(ev, nq, t, y, h, beta, gamma, cuts):
     """(I - beta h^2 da/dq - gamma h da/dv)^-1 (nv, nv) at (t, y) by forward differences of the
-    accelerations; q and v must be aligned (nq == nv, no quaternion joints)."""
+    accelerations (constrained by cuts unless None: `base.rates`); q and v must be aligned
+    (nq == nv, no quaternion joints)."""
     n = y.size - nq
-    a0 = rhs(ev, t, y, nq)[nq:]
+    a0 = rates(ev, cuts, t, y, nq)[nq:]
     J = np.eye(n)
     for k in range(y.size):
         yp = y.copy()
         d = 1e-7 * max(abs(y[k]), 1.0)
         yp[k] += d
-        col = (rhs(ev, t, yp, nq)[nq:] - a0) / d
+        col = (rates(ev, cuts, t, yp, nq)[nq:] - a0) / d
         w, j = (beta * h * h, k) if k < nq else (gamma * h, k - nq)
         for r in range(n):
             J[r, j] -= w * col[r]
@@ -36,11 +41,12 @@ def newmark_matrix(ev, nq, t, y, h, beta, gamma):
 
 
 @njit
-def fox_goodwin(ev, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
+def fox_goodwin(ev, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts, cuts):
     """Newmark with beta = 1/12, gamma = 1/2 (phase error (w h)^4/480, no numerical damping,
     stable for w_max h < sqrt(6)) from (t_out[0], y, acc) through the instants t_out, writing
     Y[1:]. Each step solves A - a(t+h, q(A), v(A)) = 0 for the new accelerations A by Newton with
-    the iteration matrix Jinv, refreshed when an iteration stalls.
+    the iteration matrix Jinv, refreshed when an iteration stalls. With cuts (None for a tree) a is
+    constrained (`base.rates`) and each instant's state projected, its a evaluated anew (`dopri5`).
 
     Newton stops when the remaining error, estimated from the contraction rate as
     theta/(1-theta) times the last correction (Hairer & Wanner IV.8), moves q and v by less than
@@ -57,7 +63,7 @@ def fox_goodwin(ev, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
         hs = (t_out[k] - t) / m
         if abs(hs - h) > 1e-6 * h:                      # a new step: the one that divides this interval
             h = hs
-            Jinv[:] = newmark_matrix(ev, nq, t, y, h, beta, gamma)
+            Jinv[:] = newmark_matrix(ev, nq, t, y, h, beta, gamma, cuts)
             counts[1] += 1
             counts[2] += y.size + 1
         for _ in range(m):
@@ -71,7 +77,7 @@ def fox_goodwin(ev, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
                 for it in range(10):
                     y1[:nq] = qp + beta * h * h * A
                     y1[nq:] = vp + gamma * h * A
-                    r = A - rhs(ev, t + h, y1, nq)[nq:]
+                    r = A - rates(ev, cuts, t + h, y1, nq)[nq:]
                     counts[2] += 1
                     dA = mv(Jinv, r)
                     A -= dA
@@ -93,7 +99,7 @@ def fox_goodwin(ev, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
                 if done:
                     break
                 eta = 1.0
-                Jinv[:] = newmark_matrix(ev, nq, t, y, h, beta, gamma)
+                Jinv[:] = newmark_matrix(ev, nq, t, y, h, beta, gamma, cuts)
                 counts[1] += 1
                 counts[2] += y.size + 1
                 A = acc.copy()
@@ -108,21 +114,27 @@ def fox_goodwin(ev, nq, y, acc, t_out, Y, h, rtol, atol, Jinv, counts):
             if code != OK:
                 return k - 1, code, t
         t = t_out[k]
+        if cuts is not None:
+            if not project(ev, cuts, t, y[:nq], y[nq:], CLOSING):
+                return k - 1, NOT_CLOSED, t
+            acc[:] = rates(ev, cuts, t, y, nq)[nq:]     # the projected state's
+            counts[2] += 1
         Y[k] = y
     return t_out.size - 1, OK, t
 
 
-def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50, judged=None):
-    """Drive the compiled `fox_goodwin` over chunks of output instants."""
+def _fox_goodwin(model, y0, t_out, Y, dt, rtol, atol, bar, chunk=50, judged=None, cuts=None):
+    """Drive the compiled `fox_goodwin` over chunks of output instants; cuts
+    (`constraints.CutArrays`): the loops that constrain it, y0 on them."""
     if model.nq != model.nv:
         raise Stop(failed("fox-goodwin needs q and v aligned (no spherical or free joints)", 0.0))
     b, nq = bind(model, make_data(model)), model.nq
     ev = handle(b)
-    acc = np.ascontiguousarray(rhs(ev, 0.0, y0, nq)[nq:])
+    acc = np.ascontiguousarray(rates(ev, cuts, 0.0, y0, nq)[nq:])
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(acc))):
         return 0, 0, 1, failed("non-finite state", 0.0)
     y, counts = y0.copy(), np.zeros(3, dtype=np.int64)
-    Jinv = np.ascontiguousarray(newmark_matrix(ev, nq, 0.0, y0, dt, 1.0 / 12.0, 0.5))
+    Jinv = np.ascontiguousarray(newmark_matrix(ev, nq, 0.0, y0, dt, 1.0 / 12.0, 0.5, cuts))
     counts[2] += y0.size + 2
     return _in_chunks(lambda k, k1: fox_goodwin(ev, nq, y, acc, t_out[k:k1 + 1], Y[k:k1 + 1], dt, rtol, atol,
-                                                Jinv, counts), t_out, counts, bar, chunk, judged)
+                                                Jinv, counts, cuts), t_out, counts, bar, chunk, judged)
