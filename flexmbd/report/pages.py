@@ -174,12 +174,14 @@ def runs_section(case, runs: list) -> Both:
     """The "Runs" section (html, markdown) of a case page: each run's verdict (`runs`:
     accuracy.Outcome) with its validity flag, and for each run that diverged or was aborted why
     (its status), with the case's explanation of it where the case gives one
-    (report.expected_failures)."""
+    (report.expected_failures), which also follows a run that failed its tolerances."""
     why = []
     for o in runs:
-        if o.verdict.kind not in results.CAUSES:
+        explained = o.verdict.kind == "fail" and o.solver in case.report.expected_failures
+        if o.verdict.kind not in results.CAUSES and not explained:
             continue
-        said, status = case.report.expected_failures.get(o.solver, ""), accuracy.status_text(o.status)
+        said = case.report.expected_failures.get(o.solver, "")
+        status = str(o.verdict) if o.verdict.kind == "fail" else accuracy.status_text(o.status)
         text = " ".join(said.split())
         why.append(fill(T.WHY, solver=Both(html.escape(o.solver), o.solver), status=Both(html.escape(status), status),
                         said=Both(f" {html.escape(text)}", f" {text}") if said else ""))

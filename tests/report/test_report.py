@@ -422,6 +422,23 @@ def test_a_diverged_run_s_page_says_why_with_the_case_s_explanation():
     assert "at t = 10.58 s. A linear floating frame" in page and "loses the in-plane stiffness" in md
 
 
+def test_a_run_that_misses_its_tolerances_is_explained_where_the_case_expects_it():
+    """four_bar's exudyn-ffrf (a linear floating frame) misses its tolerances: the case's
+    explanation follows its fail verdict; a fail the case does not explain (pinocchio's here,
+    with its explanation removed) gets none, the verdict alone in the table."""
+    from flexmbd.harness import results
+    from flexmbd.report import accuracy, pages
+    case = cases.load("four_bar", ['report.expected_failures={ exudyn-ffrf = "No geometric stiffness." }'])
+    rows = [{"solver": s, "pass": "fail", "rms": 0.2, "tolerance": 0.03, "channel": "coupler_midspan"}
+            for s in ("exudyn-ffrf", "pinocchio")]
+    runs = [accuracy.Outcome(case.name, s, results.Status(), accuracy.verdict(results.Status(), s, "exudyn-beam", rows),
+                             0.2, 1.0) for s in ("exudyn-ffrf", "pinocchio")]
+    page, md = pages.runs_section(case, runs)
+    assert "<p class='why'><b>exudyn-ffrf</b>: fail: coupler_midspan RMS 0.2" in page
+    assert "No geometric stiffness." in page and "No geometric stiffness." in md
+    assert "<b>pinocchio</b>" not in page
+
+
 def test_provenance_settings_are_whole():
     from flexmbd.harness import results
     from flexmbd.report import pages
