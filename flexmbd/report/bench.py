@@ -522,6 +522,22 @@ def plots(result: dict, folder: Path) -> list[str]:
         ax.grid(alpha=0.3, which="both")
         ax.legend()
         names.append(figures.save(fig, folder / "duty_cycle.png"))
+    got = result.get("loops")
+    if got:                                             # each loop case: the error against the time, per solver
+        cases_ = list(dict.fromkeys(r["case"] for r in got["rows"]))
+        fig, axes = plt.subplots(1, len(cases_), figsize=(6 * len(cases_), 4.5), squeeze=False)
+        for ax, name in zip(axes[0], cases_):
+            for s in dict.fromkeys(r["solver"] for r in got["rows"]):
+                pts = sorted((r for r in got["rows"] if r["case"] == name and r["solver"] == s
+                              and finite(r["error"]) and r["error"] > 0), key=lambda r: r["wall_s"])
+                ax.loglog([r["wall_s"] for r in pts], [r["error"] for r in pts], "o", label=s)
+            ax.axhline(got["target"], ls="--", color="k", lw=0.8, label=f"{got['target']:g}")
+            ax.set_xlabel("solve wall time [s]")
+            ax.set_ylabel("worst deflection RMS diff from its own converged run")
+            ax.set_title(f"{name}: closed loop, each solver at its settings", fontsize=10)
+            ax.grid(alpha=0.3, which="both")
+            ax.legend(fontsize=8)
+        names.append(figures.save(fig, folder / "loops.png"))
     page = ("<!doctype html><html><head><meta charset='utf-8'><title>flexmbd bench</title></head><body>"
             "<p><a href='../index.html'>report</a></p><h1>flexmbd bench</h1>"
             + "".join(f"<p><img src='{n}' alt='{n}'></p>" for n in names)
