@@ -144,3 +144,17 @@ def test_the_loops_section_grades_each_setting_against_the_solver_s_own_converge
     assert all(best[s]["setting"] for s in grid)
     (ratio,) = got["ratios"]
     assert ratio["peer"] == "exudyn-ffrf" and ratio["ratio"] == best["flexmbd"]["wall_s"] / best["exudyn-ffrf"]["wall_s"]
+
+
+def test_the_plots_draw_the_loops_section_and_skip_a_failed_setting(tmp_path):
+    """bench.plots with a loops section: loops.png beside the others, a failed setting (error None,
+    as a stored run's JSON holds it) left out of the figure, the JSON on the index page."""
+    rows = [{"case": c, "solver": s, "setting": f"dt={dt:g}", "error": e, "error_reference": e, "wall_s": w}
+            for c in ("four_bar", "slider_crank") for s, dt, e, w in
+            (("flexmbd", 1e-4, None, 0.01), ("flexmbd", 5e-5, 7e-5, 1.1), ("exudyn-beam", 5e-5, 1.6e-3, 10.7))]
+    result = {"rigid_chain": [{"n": 1, "flexmbd_us": 1.0, "pinocchio_us": 0.5}],
+              "flexible_chain": [{"n": 1, "flexmbd_us": 2.0}], "flexible_chain_exponent": 1.0,
+              "loops": {"target": 1e-3, "rows": rows, "fastest": [], "ratios": []}}
+    names = bench.plots(result, tmp_path)
+    assert "loops.png" in names and (tmp_path / "loops.png").stat().st_size > 0
+    assert "loops.png" in (tmp_path / "index.html").read_text()
