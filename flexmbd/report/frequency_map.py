@@ -154,10 +154,19 @@ def agreement(m: Map, n: int) -> list[dict]:
         for name, F in m.peers.items():
             g = F[k, :n]
             row[name] = g
-            g = g[g <= 1.05 * every[-1]] if every.size else g[:0]
-            row[f"{name} diff"] = (float(max(np.min(np.abs(f / every - 1)) for f in g)) if g.size else np.nan)
+            row[f"{name} diff"] = nearest(g, every)
         out.append(row)
     return out
+
+
+def nearest(g, every) -> float:
+    """The largest relative difference |g / f - 1| of each of a peer's frequencies g (Hz) from the
+    nearest of flexmbd's `every` (Hz), over those within flexmbd's range (to 5 % above its
+    highest); NaN when none is."""
+    every = np.sort(np.asarray(every, dtype=float))
+    g = np.asarray(g, dtype=float)
+    g = g[g <= 1.05 * every[-1]] if every.size else g[:0]
+    return float(max(np.min(np.abs(f / every - 1)) for f in g)) if g.size else np.nan
 
 
 def write(m: Map, folder, case: str, tracks: int) -> tuple[str, str]:

@@ -3,6 +3,7 @@
 their shapes, not their order."""
 
 import csv
+import json
 
 import numpy as np
 import pytest
@@ -101,3 +102,16 @@ def test_a_crank_turned_step_by_step_stays_on_its_branch():
         assert C[1] > 0 and abs(at["rocker_pivot"] - np.arctan2(C[1], C[0] - 0.5)) < 1e-8, x
     first, last = steps[0][1], steps[-1][1]
     assert np.allclose([m.freq_hz for m in first], [m.freq_hz for m in last], rtol=1e-6)
+
+
+def test_peers_at_one_state_are_set_beside_flexmbd_s_frequencies(capsys):
+    """`modes --system --peers fe-linear` on cantilever_step: the frame's own frequencies printed
+    after flexmbd's, its lowest 3 (in-plane: the planar frame has no x-z bending) each against the
+    nearest of flexmbd's, within 1e-3 (the 100-element frame against the reduced beam: measured
+    5e-5); in JSON under "peers"."""
+    assert main(["modes", "cantilever_step", "--system", "--peers", "fe-linear"]) == 0
+    line = [ln for ln in capsys.readouterr().out.splitlines() if "fe-linear (its own eigen-solve)" in ln]
+    assert len(line) == 1 and float(line[0].rsplit(" ", 1)[1]) < 1e-3, line
+    assert main(["modes", "cantilever_step", "--system", "--peers", "fe-linear", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert len(got["peers"]["fe-linear"]) == len(got["modes"])

@@ -100,12 +100,17 @@ def peers(text: str) -> dict:
     return got
 
 
+LOWEST = 3      # a peer's lowest frequencies compared with flexmbd's (above them a finer model has modes the
+#                 retained ones leave out)
+
+
 def system_modes(case, about: str, as_json: bool, others: dict | None = None) -> int:
     """The assembled system's frequencies, damping and labels (solvers/linearize.py), with a progress bar
     past a couple of seconds; `others`: solver -> its own eigen-solve (`peers`), its lowest
     frequencies printed beside flexmbd's."""
     from flexmbd.solvers import linearize
     from flexmbd.mbd.compiled import jit
+    from flexmbd.report import frequency_map as fmap
     if not jit.is_cached():
         from flexmbd.solvers import inhouse
         warn(inhouse.compiling(", to linearize the case"))
@@ -128,9 +133,10 @@ def system_modes(case, about: str, as_json: bool, others: dict | None = None) ->
     if not rows:
         print("  none: no coordinate vibrates about this state (rigid bodies, or motion without stiffness)")
     for n, f in theirs.items():
-        diff = [abs(g / r["freq_hz"] - 1) for g, r in zip(f, rows)]
+        diff = fmap.nearest(f[:LOWEST], [r["freq_hz"] for r in rows])
         print(f"  {n} (its own eigen-solve): " + ", ".join(f"{g:.4f}" for g in f) + " Hz"
-              + (f"; largest |f / f_flexmbd - 1| over these {max(diff):.2g}" if diff else ""))
+              + (f"; its lowest {min(LOWEST, len(f))} against the nearest of flexmbd's: largest |f / f_flexmbd - 1| "
+                 f"{diff:.2g}" if rows else ""))
     for note in mode_notes(rows, case):
         print(f"  note: {note}")
     return 0
