@@ -141,7 +141,7 @@ def sweep(case, key: str, values, about: str = "initial", progress=None, peers: 
     step by step keeps the mechanism on the branch it was assembled on instead of closing onto its
     mirror image; the closed coordinates of the free one-coordinate joints are returned. `peers`:
     name -> f(case, count), another solver's own lowest `count` frequencies of the same case at the
-    same value (its assembly closed from the same guesses), as many as flexmbd has modes.
+    same value (the same loaded case: the assembly its loader closed), as many as flexmbd has modes.
     progress(k, n, value) before each."""
     from flexmbd import cases
     held(case, key)
@@ -155,8 +155,7 @@ def sweep(case, key: str, values, about: str = "initial", progress=None, peers: 
         guesses = [f"joints.{j}.q0={q!r}" for j, q in at.items()] if here.loops else []
         modes = [m._replace(label=strained(model, m.shape) or m.label, shape=physical(here, model, m.shape))
                  for m in for_case(here, about, model=model)]
-        others = {name: np.asarray(f(cases.load(str(case.path), [*case.overrides, *guesses, f"{key}={float(x)!r}"]),
-                                     len(modes)), dtype=float) for name, f in (peers or {}).items()}
+        others = {name: np.asarray(f(here, len(modes)), dtype=float) for name, f in (peers or {}).items()}
         out.append((float(x), modes, at, others))
     return out
 
